@@ -1,0 +1,35 @@
+# boat_twin: every target sets up its own virtual environment (no ROS needed).
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+RUFF := $(PY) -m ruff check --line-length 110 --target-version py310 --select E,F,W,I,B,UP,N,SIM
+OUT ?= out
+
+.PHONY: setup test lint demo bench sample clean
+
+setup: $(STAMP)
+
+$(STAMP): setup.py setup.cfg package.xml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	touch $(STAMP)
+
+lint: $(STAMP)
+	$(RUFF) boat_twin test benchmarks launch setup.py
+
+test: lint
+	$(PY) -m pytest -q test
+
+demo: $(STAMP)
+	$(VENV)/bin/boat-twin demo --out $(OUT)/demo --force
+
+bench: $(STAMP)
+	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
+
+sample: $(STAMP)
+	$(VENV)/bin/boat-twin simulate thrust-steps --seed 1 --out bags/thrust_steps_sample --force
+
+clean:
+	rm -rf $(VENV) $(OUT) build *.egg-info

@@ -1,0 +1,1 @@
+"""rclpy adapters: the only modules that import rclpy."""

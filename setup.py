@@ -1,0 +1,55 @@
+"""ament_python package boat_twin; also installs with plain pip (the no-ROS face)."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "boat_twin"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
+    package_data={PACKAGE: ["data/*.csv", "data/*.yaml"]},
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/config/cable", glob("config/cable/*.yaml")),
+    ],
+    python_requires=">=3.10",
+    install_requires=[
+        "numpy>=1.26",
+        "scipy>=1.11",
+        "PyYAML>=6.0",
+        "rosbags>=0.10.4",
+        "mcap>=1.1",
+        "pymavlink>=2.4.40",
+        "pymap3d>=3.0",
+        "matplotlib>=3.6",
+    ],
+    extras_require={
+        "test": [
+            "pytest>=7",
+            "mcap-ros2-support>=0.5",
+            "catkin_pkg>=1.0",
+            "hypothesis>=6",
+            "ruff>=0.5",
+            "MoorPy>=1.0",
+        ],
+    },
+    zip_safe=True,
+    maintainer="boat_twin developers",
+    maintainer_email="boat-twin@example.org",
+    description="Digital twin of a small unmanned planing boat (simulator, identification, towed cable).",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [
+            "boat-twin = boat_twin.cli:main",
+            "simulator = boat_twin.nodes.simulator:main",
+            "identifier = boat_twin.nodes.identifier:main",
+            "cable = boat_twin.nodes.cable:main",
+        ],
+    },
+)
