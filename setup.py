@@ -28,6 +28,7 @@ setup(
         "pymavlink>=2.4.40",
         "pymap3d>=3.0",
         "matplotlib>=3.6",
+        "numba>=0.59",
     ],
     extras_require={
         "test": [

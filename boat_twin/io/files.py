@@ -1,0 +1,99 @@
+"""Safe outputs: never overwrite without --force, write atomically (temp file + rename)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from boat_twin.errors import InputError
+
+
+def prepare_output(path: Path, force: bool) -> None:
+    """Check that ``path`` may be written: refuse an existing one unless ``force`` (then remove it)."""
+    if path.exists():
+        if not force:
+            raise InputError(f"{path}: already exists (use --force to overwrite)")
+        if path.is_dir():
+            shutil.rmtree(path)
+        else:
+            path.unlink()
+    parent = path.parent if str(path.parent) else Path(".")
+    parent.mkdir(parents=True, exist_ok=True)
+    if not os.access(parent, os.W_OK):
+        raise InputError(f"{parent}: directory is not writable")
+
+
+def ensure_out_dir(path: Path) -> Path:
+    """Create the report directory ``path`` (existing files inside are replaced one by one, atomically)."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(f"{path}: cannot create output directory ({err.strerror})") from None
+    if not os.access(path, os.W_OK):
+        raise InputError(f"{path}: output directory is not writable")
+    return path
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file in the same directory and a rename."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def atomic_write_yaml(path: Path, data: Any) -> None:
+    """Write ``data`` as block-style YAML to ``path`` atomically."""
+    atomic_write_text(path, yaml.safe_dump(data, sort_keys=False))
+
+
+def atomic_save_figure(path: Path, figure: Any) -> None:
+    """Save a matplotlib figure as PNG to ``path`` atomically."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
+    os.close(fd)
+    try:
+        figure.savefig(tmp, dpi=110)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def load_yaml(path: Path) -> Any:
+    """Read a YAML file; a missing or malformed file is an :class:`InputError` naming it."""
+    try:
+        text = path.read_text()
+    except OSError as err:
+        raise InputError(f"{path}: cannot read ({err.strerror})") from None
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f" at line {mark.line + 1}" if mark is not None else ""
+        raise InputError(f"{path}: malformed YAML{where}") from None
+
+
+def to_json(data: Any) -> str:
+    """JSON for --json output: numpy scalars and arrays become plain numbers and lists."""
+
+    def default(obj: Any) -> Any:
+        if hasattr(obj, "tolist"):
+            return obj.tolist()
+        raise TypeError(f"not JSON serializable: {type(obj).__name__}")
+
+    return json.dumps(data, default=default, indent=2)

@@ -1,0 +1,223 @@
+"""3-DOF maneuvering model (surge, sway, yaw) of a twin-outboard boat, stepped with fixed-step RK4.
+
+State per boat, SI: ``[east_m, north_m, yaw_rad, u_mps, v_mps, r_radps]`` — position in the ENU world frame,
+ENU yaw, and the body-frame (FLU) velocity *through the water* (u forward, v to port) and yaw rate.
+In a constant, irrotational current the rigid-body and added-mass terms can be written in the relative
+velocity alone (Fossen 2011, Property 8.1), so::
+
+    m11·u̇ = X + m22·v·r − Fc(u)
+    m22·v̇ = Y − m11·u·r − a_v·|u|·v − Y_vv·|v|·v
+    m33·ṙ = N − (m22 − m11)·u·v − x_c·a_v·|u|·v − a_r·|u|·r − N_rr·|r|·r
+    ė = u·cos ψ − v·sin ψ + c_e,   ṅ = u·sin ψ + v·cos ψ + c_n,   ψ̇ = r
+
+with the outboards' thrust vectors (thrust T_i at steering angle δ_i, at (x_e, ±y_e))::
+
+    X = Σ T_i·cos δ_i,   Y = Σ T_i·sin δ_i,   N = Σ (x_e·T_i·sin δ_i − y_i·T_i·cos δ_i)
+
+Delivered thrust is the command limited to the engine's envelope: astern down to −k·T_bollard, ahead up to
+min(T_bollard, η·P/|u|). Fc(u) is any :class:`~boat_twin.vessel.resistance.ResistanceModel`, tabulated on a
+fine uniform grid for the compiled kernel (linear interpolation, quadratic tail as the model itself).
+The kernel steps N boats at once (an ensemble), compiled with numba.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from boat_twin.vessel.params import VesselParams, derive_coefficients
+
+STATE_NAMES = ("east_m", "north_m", "yaw_rad", "u_mps", "v_mps", "r_radps")
+"""Order of the state vector's components."""
+COMMAND_NAMES = ("thrust_left_N", "thrust_right_N", "angle_left_rad", "angle_right_rad")
+"""Order of the command vector's components (per-engine thrust and steering angle, the VRX convention)."""
+
+RESISTANCE_TABLE_POINTS = 4001
+"""Grid points of the tabulated resistance over [0, u_max]; linear-interpolation error < 1e-5 of Fc here."""
+
+
+@dataclass(frozen=True)
+class CompiledModel:
+    """The numbers the kernel needs: coefficients (see ``_K_*`` indices) and the tabulated resistance."""
+
+    coefficients: np.ndarray
+    resistance_N: np.ndarray  # noqa: N815
+    resistance_max_speed_mps: float
+    extra_drag_N: np.ndarray  # noqa: N815
+
+
+# Indices into CompiledModel.coefficients.
+_K_M11, _K_M22, _K_M33, _K_AV, _K_XC, _K_AR, _K_YVV, _K_NRR = range(8)
+_K_XE, _K_YE, _K_ETA_P, _K_BOLLARD, _K_REVERSE, _K_MAX_STEER = range(8, 14)
+
+
+def compile_model(params: VesselParams, extra_drag_N: np.ndarray | None = None) -> CompiledModel:  # noqa: N803
+    """Derive the coefficients of ``params`` and tabulate its resistance for the kernel.
+
+    ``extra_drag_N`` is an optional additional surge drag (e.g. a towed body) tabulated on the same grid.
+    """
+    coeff = derive_coefficients(params)
+    u_max = params.resistance.max_speed_mps
+    grid = np.linspace(0.0, u_max, RESISTANCE_TABLE_POINTS)
+    table = np.asarray(params.resistance.force_N(grid), dtype=float)
+    extra = np.zeros_like(grid) if extra_drag_N is None else np.asarray(extra_drag_N, dtype=float)
+    values = np.array(
+        [
+            coeff.m11_kg,
+            coeff.m22_kg,
+            coeff.m33_kgm2,
+            coeff.sway_damping_Nspm2,
+            coeff.lateral_centre_x_m,
+            coeff.yaw_damping_Nms,
+            coeff.sway_quadratic_Ns2pm2,
+            coeff.yaw_quadratic_Nms2,
+            params.engine_x_m,
+            params.engine_y_m,
+            params.propulsive_efficiency * params.engine_power_W,
+            params.bollard_thrust_N,
+            params.reverse_thrust_ratio * params.bollard_thrust_N,
+            params.max_steering_rad,
+        ]
+    )
+    return CompiledModel(values, table, float(u_max), extra)
+
+
+@numba.njit(cache=True)
+def _resistance(u: float, table: np.ndarray, u_max: float) -> float:
+    """Tabulated Fc(u): linear on [0, u_max], quadratic beyond, odd in u."""
+    a = abs(u)
+    if a >= u_max:
+        value = table[-1] * (a / u_max) ** 2
+    else:
+        x = a / u_max * (table.size - 1)
+        i = int(x)
+        value = table[i] + (x - i) * (table[i + 1] - table[i])
+    return value if u >= 0.0 else -value
+
+
+@numba.njit(cache=True)
+def _delivered_thrust(command: float, u: float, k: np.ndarray) -> float:
+    """Commanded thrust limited to the engine envelope at speed through water u."""
+    ahead = k[_K_BOLLARD]
+    if abs(u) > 1e-9:
+        ahead = min(ahead, k[_K_ETA_P] / abs(u))
+    return min(max(command, -k[_K_REVERSE]), ahead)
+
+
+@numba.njit(cache=True)
+def _derivative(
+    s: np.ndarray,
+    cmd: np.ndarray,
+    k: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    current: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """Time derivative of one boat's state ``s`` under command ``cmd``, written into ``out``."""
+    psi, u, v, r = s[2], s[3], s[4], s[5]
+    t_left = _delivered_thrust(cmd[0], u, k)
+    t_right = _delivered_thrust(cmd[1], u, k)
+    d_left = min(max(cmd[2], -k[_K_MAX_STEER]), k[_K_MAX_STEER])
+    d_right = min(max(cmd[3], -k[_K_MAX_STEER]), k[_K_MAX_STEER])
+    x_force = t_left * np.cos(d_left) + t_right * np.cos(d_right)
+    y_force = t_left * np.sin(d_left) + t_right * np.sin(d_right)
+    n_moment = k[_K_XE] * y_force - k[_K_YE] * (t_left * np.cos(d_left) - t_right * np.cos(d_right))
+    m11, m22, m33 = k[_K_M11], k[_K_M22], k[_K_M33]
+    drag = _resistance(u, table, u_max) + _resistance(u, extra, u_max)
+    out[3] = (x_force + m22 * v * r - drag) / m11
+    out[4] = (y_force - m11 * u * r - k[_K_AV] * abs(u) * v - k[_K_YVV] * abs(v) * v) / m22
+    out[5] = (
+        n_moment
+        - (m22 - m11) * u * v
+        - k[_K_XC] * k[_K_AV] * abs(u) * v
+        - k[_K_AR] * abs(u) * r
+        - k[_K_NRR] * abs(r) * r
+    ) / m33
+    c, sn = np.cos(psi), np.sin(psi)
+    out[0] = u * c - v * sn + current[0]
+    out[1] = u * sn + v * c + current[1]
+    out[2] = r
+
+
+@numba.njit(cache=True)
+def _step_rk4(
+    states: np.ndarray,
+    commands: np.ndarray,
+    k: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    currents: np.ndarray,
+    dt: float,
+    substeps: int,
+) -> None:
+    """Advance every boat (rows of ``states``) by ``substeps`` RK4 steps of ``dt`` under held commands."""
+    k1 = np.empty(6)
+    k2 = np.empty(6)
+    k3 = np.empty(6)
+    k4 = np.empty(6)
+    tmp = np.empty(6)
+    for b in range(states.shape[0]):
+        s = states[b]
+        for _ in range(substeps):
+            _derivative(s, commands[b], k, table, u_max, extra, currents[b], k1)
+            for j in range(6):
+                tmp[j] = s[j] + 0.5 * dt * k1[j]
+            _derivative(tmp, commands[b], k, table, u_max, extra, currents[b], k2)
+            for j in range(6):
+                tmp[j] = s[j] + 0.5 * dt * k2[j]
+            _derivative(tmp, commands[b], k, table, u_max, extra, currents[b], k3)
+            for j in range(6):
+                tmp[j] = s[j] + dt * k3[j]
+            _derivative(tmp, commands[b], k, table, u_max, extra, currents[b], k4)
+            for j in range(6):
+                s[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+
+
+@numba.njit(cache=True)
+def _run_ticks(
+    states: np.ndarray,
+    commands: np.ndarray,
+    k: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    currents: np.ndarray,
+    dt: float,
+    substeps: int,
+    out_states: np.ndarray,
+    out_derivatives: np.ndarray,
+) -> None:
+    """For each output tick i: record states and derivatives under ``commands[i]``, then step the tick."""
+    for i in range(commands.shape[0]):
+        for b in range(states.shape[0]):
+            out_states[i, b] = states[b]
+            _derivative(states[b], commands[i, b], k, table, u_max, extra, currents[b], out_derivatives[i, b])
+        _step_rk4(states, commands[i], k, table, u_max, extra, currents, dt, substeps)
+
+
+class Dynamics:
+    """The equations of motion of one boat design, stepping an ensemble of N boats together."""
+
+    def __init__(self, params: VesselParams, extra_drag_N: np.ndarray | None = None) -> None:  # noqa: N803
+        self.params = params
+        self.model = compile_model(params, extra_drag_N)
+
+    def run(
+        self, states: np.ndarray, commands: np.ndarray, currents: np.ndarray, dt_s: float, substeps: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Run len(commands) output ticks of ``substeps``·``dt_s`` each, commands held over a tick.
+
+        ``states`` (N, 6) is advanced in place; ``commands`` is (ticks, N, 4), ``currents`` (N, 2) m/s ENU.
+        Returns the states at the start of every tick and their time derivatives, both (ticks, N, 6).
+        """
+        m = self.model
+        out_states = np.empty((commands.shape[0],) + states.shape)
+        out_derivatives = np.empty_like(out_states)
+        _run_ticks(states, commands, m.coefficients, m.resistance_N, m.resistance_max_speed_mps,
+                   m.extra_drag_N, currents, dt_s, substeps, out_states, out_derivatives)
+        return out_states, out_derivatives

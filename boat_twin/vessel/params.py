@@ -1,0 +1,273 @@
+"""Vessel parameters: stated physical facts (dataclass, YAML) and the model coefficients derived from them.
+
+The default boat is the seed boat of Dyda & Chumakova (2021): a 6 m, 2.6 m beam, 1.3 t aluminium planing
+catamaran with two 40 hp outboards. Every field is a physical fact with its unit and source; the maneuvering
+coefficients (added masses, damping) are derived from them in :func:`derive_coefficients`, so nothing in the
+equations of motion is a free magic number.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from boat_twin.errors import InputError
+from boat_twin.io.files import atomic_write_yaml, load_yaml
+from boat_twin.vessel.resistance import ResistanceModel, dyda2021_resistance, resistance_from_dict
+
+WATER_DENSITY_KGPM3 = 1025.0
+"""Sea water density at 15 °C, 35 PSU, kg/m^3 (ITTC 7.5-02-01-03)."""
+
+
+@dataclass(frozen=True)
+class VesselParams:
+    """Physical facts about the boat. Units are in the names; each docstring gives meaning and source."""
+
+    mass_kg: float = 1300.0
+    """Displacement mass, kg. Dyda & Chumakova (2021): 'водоизмещение 1,3 т'."""
+    length_m: float = 6.0
+    """Hull length, m. Dyda & Chumakova (2021)."""
+    beam_m: float = 2.6
+    """Overall beam, m. Dyda & Chumakova (2021)."""
+    demihull_spacing_m: float = 1.8
+    """Distance between the two demihull centrelines, m (beam minus one demihull width of 0.8 m; assumed)."""
+    draft_m: float = 0.25
+    """Draft of each demihull at rest, m (assumed, typical of a 6 m aluminium catamaran at 1.3 t)."""
+    radius_of_gyration_yaw_m: float = 1.5
+    """Yaw radius of gyration, m: 0.25·L, the usual small-craft value (Fossen 2011, §6.6)."""
+    surge_added_mass_ratio: float = 0.05
+    """Surge added mass as a fraction of mass, -: 5 % for slender hulls (Fossen 2011, §6.4)."""
+    crossflow_drag_coefficient: float = 1.0
+    """Cross-flow drag coefficient of the demihulls, -: a flat-bottomed prism, ~1.0 (Hoerner 1965, ch. 3)."""
+    lateral_centre_x_m: float = -1.0
+    """Centre of lateral resistance from the centre of gravity (forward +), m: aft, because a planing hull's
+    wetted area and the outboards' lower units (skegs) lie aft (Faltinsen 2005, §9.2; assumed 1 m)."""
+    engine_x_m: float = -2.6
+    """Outboards' longitudinal position from the centre of gravity (FLU: forward +), m (transom 0.43·L aft)."""
+    engine_y_m: float = 0.9
+    """Outboards' lateral offset from the centreline, m (one per demihull: half the demihull spacing)."""
+    engine_power_W: float = 29_830.0  # noqa: N815 (unit suffix)
+    """Shaft power per outboard, W: 40 hp (Dyda & Chumakova 2021) × 745.7 W/hp."""
+    propulsive_efficiency: float = 0.55
+    """Propulsive efficiency of an outboard at planing speed, -: 0.5-0.6 (Faltinsen 2005, §9.4)."""
+    bollard_thrust_N: float = 2_000.0  # noqa: N815
+    """Static (bollard) thrust per outboard, N: about 5 kgf/hp for a planing propeller (assumed)."""
+    reverse_thrust_ratio: float = 0.5
+    """Astern thrust available as a fraction of the bollard thrust, -: propellers are ~half as good astern."""
+    max_steering_rad: float = math.radians(30.0)
+    """Outboard steering limit, rad: ±30°, typical of hydraulic outboard steering."""
+    turn_speed_mps: float = 5.0
+    """Reference turn: speed through water, m/s (≈ 10 kn, the transition regime of Table 1)."""
+    turn_steering_rad: float = math.radians(20.0)
+    """Reference turn: steering angle of both outboards, rad."""
+    turn_diameter_m: float = 60.0
+    """Reference turn: steady turning diameter, m (10·L at 20°: thrust vectoring alone turns a light boat wide)."""
+    turn_drift_rad: float = math.radians(4.0)
+    """Reference turn: drift angle, rad (a planing catamaran skids little: 3-6°)."""
+    resistance: ResistanceModel = field(default_factory=dyda2021_resistance)
+    """Calm-water surge resistance Fc(u); default the measured Table 1 of Dyda & Chumakova (2021)."""
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            if f.name == "resistance":
+                continue
+            value = getattr(self, f.name)
+            if not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise InputError(f"vessel parameter '{f.name}' must be a finite number, got {value!r}")
+            if f.name not in ("engine_x_m", "lateral_centre_x_m") and value <= 0.0:
+                raise InputError(f"vessel parameter '{f.name}' must be positive, got {value!r}")
+        if self.turn_steering_rad >= self.max_steering_rad + 1e-12:
+            raise InputError("vessel parameter 'turn_steering_rad' must not exceed 'max_steering_rad'")
+        if self.turn_drift_rad >= math.pi / 4:
+            raise InputError("vessel parameter 'turn_drift_rad' must be below 45°")
+
+
+@dataclass(frozen=True)
+class ModelCoefficients:
+    """Coefficients of the 3-DOF equations of motion (see :mod:`boat_twin.vessel.dynamics`), SI units."""
+
+    m11_kg: float
+    """Surge mass with added mass, kg."""
+    m22_kg: float
+    """Sway mass with added mass, kg."""
+    m33_kgm2: float
+    """Yaw inertia with added inertia, kg·m^2."""
+    sway_damping_Nspm2: float  # noqa: N815
+    """Sway lift damping a_v in Y = −a_v·|u|·v, N·s²/m² (derived from the reference turn)."""
+    lateral_centre_x_m: float
+    """Where the sway lift acts, m forward of the centre of gravity."""
+    yaw_damping_Nms: float  # noqa: N815
+    """Yaw lift damping a_r in N = −a_r·|u|·r, N·m·s (derived from the reference turn)."""
+    sway_quadratic_Ns2pm2: float  # noqa: N815
+    """Cross-flow sway drag Y = −Y_vv·|v|·v, N·s²/m² (½ρ·Cd·2T·L)."""
+    yaw_quadratic_Nms2: float  # noqa: N815
+    """Cross-flow yaw drag N = −N_rr·|r|·r, N·m·s² (½ρ·Cd·2T·L⁴/32)."""
+
+
+def reference_turn_thrust_N(params: VesselParams) -> float:  # noqa: N802
+    """Thrust per outboard that holds the reference turn's speed, N (surge balance of the steady turn)."""
+    coeff = _inertia(params)
+    u, v, r = _reference_turn_velocities(params)
+    return float((params.resistance.force_N(u) - coeff["m22"] * v * r) / (2.0 * math.cos(params.turn_steering_rad)))
+
+
+def _inertia(params: VesselParams) -> dict[str, float]:
+    """Rigid-body plus added masses: surge by ratio, sway and yaw by strip theory over two demihulls."""
+    rho = WATER_DENSITY_KGPM3
+    # 2-D sway added mass of a vertical plate of draft T at a free surface: ρπT²/2 (Newman 1977, §4.13),
+    # per demihull, integrated over the length; the yaw added inertia integrates x² over the same strips.
+    sway_added_kg = 2.0 * rho * math.pi * params.draft_m**2 / 2.0 * params.length_m
+    yaw_added_kgm2 = sway_added_kg * params.length_m**2 / 12.0
+    return {
+        "m11": params.mass_kg * (1.0 + params.surge_added_mass_ratio),
+        "m22": params.mass_kg + sway_added_kg,
+        "m33": params.mass_kg * params.radius_of_gyration_yaw_m**2 + yaw_added_kgm2,
+    }
+
+
+def _reference_turn_velocities(params: VesselParams) -> tuple[float, float, float]:
+    """(u, v, r) of the steady reference turn to port: r > 0, the hull skids outward (v < 0)."""
+    speed = params.turn_speed_mps
+    u = speed * math.cos(params.turn_drift_rad)
+    v = -speed * math.sin(params.turn_drift_rad)
+    r = speed / (params.turn_diameter_m / 2.0)
+    return u, v, r
+
+
+def derive_coefficients(params: VesselParams) -> ModelCoefficients:
+    """Solve the steady reference turn's sway and yaw balances for the two lift-damping coefficients.
+
+    In the steady turn, ``0 = Y_thrust − m11·u·r − a_v·|u|·v − Y_vv·|v|·v`` and
+    ``0 = N_thrust − (m22 − m11)·u·v − x_c·a_v·|u|·v − a_r·|u|·r − N_rr·|r|·r`` (the sway lift acts at the
+    centre of lateral resistance x_c) with the outboard thrust that holds the surge balance
+    (:func:`reference_turn_thrust_N`), steered to port (a negative angle turns the bow to port).
+    """
+    inertia = _inertia(params)
+    rho = WATER_DENSITY_KGPM3
+    area = 2.0 * params.draft_m * params.length_m
+    y_vv = 0.5 * rho * params.crossflow_drag_coefficient * area
+    n_rr = 0.5 * rho * params.crossflow_drag_coefficient * 2.0 * params.draft_m * params.length_m**4 / 32.0
+    u, v, r = _reference_turn_velocities(params)
+    thrust = reference_turn_thrust_N(params)
+    delta = -params.turn_steering_rad
+    y_thrust = 2.0 * thrust * math.sin(delta)
+    n_thrust = 2.0 * params.engine_x_m * thrust * math.sin(delta)
+    a_v = (y_thrust - inertia["m11"] * u * r - y_vv * abs(v) * v) / (abs(u) * v)
+    munk = inertia["m22"] - inertia["m11"]
+    x_c = params.lateral_centre_x_m
+    a_r = (n_thrust - munk * u * v - x_c * a_v * abs(u) * v - n_rr * abs(r) * r) / (abs(u) * r)
+    if a_v <= 0.0 or a_r <= 0.0:
+        raise InputError(
+            "vessel parameters: the reference turn (turn_diameter_m, turn_drift_rad, turn_steering_rad) "
+            "cannot be held by this boat (it would need negative hull damping)"
+        )
+    # Linearized sway-yaw at speed u: stable when det > 0 (both damping terms are positive here).
+    if a_v * a_r <= inertia["m11"] * (munk + x_c * a_v):
+        raise InputError("vessel parameters: the reference turn makes the hull directionally unstable")
+    return ModelCoefficients(
+        m11_kg=inertia["m11"],
+        m22_kg=inertia["m22"],
+        m33_kgm2=inertia["m33"],
+        sway_damping_Nspm2=a_v,
+        lateral_centre_x_m=x_c,
+        yaw_damping_Nms=a_r,
+        sway_quadratic_Ns2pm2=y_vv,
+        yaw_quadratic_Nms2=n_rr,
+    )
+
+
+def yaw_time_constant_s(params: VesselParams, speed_mps: float) -> float:
+    """Yaw time constant at ``speed_mps``: m33 / (a_r·u) of the linearized yaw equation, s."""
+    coeff = derive_coefficients(params)
+    return coeff.m33_kgm2 / (coeff.yaw_damping_Nms * speed_mps)
+
+
+def surge_time_constant_s(params: VesselParams, speed_mps: float) -> float:
+    """Surge time constant at ``speed_mps``: m11 / (dFc/du), s (central difference, 1 cm/s)."""
+    h = 0.01
+    slope = float(params.resistance.force_N(speed_mps + h) - params.resistance.force_N(speed_mps - h)) / (2 * h)
+    return _inertia(params)["m11"] / slope if slope > 0 else math.inf
+
+
+def max_thrust_N(params: VesselParams, speed_mps: np.ndarray) -> np.ndarray:  # noqa: N802
+    """Forward thrust available per outboard at speed through water u, N: min(bollard, η·P/|u|)."""
+    power_limited = params.propulsive_efficiency * params.engine_power_W / np.maximum(np.abs(speed_mps), 1e-9)
+    return np.minimum(params.bollard_thrust_N, power_limited)
+
+
+def params_to_dict(params: VesselParams) -> dict[str, Any]:
+    """Plain data for YAML: every fact plus the resistance model's description."""
+    data = {f.name: getattr(params, f.name) for f in fields(params) if f.name != "resistance"}
+    data["resistance"] = params.resistance.to_dict()
+    return data
+
+
+def params_from_dict(data: Any, where: str, base: VesselParams | None = None) -> VesselParams:
+    """Parameters from plain data (YAML); keys not given keep the values of ``base`` (default boat)."""
+    base = base or VesselParams()
+    if data is None:
+        return base
+    if not isinstance(data, dict):
+        raise InputError(f"{where}: expected a mapping of vessel parameters")
+    known = {f.name for f in fields(VesselParams)} | {"effective_mass_kg"}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise InputError(f"{where}: unknown vessel parameter '{unknown[0]}'")
+    changes: dict[str, Any] = {}
+    for key, value in data.items():
+        if key == "resistance":
+            changes[key] = resistance_from_dict(value, f"{where}: resistance")
+        elif key == "effective_mass_kg":
+            changes["mass_kg"] = _number(value, where, key) / (1.0 + base.surge_added_mass_ratio)
+        else:
+            changes[key] = _number(value, where, key)
+    try:
+        return replace(base, **changes)
+    except InputError as err:
+        raise InputError(f"{where}: {err}") from None
+
+
+def _number(value: Any, where: str, key: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{where}: '{key}' must be a number, got {value!r}")
+    return float(value)
+
+
+def load_params(path: Path, base: VesselParams | None = None) -> VesselParams:
+    """Read vessel parameters (or an identified model's overrides) from a YAML file."""
+    data = load_yaml(path)
+    if isinstance(data, dict) and "vessel" in data:
+        data = data["vessel"]
+    return params_from_dict(data, str(path), base)
+
+
+def save_params(params: VesselParams, path: Path) -> None:
+    """Write all parameters to ``path`` as YAML (atomically)."""
+    atomic_write_yaml(path, {"vessel": params_to_dict(params)})
+
+
+def describe(params: VesselParams) -> dict[str, float]:
+    """Derived figures a reader checks for plausibility (README: 'Vessel model')."""
+    coeff = derive_coefficients(params)
+    top = _top_speed_mps(params)
+    return {
+        **{k: float(v) for k, v in asdict(coeff).items()},
+        "reference_turn_thrust_per_engine_N": reference_turn_thrust_N(params),
+        "yaw_time_constant_at_turn_speed_s": yaw_time_constant_s(params, params.turn_speed_mps),
+        "surge_time_constant_at_4mps_s": surge_time_constant_s(params, 4.0),
+        "top_speed_mps": top,
+    }
+
+
+def _top_speed_mps(params: VesselParams) -> float:
+    """Speed where two outboards' available thrust equals the resistance, m/s (bisection on a monotone gap)."""
+    lo, hi = 0.1, 60.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        gap = 2.0 * max_thrust_N(params, np.array(mid)) - params.resistance.force_N(mid)
+        lo, hi = (mid, hi) if gap > 0 else (lo, mid)
+    return 0.5 * (lo + hi)

@@ -1,0 +1,156 @@
+"""Calm-water resistance Fc(u) in surge: the force (N) opposing motion at speed through water u (m/s).
+
+Every model is odd in u (going astern meets the mirrored resistance) and vectorized over numpy arrays.
+Beyond the speed range it was measured or fitted on, a model extrapolates with the quadratic law
+Fc = Fc(u_max)·(u/u_max)², continuous in value: resistance of a planing hull above its hump grows roughly
+with the square of speed (Savitsky 1964; Faltinsen 2005, ch. 9), so this is the stated, sane continuation.
+
+Models are written to / read from plain dicts (the YAML of a vessel or of an identified model):
+``{"model": "table", "speed_mps": [...], "force_N": [...]}`` or
+``{"model": "power_series", "coefficients": [c0, c1, ...], "max_speed_mps": u_max}`` with c_i in N/(m/s)^i.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+from scipy.interpolate import PchipInterpolator
+
+from boat_twin.errors import InputError
+
+
+class ResistanceModel(Protocol):
+    """Fc(u): surge resistance in N at speed through water u in m/s."""
+
+    max_speed_mps: float
+
+    def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:  # noqa: N802 (unit suffix)
+        """Resistance in N, same shape as ``speed_mps``."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data description that :func:`resistance_from_dict` reads back."""
+
+
+def _odd_with_quadratic_tail(
+    speed_mps: np.ndarray | float, inside: Any, max_speed_mps: float
+) -> np.ndarray:
+    """Evaluate ``inside`` on |u| ≤ u_max, continue quadratically beyond, and mirror for u < 0."""
+    u = np.asarray(speed_mps, dtype=float)
+    a = np.abs(u)
+    top = float(inside(np.array([max_speed_mps]))[0])
+    core = inside(np.minimum(a, max_speed_mps))
+    tail = top * (a / max_speed_mps) ** 2
+    return np.sign(u) * np.where(a <= max_speed_mps, core, tail)
+
+
+@dataclass(frozen=True)
+class TableResistance:
+    """Measured steady points (u_j, F_j), joined by a monotone cubic (PCHIP, Fritsch & Carlson 1980).
+
+    PCHIP never overshoots between points, so a non-decreasing table gives a non-decreasing Fc and a
+    unique steady speed for every thrust above the flat stretches of the table.
+    """
+
+    speeds_mps: tuple[float, ...]
+    forces_N: tuple[float, ...]  # noqa: N815 (unit suffix)
+
+    def __post_init__(self) -> None:
+        u = np.asarray(self.speeds_mps, dtype=float)
+        f = np.asarray(self.forces_N, dtype=float)
+        if u.ndim != 1 or u.size < 2 or u.size != f.size:
+            raise InputError("resistance table: speed_mps and force_N need the same length, at least 2")
+        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(f))):
+            raise InputError("resistance table: speed_mps and force_N must be finite numbers")
+        if u[0] != 0.0 or f[0] != 0.0:
+            raise InputError("resistance table: the first point must be (0 m/s, 0 N)")
+        if np.any(np.diff(u) <= 0.0):
+            raise InputError("resistance table: speed_mps must increase strictly")
+        if np.any(np.diff(f) < 0.0):
+            raise InputError("resistance table: force_N must not decrease with speed")
+        object.__setattr__(self, "_pchip", PchipInterpolator(u, f, extrapolate=False))
+
+    @property
+    def max_speed_mps(self) -> float:
+        """Highest measured speed, m/s; above it the quadratic law takes over."""
+        return float(self.speeds_mps[-1])
+
+    def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:  # noqa: N802
+        """Resistance in N at speed through water ``speed_mps`` (m/s)."""
+        return _odd_with_quadratic_tail(speed_mps, self._pchip, self.max_speed_mps)
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"model": "table", "speed_mps": [...], "force_N": [...]}``."""
+        return {"model": "table", "speed_mps": list(self.speeds_mps), "force_N": list(self.forces_N)}
+
+
+@dataclass(frozen=True)
+class PowerSeriesResistance:
+    """Fc(u) = Σ c_i·|u|^i·sign(u) for |u| ≤ u_max (Dyda & Chumakova 2021, eq. 1), c_i in N/(m/s)^i."""
+
+    coefficients: tuple[float, ...]
+    max_speed_mps: float
+
+    def __post_init__(self) -> None:
+        c = np.asarray(self.coefficients, dtype=float)
+        if c.ndim != 1 or c.size < 1 or not np.all(np.isfinite(c)):
+            raise InputError("power_series resistance: coefficients must be a non-empty list of finite numbers")
+        if not (math.isfinite(self.max_speed_mps) and self.max_speed_mps > 0.0):
+            raise InputError("power_series resistance: max_speed_mps must be a positive number")
+
+    @property
+    def order(self) -> int:
+        """Highest power N of the series."""
+        return len(self.coefficients) - 1
+
+    def _series(self, a: np.ndarray) -> np.ndarray:
+        return np.polynomial.polynomial.polyval(a, np.asarray(self.coefficients, dtype=float))
+
+    def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:  # noqa: N802
+        """Resistance in N at speed through water ``speed_mps`` (m/s)."""
+        return _odd_with_quadratic_tail(speed_mps, self._series, self.max_speed_mps)
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"model": "power_series", "coefficients": [...], "max_speed_mps": u_max}``."""
+        return {
+            "model": "power_series",
+            "coefficients": [float(c) for c in self.coefficients],
+            "max_speed_mps": float(self.max_speed_mps),
+        }
+
+
+def _float_list(spec: Mapping[str, Any], key: str, where: str) -> tuple[float, ...]:
+    values = spec.get(key)
+    if not isinstance(values, Sequence) or isinstance(values, str):
+        raise InputError(f"{where}: '{key}' must be a list of numbers")
+    try:
+        return tuple(float(x) for x in values)
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: '{key}' must contain numbers only") from None
+
+
+def resistance_from_dict(spec: Mapping[str, Any], where: str = "resistance") -> ResistanceModel:
+    """Build a resistance model from its plain-data description; ``where`` names it in error messages."""
+    if not isinstance(spec, Mapping):
+        raise InputError(f"{where}: expected a mapping with a 'model' key")
+    kind = spec.get("model")
+    if kind == "table":
+        return TableResistance(_float_list(spec, "speed_mps", where), _float_list(spec, "force_N", where))
+    if kind == "power_series":
+        try:
+            max_speed = float(spec.get("max_speed_mps", "nan"))
+        except (TypeError, ValueError):
+            raise InputError(f"{where}: 'max_speed_mps' must be a number") from None
+        return PowerSeriesResistance(_float_list(spec, "coefficients", where), max_speed)
+    raise InputError(f"{where}: unknown model {kind!r} (expected 'table' or 'power_series')")
+
+
+def dyda2021_resistance() -> TableResistance:
+    """The measured curve of Dyda & Chumakova (2021), Table 1, read as knots and kgf, in SI."""
+    from boat_twin.data import dyda2021_table1_si
+
+    speed_mps, force_n = dyda2021_table1_si()
+    return TableResistance(tuple(speed_mps.tolist()), tuple(force_n.tolist()))

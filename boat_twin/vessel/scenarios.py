@@ -1,0 +1,231 @@
+"""Trial scenarios: what the helmsman commands, open loop (a profile) or closed loop (zigzag, turning circle).
+
+A scenario gives the four commands (thrust_left_N, thrust_right_N, angle_left_rad, angle_right_rad) for every
+boat of an ensemble at each output tick; the simulator holds them until the next tick (zero-order hold).
+Steering sign: a positive outboard angle points the thrust to port, which pushes the stern to port and turns
+the bow to starboard (yaw rate < 0, REP-103).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+from scipy.optimize import brentq
+
+from boat_twin.errors import InputError
+from boat_twin.units import KGF_N
+from boat_twin.vessel.params import VesselParams, max_thrust_N, surge_time_constant_s
+
+CSV_HEADER = ("t", "thrust_left_N", "thrust_right_N", "angle_left_rad", "angle_right_rad")
+"""The header a command CSV file must have, in this order."""
+
+THRUST_STEP_LEVELS_KGF = (6.0, 14.0, 23.0, 31.0, 38.0, 53.0, 65.0, 80.0, 100.0, 120.0)
+"""Total thrust levels of the default staircase, kgf: thrusts of Dyda & Chumakova (2021) Table 1, skipping the
+flat stretch (44-50 kgf) where the measured curve has no unique steady speed."""
+
+
+class Scenario(Protocol):
+    """What is commanded: ``command(t, states)`` → (N, 4) commands for N boats, over ``duration_s``."""
+
+    name: str
+    duration_s: float
+    initial_surge_mps: float
+
+    def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
+        """Commands for every boat at time ``t_s`` given their states (N, 6)."""
+
+
+@dataclass(frozen=True)
+class CommandProfile:
+    """Open-loop commands: rows (t_s, 4 commands) held from one row to the next (zero before the first)."""
+
+    name: str
+    times_s: np.ndarray
+    values: np.ndarray
+    duration_s: float
+    initial_surge_mps: float = 0.0
+
+    def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
+        """The row in force at ``t_s`` (the last with time ≤ t), for every boat."""
+        i = int(np.searchsorted(self.times_s, t_s + 1e-9, side="right")) - 1
+        row = np.zeros(4) if i < 0 else self.values[i]
+        return np.broadcast_to(row, (states.shape[0], 4)).copy()
+
+
+def steady_speed_mps(params: VesselParams, total_thrust_N: float) -> float:  # noqa: N803
+    """Speed through water where the resistance equals ``total_thrust_N`` (straight course), m/s."""
+    if total_thrust_N <= 0.0:
+        return 0.0
+    hi = params.resistance.max_speed_mps
+    while float(params.resistance.force_N(hi)) < total_thrust_N:
+        hi *= 2.0
+    return float(brentq(lambda u: float(params.resistance.force_N(u)) - total_thrust_N, 0.0, hi, xtol=1e-10))
+
+
+def thrust_steps(
+    params: VesselParams, levels_N: tuple[float, ...] | None = None, settle_time_constants: float = 6.0  # noqa: N803
+) -> CommandProfile:
+    """The paper's experiment: a staircase of total thrust levels, split equally between the outboards.
+
+    Each level is held for ``settle_time_constants`` local surge time constants m11/(dFc/du) at its steady
+    speed (6 → within 0.25 % of the final speed), at least 30 s and at most 150 s; then 60 s at idle.
+    """
+    levels = levels_N or tuple(f * KGF_N for f in THRUST_STEP_LEVELS_KGF)
+    times, rows, t = [], [], 0.0
+    for level in levels:
+        tau = surge_time_constant_s(params, steady_speed_mps(params, level))
+        times.append(t)
+        rows.append([level / 2.0, level / 2.0, 0.0, 0.0])
+        t += float(np.clip(settle_time_constants * tau, 30.0, 150.0))
+    times.append(t)
+    rows.append([0.0, 0.0, 0.0, 0.0])
+    return CommandProfile("thrust-steps", np.array(times), np.array(rows), t + 60.0)
+
+
+def accel_stop(params: VesselParams, run_s: float = 60.0, coast_s: float = 60.0) -> CommandProfile:
+    """Full ahead on both outboards from rest for ``run_s``, then idle (0 N) for ``coast_s``."""
+    full = params.bollard_thrust_N
+    return CommandProfile(
+        "accel-stop", np.array([0.0, run_s]), np.array([[full, full, 0.0, 0.0], [0.0] * 4]), run_s + coast_s
+    )
+
+
+def _approach_thrust_N(params: VesselParams, speed_mps: float) -> float:  # noqa: N802
+    """Thrust per outboard that holds ``speed_mps`` straight ahead (within the engine envelope), N."""
+    need = float(params.resistance.force_N(speed_mps)) / 2.0
+    return float(min(need, max_thrust_N(params, np.array(speed_mps))))
+
+
+@dataclass
+class Zigzag:
+    """IMO zigzag δ/ψ (MSC.137(76)): steer ±δ, reverse whenever the heading passes ±ψ of the initial heading.
+
+    The boat starts at ``speed_mps`` and runs straight for ``approach_s`` at the thrust that holds it; the first
+    execute is to starboard. ``steering_rad`` and ``heading_change_rad`` are δ and ψ (20°/20° or 10°/10°).
+    """
+
+    params: VesselParams
+    steering_rad: float
+    heading_change_rad: float
+    speed_mps: float = 6.0
+    approach_s: float = 10.0
+    duration_s: float = 130.0
+    name: str = "zigzag"
+    initial_surge_mps: float = 6.0
+    _sign: np.ndarray | None = field(default=None, repr=False)
+    _initial_yaw: np.ndarray | None = field(default=None, repr=False)
+
+    def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
+        """Thrust held; steering flips when the heading deviation exceeds the threshold (per boat)."""
+        n = states.shape[0]
+        thrust = _approach_thrust_N(self.params, self.speed_mps)
+        out = np.zeros((n, 4))
+        out[:, :2] = thrust
+        if t_s < self.approach_s:
+            return out
+        if self._sign is None:
+            self._sign = np.ones(n)  # +1: steering to starboard (positive angle)
+            self._initial_yaw = states[:, 2].copy()
+        deviation = states[:, 2] - self._initial_yaw  # > 0: bow to port
+        self._sign = np.where(deviation <= -self.heading_change_rad, -1.0, self._sign)
+        self._sign = np.where(deviation >= self.heading_change_rad, 1.0, self._sign)
+        out[:, 2:] = (self._sign * self.steering_rad)[:, None]
+        return out
+
+
+def turning_circle(params: VesselParams, speed_mps: float = 6.0, approach_s: float = 10.0,
+                   turn_s: float = 120.0) -> CommandProfile:
+    """Start at ``speed_mps``, run straight, then full steering to starboard with the approach thrust held."""
+    thrust = _approach_thrust_N(params, speed_mps)
+    rows = np.array([[thrust, thrust, 0.0, 0.0], [thrust, thrust, params.max_steering_rad, params.max_steering_rad]])
+    return CommandProfile("turning-circle", np.array([0.0, approach_s]), rows, approach_s + turn_s, speed_mps)
+
+
+def random_commands(params: VesselParams, rng: np.random.Generator, duration_s: float = 600.0,
+                    min_hold_s: float = 5.0, max_hold_s: float = 25.0) -> CommandProfile:
+    """Random piecewise-constant commands: total thrust, differential thrust and steering, each held 5-25 s.
+
+    Total thrust is uniform in [0.2, 1.0] of the bollard thrust per engine, differential up to ±15 %,
+    steering uniform within ±0.6 of the steering limit: a rich excitation of surge, sway and yaw.
+    """
+    times, rows, t = [], [], 0.0
+    while t < duration_s:
+        base = rng.uniform(0.2, 1.0) * params.bollard_thrust_N
+        split = rng.uniform(-0.15, 0.15)
+        angle = rng.uniform(-0.6, 0.6) * params.max_steering_rad
+        times.append(t)
+        rows.append([base * (1 + split), base * (1 - split), angle, angle])
+        t += rng.uniform(min_hold_s, max_hold_s)
+    return CommandProfile("random", np.array(times), np.array(rows), duration_s)
+
+
+SCENARIO_NAMES = ("thrust-steps", "accel-stop", "zigzag-20-20", "zigzag-10-10", "turning-circle", "random")
+"""Scenario names the command line accepts."""
+
+
+def make_scenario(name: str, params: VesselParams, rng: np.random.Generator,
+                  duration_s: float | None = None) -> Scenario:
+    """Build the named scenario; ``duration_s`` overrides its natural length."""
+    if name == "thrust-steps":
+        scenario: Scenario = thrust_steps(params)
+    elif name == "accel-stop":
+        scenario = accel_stop(params)
+    elif name in ("zigzag-20-20", "zigzag-10-10"):
+        angle = math.radians(20.0 if name == "zigzag-20-20" else 10.0)
+        scenario = Zigzag(params, angle, angle, name=name)
+        scenario.initial_surge_mps = scenario.speed_mps
+    elif name == "turning-circle":
+        scenario = turning_circle(params)
+    elif name == "random":
+        scenario = random_commands(params, rng)
+    else:
+        raise InputError(f"unknown scenario {name!r} (choose from {', '.join(SCENARIO_NAMES)})")
+    if duration_s is not None:
+        if not (math.isfinite(duration_s) and duration_s > 0.0):
+            raise InputError(f"--duration must be a positive number of seconds, got {duration_s!r}")
+        scenario = replace(scenario, duration_s=duration_s)  # type: ignore[type-var]
+    return scenario
+
+
+def read_command_csv(path: Path) -> CommandProfile:
+    """Read a command profile from CSV with header ``t,thrust_left_N,thrust_right_N,angle_left_rad,angle_right_rad``.
+
+    Times must increase strictly; the simulation runs until the last row's time (the last row is held
+    only if a longer ``--duration`` is given).
+    """
+    try:
+        with path.open(newline="") as fh:
+            reader = csv.reader(fh)
+            header = tuple(h.strip() for h in next(reader, ()))
+            if header != CSV_HEADER:
+                raise InputError(f"{path}: header must be '{','.join(CSV_HEADER)}', got '{','.join(header)}'")
+            rows = []
+            for line_no, row in enumerate(reader, start=2):
+                if not row or all(not c.strip() for c in row):
+                    continue
+                if len(row) != len(CSV_HEADER):
+                    raise InputError(f"{path}:{line_no}: expected {len(CSV_HEADER)} columns, got {len(row)}")
+                try:
+                    values = [float(c) for c in row]
+                except ValueError:
+                    raise InputError(f"{path}:{line_no}: not a number in {row!r}") from None
+                if not all(math.isfinite(v) for v in values):
+                    raise InputError(f"{path}:{line_no}: values must be finite, got {row!r}")
+                if rows and values[0] <= rows[-1][0]:
+                    raise InputError(f"{path}:{line_no}: time {values[0]} s does not increase")
+                rows.append(values)
+    except OSError as err:
+        raise InputError(f"{path}: cannot read ({err.strerror})") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text CSV file") from None
+    if not rows:
+        raise InputError(f"{path}: no command rows")
+    if rows[0][0] < 0.0:
+        raise InputError(f"{path}:2: time must not be negative")
+    table = np.array(rows)
+    return CommandProfile(path.name, table[:, 0], table[:, 1:], float(max(table[-1, 0], 0.1)))
