@@ -60,12 +60,12 @@ class VesselParams:
     """Astern thrust available as a fraction of the bollard thrust, -: propellers are ~half as good astern."""
     max_steering_rad: float = math.radians(30.0)
     """Outboard steering limit, rad: ±30°, typical of hydraulic outboard steering."""
-    turn_speed_mps: float = 5.0
-    """Reference turn: speed through water, m/s (≈ 10 kn, the transition regime of Table 1)."""
+    turn_speed_mps: float = 6.0
+    """Reference turn: speed through water, m/s (11.7 kn: above the flat 8.5-10.5 kn stretch of Table 1)."""
     turn_steering_rad: float = math.radians(20.0)
     """Reference turn: steering angle of both outboards, rad."""
     turn_diameter_m: float = 60.0
-    """Reference turn: steady turning diameter, m (10·L at 20°: thrust vectoring alone turns a light boat wide)."""
+    """Reference turn: steady turning diameter, m (10·L at 20°, 6 m/s: thrust vectoring alone turns wide)."""
     turn_drift_rad: float = math.radians(4.0)
     """Reference turn: drift angle, rad (a planing catamaran skids little: 3-6°)."""
     resistance: ResistanceModel = field(default_factory=dyda2021_resistance)

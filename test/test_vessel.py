@@ -1,0 +1,150 @@
+"""Physics of the vessel model: steady speed, turning, current drift, ensemble, parameters and scenarios."""
+
+import math
+
+import numpy as np
+import pytest
+
+from boat_twin.errors import InputError
+from boat_twin.vessel.environment import Environment
+from boat_twin.vessel.params import (
+    VesselParams,
+    derive_coefficients,
+    load_params,
+    reference_turn_thrust_N,
+    save_params,
+)
+from boat_twin.vessel.resistance import PowerSeriesResistance, TableResistance, dyda2021_resistance
+from boat_twin.vessel.scenarios import CommandProfile, Zigzag, make_scenario, steady_speed_mps, thrust_steps
+from boat_twin.vessel.simulate import simulate
+
+PARAMS = VesselParams()
+
+
+def constant(thrust_per_engine_n: float, angle_rad: float = 0.0, duration_s: float = 400.0) -> CommandProfile:
+    row = [thrust_per_engine_n, thrust_per_engine_n, angle_rad, angle_rad]
+    return CommandProfile("constant", np.array([0.0]), np.array([row]), duration_s)
+
+
+@pytest.mark.parametrize("total_thrust_n", [100.0, 300.0, 700.0, 1100.0])
+def test_steady_speed_is_the_inverse_of_the_resistance_curve(total_thrust_n: float) -> None:
+    record = simulate(PARAMS, constant(total_thrust_n / 2.0, duration_s=600.0))
+    u_final = record.states[-1, 0, 3]
+    expected = steady_speed_mps(PARAMS, total_thrust_n)
+    assert float(PARAMS.resistance.force_N(expected)) == pytest.approx(total_thrust_n, rel=1e-9)
+    assert u_final == pytest.approx(expected, rel=2e-3)
+
+
+def test_reference_turn_is_reproduced_on_both_sides() -> None:
+    thrust = reference_turn_thrust_N(PARAMS)
+    for side in (+1.0, -1.0):  # negative steering angle turns to port (r > 0)
+        record = simulate(PARAMS, constant(thrust, -side * PARAMS.turn_steering_rad, duration_s=120.0),
+                          initial_states=np.array([[0, 0, 0, PARAMS.turn_speed_mps, 0, 0]]))
+        _, _, _, u, v, r = record.states[-1, 0]
+        speed = math.hypot(u, v)
+        assert speed == pytest.approx(PARAMS.turn_speed_mps, rel=0.01)
+        assert side * r == pytest.approx(speed / (PARAMS.turn_diameter_m / 2.0), rel=0.01)
+        assert math.atan2(-side * v, u) == pytest.approx(PARAMS.turn_drift_rad, rel=0.02)
+
+
+def test_boat_drifts_with_the_current() -> None:
+    env = Environment(current_east_mps=0.3, current_north_mps=-0.2)
+    record = simulate(PARAMS, constant(0.0, duration_s=100.0), env)
+    truth = record.truth()
+    assert truth.east_m[-1] == pytest.approx(30.0, abs=1e-9)
+    assert truth.north_m[-1] == pytest.approx(-20.0, abs=1e-9)
+    moving = simulate(PARAMS, constant(150.0, duration_s=300.0), env).truth()
+    assert moving.vel_east_mps[-1] - moving.surge_mps[-1] == pytest.approx(0.3, abs=1e-9)
+    assert moving.surge_mps[-1] == pytest.approx(steady_speed_mps(PARAMS, 300.0), rel=2e-3)
+
+
+def test_ensemble_matches_single_runs_exactly() -> None:
+    rng = np.random.default_rng(3)
+    starts = np.zeros((4, 6))
+    starts[:, 2] = rng.uniform(-np.pi, np.pi, 4)
+    starts[:, 3] = rng.uniform(0.0, 8.0, 4)
+    scenario = make_scenario("random", PARAMS, np.random.default_rng(5), duration_s=60.0)
+    together = simulate(PARAMS, scenario, initial_states=starts)
+    for b in range(4):
+        alone = simulate(PARAMS, scenario, initial_states=starts[b : b + 1])
+        np.testing.assert_array_equal(together.states[:, b], alone.states[:, 0])
+
+
+def test_zigzag_executes_to_starboard_first_and_overshoots() -> None:
+    zig = Zigzag(PARAMS, math.radians(20), math.radians(20), initial_surge_mps=6.0)
+    yaw = np.degrees(simulate(PARAMS, zig).truth().yaw_rad)
+    first = np.flatnonzero(np.abs(yaw) > 1.0)[0]
+    assert yaw[first] < 0.0  # starboard = clockwise = negative ENU yaw
+    assert 20.0 < -yaw.min() < 40.0 and 20.0 < yaw.max() < 40.0
+
+
+def test_thrust_steps_hold_each_level_for_several_time_constants() -> None:
+    profile = thrust_steps(PARAMS)
+    record = simulate(PARAMS, profile)
+    for k, start in enumerate(profile.times_s[:-1]):
+        end = profile.times_s[k + 1]
+        u_end = record.states[int(round(end * 10)) - 1, 0, 3]
+        target = steady_speed_mps(PARAMS, 2.0 * profile.values[k, 0])
+        assert u_end == pytest.approx(target, rel=0.03), f"level {k} at t={start:.0f}s did not settle"
+
+
+def test_engine_envelope_limits_top_speed() -> None:
+    record = simulate(PARAMS, constant(1e6, duration_s=300.0))
+    top = record.states[-1, 0, 3]
+    power = 2 * PARAMS.propulsive_efficiency * PARAMS.engine_power_W
+    assert float(PARAMS.resistance.force_N(top)) == pytest.approx(power / top, rel=1e-3)
+
+
+def test_resistance_models_are_odd_monotone_and_extrapolate_quadratically() -> None:
+    table = dyda2021_resistance()
+    u = np.linspace(0.0, 20.0, 2001)
+    f = table.force_N(u)
+    assert np.all(np.diff(f) >= 0.0)
+    np.testing.assert_allclose(table.force_N(-u), -f)
+    top = table.max_speed_mps
+    assert table.force_N(2 * top) == pytest.approx(4 * table.force_N(top))
+    series = PowerSeriesResistance((0.0, 10.0, 2.0), max_speed_mps=5.0)
+    assert series.force_N(3.0) == pytest.approx(30.0 + 18.0)
+    assert series.force_N(10.0) == pytest.approx(series.force_N(5.0) * 4)
+
+
+@pytest.mark.parametrize(
+    ("speeds", "forces", "message"),
+    [
+        ((0.0, 1.0, 1.0), (0.0, 1.0, 2.0), "increase"),
+        ((0.0, 1.0), (0.0, -1.0), "decrease"),
+        ((0.0, float("nan")), (0.0, 1.0), "finite"),
+        ((0.5, 1.0), (0.0, 1.0), "first point"),
+    ],
+)
+def test_bad_resistance_table_is_rejected(speeds, forces, message) -> None:
+    with pytest.raises(InputError, match=message):
+        TableResistance(speeds, forces)
+
+
+def test_params_yaml_round_trip(tmp_path) -> None:
+    params = VesselParams(mass_kg=1500.0, resistance=PowerSeriesResistance((0.0, 60.0, 9.0), 9.0))
+    path = tmp_path / "boat.yaml"
+    save_params(params, path)
+    loaded = load_params(path)
+    assert loaded == params
+    assert derive_coefficients(loaded) == derive_coefficients(params)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("vessel: {mass_kg: -5}", "'mass_kg' must be positive"),
+        ("vessel: {mass_kg: .nan}", "'mass_kg' must be a finite number"),
+        ("vessel: {mass_kg: heavy}", "'mass_kg' must be a number"),
+        ("vessel: {hull_colour: 3}", "unknown vessel parameter 'hull_colour'"),
+        ("vessel: {resistance: {model: spline}}", "unknown model 'spline'"),
+        ("vessel: [1, 2", "malformed YAML"),
+    ],
+)
+def test_bad_params_yaml_names_the_field(tmp_path, text, message) -> None:
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(InputError, match=message) as err:
+        load_params(path)
+    assert str(path) in str(err.value)
