@@ -24,7 +24,10 @@ def prepare_output(path: Path, force: bool) -> None:
         else:
             path.unlink()
     parent = path.parent if str(path.parent) else Path(".")
-    parent.mkdir(parents=True, exist_ok=True)
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(f"{path}: cannot create its directory ({err.strerror})") from None
     if not os.access(parent, os.W_OK):
         raise InputError(f"{parent}: directory is not writable")
 

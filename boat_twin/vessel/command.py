@@ -62,7 +62,8 @@ def _scenario(args: argparse.Namespace, config: TwinConfig):
 
             trial = read_trial(args.commands)
             values = np.nan_to_num(trial.commands, nan=0.0)
-            profile = CommandProfile(args.commands.name, trial.t_s, values, float(trial.t_s[-1]))
+            t_abs = trial.t_s + trial.metadata.start_time_s
+            profile = CommandProfile(args.commands.name, t_abs, values, float(t_abs[-1]))
         else:
             profile = read_command_csv(args.commands)
         if args.duration is not None:

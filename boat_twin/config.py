@@ -1,0 +1,72 @@
+"""The twin's whole configuration: vessel, environment and sensors, from one YAML file (config/boat.yaml)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+from boat_twin.errors import InputError
+from boat_twin.io.files import load_yaml
+from boat_twin.sensors.gnss import GnssConfig
+from boat_twin.sensors.um7 import Um7Config
+from boat_twin.vessel.environment import Environment
+from boat_twin.vessel.params import VesselParams, params_from_dict
+
+SECTIONS = ("vessel", "environment", "gnss", "um7")
+"""Top-level keys of a twin configuration file."""
+
+
+@dataclass(frozen=True)
+class TwinConfig:
+    """Everything a simulated sea trial needs besides the scenario and the seed."""
+
+    vessel: VesselParams = field(default_factory=VesselParams)
+    environment: Environment = field(default_factory=Environment)
+    gnss: GnssConfig = field(default_factory=GnssConfig)
+    um7: Um7Config = field(default_factory=Um7Config)
+
+
+def _environment(data: Any, where: str) -> Environment:
+    if data is None:
+        return Environment()
+    if not isinstance(data, dict):
+        raise InputError(f"{where}: 'environment' must be a mapping")
+    names = {f.name for f in fields(Environment)}
+    for key, value in data.items():
+        if key not in names:
+            raise InputError(f"{where}: unknown environment field '{key}'")
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise InputError(f"{where}: environment '{key}' must be a number, got {value!r}")
+    try:
+        return Environment(**{k: float(v) for k, v in data.items()})
+    except InputError as err:
+        raise InputError(f"{where}: {err}") from None
+
+
+def config_from_dict(data: Any, where: str, base: TwinConfig | None = None) -> TwinConfig:
+    """Build a configuration from plain data; absent sections keep ``base`` (default: the seed boat)."""
+    base = base or TwinConfig()
+    if data is None:
+        return base
+    if not isinstance(data, dict):
+        raise InputError(f"{where}: expected a mapping with sections {', '.join(SECTIONS)}")
+    unknown = sorted(set(data) - set(SECTIONS))
+    if unknown:
+        raise InputError(f"{where}: unknown section '{unknown[0]}' (expected {', '.join(SECTIONS)})")
+    try:
+        return TwinConfig(
+            vessel=params_from_dict(data["vessel"], f"{where}: vessel", base.vessel) if "vessel" in data
+            else base.vessel,
+            environment=_environment(data["environment"], where) if "environment" in data else base.environment,
+            gnss=GnssConfig.from_dict(data["gnss"]) if "gnss" in data else base.gnss,
+            um7=Um7Config.from_dict(data["um7"]) if "um7" in data else base.um7,
+        )
+    except InputError as err:
+        text = str(err)
+        raise InputError(text if text.startswith(where) else f"{where}: {text}") from None
+
+
+def load_config(path: Path, base: TwinConfig | None = None) -> TwinConfig:
+    """Read a twin configuration file (any subset of the sections)."""
+    return config_from_dict(load_yaml(path), str(path), base)

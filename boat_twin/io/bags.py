@@ -1,0 +1,173 @@
+"""rosbag2 (MCAP or sqlite3 storage) and bare MCAP: write the twin's messages, read any trial into a Trial.
+
+Writing goes through the rosbags writer (rosbag2 metadata version 8, as ROS 2 Jazzy writes) into a temporary
+directory next to the target, renamed into place when complete: an interrupted run leaves nothing half-written.
+Reading streams messages in log-time order and keeps only the few numbers each role needs.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import tempfile
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rosbags.highlevel import AnyReader
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
+
+from boat_twin.errors import InputError
+from boat_twin.io.files import prepare_output
+from boat_twin.io.messages import TOPICS, TS
+from boat_twin.io.trial import Stream, Trial, build_trial
+
+ROLE_TOPICS = {
+    "thrust_left": "thrusters/left/thrust",
+    "thrust_right": "thrusters/right/thrust",
+    "angle_left": "thrusters/left/pos",
+    "angle_right": "thrusters/right/pos",
+    "gnss_fix": "gnss/fix",
+    "gnss_vel": "gnss/vel",
+    "imu": "imu/data",
+}
+"""Trial role → the package's relative topic name (its type is in :data:`boat_twin.io.messages.TOPICS`)."""
+
+STORAGES = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
+"""Storage plugins for ``--storage``."""
+
+Message = tuple[str, int, Any]
+"""(relative topic, log time in ns, rosbags message object)."""
+
+
+def write_bag(path: Path, messages: Iterable[Message], storage: str = "mcap", force: bool = False) -> int:
+    """Write ``messages`` (time-ordered) to a rosbag2 directory, or to a bare MCAP file if ``path`` ends in .mcap.
+
+    Returns the number of messages written. Refuses an existing ``path`` unless ``force``.
+    """
+    if storage not in STORAGES:
+        raise InputError(f"unknown storage {storage!r} (choose mcap or sqlite3)")
+    bare = path.suffix == ".mcap"
+    if bare and storage != "mcap":
+        raise InputError(f"{path}: a bare .mcap file needs --storage mcap")
+    prepare_output(path, force)
+    tmp_root = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}."))
+    bag_dir = tmp_root / (path.stem if bare else path.name)
+    count = 0
+    try:
+        writer = Writer(bag_dir, version=8, storage_plugin=STORAGES[storage])
+        if storage == "mcap":
+            writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        with writer:
+            connections: dict[str, Any] = {}
+            for topic, stamp_ns, msg in messages:
+                conn = connections.get(topic)
+                if conn is None:
+                    conn = writer.add_connection("/" + topic, TOPICS[topic], typestore=TS)
+                    connections[topic] = conn
+                writer.write(conn, stamp_ns, TS.serialize_cdr(msg, TOPICS[topic]))
+                count += 1
+        if bare:
+            (bag_dir / f"{bag_dir.name}.mcap").rename(path)
+        else:
+            bag_dir.rename(path)
+    finally:
+        shutil.rmtree(tmp_root, ignore_errors=True)
+    return count
+
+
+def _stamp_s(msg: Any) -> float:
+    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+
+def _fix(msg: Any, log_s: float) -> tuple[float, list[float]] | None:
+    if msg.status.status < 0:  # STATUS_NO_FIX
+        return None
+    return _stamp_s(msg), [msg.latitude, msg.longitude, msg.altitude]
+
+
+def _vel(msg: Any, log_s: float) -> tuple[float, list[float]]:
+    return _stamp_s(msg), [msg.twist.linear.x, msg.twist.linear.y]
+
+
+def _imu(msg: Any, log_s: float) -> tuple[float, list[float]]:
+    q = msg.orientation
+    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    return _stamp_s(msg), [yaw, msg.angular_velocity.z, msg.linear_acceleration.x, msg.linear_acceleration.y]
+
+
+def _scalar(msg: Any, log_s: float) -> tuple[float, list[float]]:
+    return log_s, [msg.data]
+
+
+EXTRACTORS: dict[str, Callable[[Any, float], tuple[float, list[float]] | None]] = {
+    "thrust_left": _scalar,
+    "thrust_right": _scalar,
+    "angle_left": _scalar,
+    "angle_right": _scalar,
+    "gnss_fix": _fix,
+    "gnss_vel": _vel,
+    "imu": _imu,
+}
+"""Role → function pulling (stamp in s, values) out of one message: header stamp for sensors, log time for
+commands (std_msgs/Float64 has no header)."""
+
+
+def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: str, source: str) -> dict[str, str]:
+    """Role → topic in the bag: ``remap`` first, else ``namespace`` + the default name, else a unique topic
+    ending in the default name (a namespaced recording). Checks each found topic's message type."""
+    chosen: dict[str, str] = {}
+    for role, name in ROLE_TOPICS.items():
+        if role in remap:
+            topic = remap[role] if remap[role].startswith("/") else "/" + remap[role]
+            if topic not in available:
+                raise InputError(f"{source}: remapped topic {topic} for '{role}' is not in the bag")
+        else:
+            topic = f"{namespace.rstrip('/')}/{name}" if namespace else "/" + name
+            if topic not in available:
+                ends = [t for t in available if t.endswith("/" + name)]
+                if len(ends) != 1:
+                    continue
+                topic = ends[0]
+        expected = TOPICS[name]
+        if available[topic] != expected:
+            raise InputError(f"{source}: topic {topic} has type {available[topic]}, expected {expected}")
+        chosen[role] = topic
+    return chosen
+
+
+def read_trial(
+    path: Path,
+    remap: dict[str, str] | None = None,
+    namespace: str = "",
+    origin: tuple[float, float, float] | None = None,
+) -> Trial:
+    """Read a rosbag2 directory (MCAP or sqlite3) or a bare .mcap file into a :class:`Trial`, streaming."""
+    source = str(path)
+    if not path.exists():
+        raise InputError(f"{source}: no such bag")
+    unknown = sorted(set(remap or {}) - set(ROLE_TOPICS))
+    if unknown:
+        raise InputError(f"--topic: unknown role '{unknown[0]}' (roles: {', '.join(ROLE_TOPICS)})")
+    try:
+        with AnyReader([path], default_typestore=TS) as reader:
+            available = {c.topic: c.msgtype for c in reader.connections}
+            topics = resolve_topics(available, remap or {}, namespace, source)
+            role_of = {topic: role for role, topic in topics.items()}
+            stamps: dict[str, list[float]] = {role: [] for role in topics}
+            values: dict[str, list[list[float]]] = {role: [] for role in topics}
+            wanted = [c for c in reader.connections if c.topic in role_of]
+            for conn, log_ns, raw in reader.messages(connections=wanted):
+                role = role_of[conn.topic]
+                sample = EXTRACTORS[role](reader.deserialize(raw, conn.msgtype), log_ns * 1e-9)
+                if sample is not None:
+                    stamps[role].append(sample[0])
+                    values[role].append(sample[1])
+    except InputError:
+        raise
+    except Exception as err:  # rosbags raises several types for corrupt or truncated files
+        raise InputError(f"{source}: cannot read bag ({type(err).__name__}: {err})") from None
+    streams = {role: Stream(np.array(stamps[role]), np.array(values[role])) for role in topics}
+    return build_trial(streams, source, topics, origin)

@@ -1,0 +1,234 @@
+"""``Trial``: the one data structure every analysis reads — commands and measurements on one time grid.
+
+Streams arrive as (stamps, values) arrays per *role* (``gnss_fix``, ``gnss_vel``, ``imu``, the four command
+roles). :func:`build_trial` puts them on a uniform grid at the GNSS rate: commands by zero-order hold
+(a command topic may publish at any rate, or only on change), sensors by linear interpolation between
+neighbouring samples, never across a gap longer than :data:`GAP_TOLERANCE_PERIODS` sample periods (NaN there,
+and the gap is reported). Local ENU comes from the geodetic origin with pymap3d (WGS-84).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pymap3d
+
+from boat_twin.errors import InputError
+
+COMMAND_ROLES = ("thrust_left", "thrust_right", "angle_left", "angle_right")
+"""Command streams, each one scalar per message (N or rad)."""
+SENSOR_ROLES = ("gnss_fix", "gnss_vel", "imu")
+"""Measured streams: GNSS fix (lat, lon, alt), GNSS velocity (east, north), IMU (yaw, yaw rate, ax, ay)."""
+GAP_TOLERANCE_PERIODS = 2.5
+"""A sensor stream is interpolated only between samples at most this many nominal periods apart."""
+
+
+@dataclass
+class Stream:
+    """One role's samples as read: ``stamps_s`` (n,) seconds (absolute or relative), ``values`` (n, k)."""
+
+    stamps_s: np.ndarray
+    values: np.ndarray
+
+
+@dataclass
+class TrialMetadata:
+    """Where a trial came from and how good its streams are."""
+
+    source: str
+    topics: dict[str, str] = field(default_factory=dict)
+    """Role → topic (or log message) it was read from."""
+    rates_hz: dict[str, float] = field(default_factory=dict)
+    """Role → median sample rate, Hz."""
+    counts: dict[str, int] = field(default_factory=dict)
+    """Role → number of samples read."""
+    gaps: list[tuple[str, float, float]] = field(default_factory=list)
+    """(role, start_s, end_s) of every interval longer than the gap tolerance without samples."""
+    missing: list[str] = field(default_factory=list)
+    """Roles with no samples at all."""
+    start_time_s: float = 0.0
+    """Absolute time of t = 0 (e.g. Unix time of the first GNSS sample), s."""
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Geodetic origin of the local ENU frame: latitude deg, longitude deg, ellipsoidal height m."""
+
+    def summary_line(self) -> str:
+        """One readable line: rates, counts, gaps, missing streams."""
+        parts = [f"{role} {self.counts.get(role, 0)} msgs @ {self.rates_hz.get(role, 0.0):.1f} Hz"
+                 for role in self.topics if role in self.counts]
+        if self.gaps:
+            parts.append(f"{len(self.gaps)} gap(s), longest {max(g[2] - g[1] for g in self.gaps):.1f} s")
+        if self.missing:
+            parts.append("missing: " + ", ".join(self.missing))
+        return f"{self.source}: " + "; ".join(parts)
+
+
+@dataclass
+class Trial:
+    """Commands and measurements on a uniform time grid ``t_s`` (seconds since start). SI, ENU/FLU.
+
+    NaN marks a sample that is not known (before the first command, inside a sensor gap).
+    """
+
+    t_s: np.ndarray
+    thrust_left_N: np.ndarray  # noqa: N815
+    thrust_right_N: np.ndarray  # noqa: N815
+    angle_left_rad: np.ndarray
+    angle_right_rad: np.ndarray
+    lat_deg: np.ndarray
+    lon_deg: np.ndarray
+    east_m: np.ndarray
+    north_m: np.ndarray
+    vel_east_mps: np.ndarray
+    vel_north_mps: np.ndarray
+    heading_rad: np.ndarray
+    """IMU heading as ENU yaw (counter-clockwise from east), rad, unwrapped."""
+    yaw_rate_radps: np.ndarray
+    accel_x_mps2: np.ndarray
+    accel_y_mps2: np.ndarray
+    metadata: TrialMetadata
+
+    @property
+    def speed_mps(self) -> np.ndarray:
+        """Speed over ground, m/s."""
+        return np.hypot(self.vel_east_mps, self.vel_north_mps)
+
+    @property
+    def course_rad(self) -> np.ndarray:
+        """Course over ground as ENU angle (counter-clockwise from east), rad."""
+        return np.arctan2(self.vel_north_mps, self.vel_east_mps)
+
+    @property
+    def surge_thrust_N(self) -> np.ndarray:  # noqa: N802
+        """Thrust along the hull: Σ T_i·cos δ_i, N."""
+        return self.thrust_left_N * np.cos(self.angle_left_rad) + self.thrust_right_N * np.cos(self.angle_right_rad)
+
+    @property
+    def commands(self) -> np.ndarray:
+        """Commands (n, 4): thrust_left_N, thrust_right_N, angle_left_rad, angle_right_rad."""
+        return np.column_stack([self.thrust_left_N, self.thrust_right_N, self.angle_left_rad, self.angle_right_rad])
+
+    def __len__(self) -> int:
+        return int(self.t_s.size)
+
+
+def _median_period_s(stamps_s: np.ndarray) -> float:
+    steps = np.diff(stamps_s)
+    steps = steps[steps > 0]
+    return float(np.median(steps)) if steps.size else float("nan")
+
+
+def _hold(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray) -> np.ndarray:
+    """Zero-order hold: the last value at or before each grid time; NaN before the first sample."""
+    index = np.searchsorted(stamps_s, grid_s + 1e-9, side="right") - 1
+    out = values[np.maximum(index, 0)].astype(float)
+    out[index < 0] = np.nan
+    return out
+
+
+def _interpolate(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray, max_gap_s: float) -> np.ndarray:
+    """Linear interpolation between samples at most ``max_gap_s`` apart; NaN elsewhere."""
+    right = np.clip(np.searchsorted(stamps_s, grid_s, side="left"), 1, stamps_s.size - 1)
+    left = right - 1
+    t0, t1 = stamps_s[left], stamps_s[right]
+    span = t1 - t0
+    w = np.where(span > 0, (grid_s - t0) / np.where(span > 0, span, 1.0), 0.0)
+    out = values[left] + w[:, None] * (values[right] - values[left])
+    exact_left, exact_right = np.abs(grid_s - t0) <= 1e-6, np.abs(grid_s - t1) <= 1e-6
+    out[exact_left] = values[left[exact_left]]
+    out[exact_right] = values[right[exact_right]]
+    outside = (grid_s < stamps_s[0] - 1e-6) | (grid_s > stamps_s[-1] + 1e-6)
+    out[((span > max_gap_s) & ~exact_left & ~exact_right) | outside] = np.nan
+    return out
+
+
+def _sorted_stream(role: str, stream: Stream) -> Stream:
+    """Drop non-finite stamps, sort by time, drop duplicate stamps (keep the first)."""
+    stamps = np.asarray(stream.stamps_s, dtype=float)
+    values = np.asarray(stream.values, dtype=float).reshape(stamps.size, -1)
+    keep = np.isfinite(stamps)
+    stamps, values = stamps[keep], values[keep]
+    order = np.argsort(stamps, kind="stable")
+    stamps, values = stamps[order], values[order]
+    first = np.concatenate([[True], np.diff(stamps) > 0])
+    return Stream(stamps[first], values[first])
+
+
+def build_trial(
+    streams: dict[str, Stream],
+    source: str,
+    topics: dict[str, str],
+    origin: tuple[float, float, float] | None = None,
+) -> Trial:
+    """Put the streams of one trial on a common grid (see the module docstring).
+
+    Requires a GNSS fix or velocity stream (it sets the grid) and at least one command overlapping it.
+    ``origin`` is the geodetic origin of the local ENU frame (default: the first fix).
+    """
+    meta = TrialMetadata(source=source, topics=dict(topics))
+    data = {}
+    for role in COMMAND_ROLES + SENSOR_ROLES:
+        stream = streams.get(role)
+        if stream is None or np.asarray(stream.stamps_s).size == 0:
+            meta.missing.append(role)
+            continue
+        data[role] = _sorted_stream(role, stream)
+        meta.counts[role] = int(np.asarray(stream.stamps_s).size)
+        period = _median_period_s(data[role].stamps_s)
+        meta.rates_hz[role] = 1.0 / period if np.isfinite(period) and period > 0 else 0.0
+    clock = data.get("gnss_vel") or data.get("gnss_fix")
+    if clock is None or clock.stamps_s.size < 2:
+        raise InputError(f"{source}: no GNSS velocity or fix stream (need at least 2 samples)")
+    commands = [data[r] for r in COMMAND_ROLES if r in data]
+    if not commands:
+        raise InputError(f"{source}: no command stream (thrusters/*/thrust or pos)")
+    period = _median_period_s(clock.stamps_s)
+    t0, t1 = float(clock.stamps_s[0]), float(clock.stamps_s[-1])
+    first_command = min(float(c.stamps_s[0]) for c in commands)
+    if first_command > t1:
+        raise InputError(f"{source}: commands and GNSS do not overlap in time (first command after the last fix)")
+    # The trial starts with the first command, or with GNSS if that comes more than the gap tolerance later.
+    t0 = first_command if t0 - GAP_TOLERANCE_PERIODS * period <= first_command else t0
+    grid_abs = t0 + np.arange(int(np.floor((t1 - t0) / period + 1e-6)) + 1) * period
+    meta.start_time_s = t0
+    columns: dict[str, np.ndarray] = {}
+    for role in COMMAND_ROLES:
+        columns[role] = _hold(data[role].stamps_s, data[role].values[:, 0], grid_abs) if role in data \
+            else np.full(grid_abs.size, 0.0 if role.startswith("angle") else np.nan)
+    for role, width in (("gnss_fix", 3), ("gnss_vel", 2), ("imu", 4)):
+        if role not in data:
+            columns[role] = np.full((grid_abs.size, width), np.nan)
+            continue
+        stream = data[role]
+        max_gap = GAP_TOLERANCE_PERIODS / max(meta.rates_hz[role], 1e-9)
+        if role == "imu":  # unwrap the heading before interpolating it
+            stream = Stream(stream.stamps_s, stream.values.copy())
+            stream.values[:, 0] = np.unwrap(stream.values[:, 0])
+        columns[role] = _interpolate(stream.stamps_s, stream.values, grid_abs, max_gap)
+        jumps = np.flatnonzero(np.diff(stream.stamps_s) > max_gap)
+        meta.gaps += [(role, float(stream.stamps_s[j] - t0), float(stream.stamps_s[j + 1] - t0)) for j in jumps]
+    fix = columns["gnss_fix"]
+    if origin is None:
+        valid = np.flatnonzero(np.all(np.isfinite(fix), axis=1))
+        origin = tuple(float(x) for x in fix[valid[0]]) if valid.size else (0.0, 0.0, 0.0)
+    meta.origin = origin
+    east, north, _ = pymap3d.geodetic2enu(fix[:, 0], fix[:, 1], fix[:, 2], *origin)
+    imu = columns["imu"]
+    return Trial(
+        t_s=grid_abs - t0,
+        thrust_left_N=columns["thrust_left"],
+        thrust_right_N=columns["thrust_right"],
+        angle_left_rad=columns["angle_left"],
+        angle_right_rad=columns["angle_right"],
+        lat_deg=fix[:, 0],
+        lon_deg=fix[:, 1],
+        east_m=np.asarray(east, dtype=float),
+        north_m=np.asarray(north, dtype=float),
+        vel_east_mps=columns["gnss_vel"][:, 0],
+        vel_north_mps=columns["gnss_vel"][:, 1],
+        heading_rad=imu[:, 0],
+        yaw_rate_radps=imu[:, 1],
+        accel_x_mps2=imu[:, 2],
+        accel_y_mps2=imu[:, 3],
+        metadata=meta,
+    )

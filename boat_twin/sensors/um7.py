@@ -1,0 +1,195 @@
+"""CH Robotics (Redshift Labs) UM7 AHRS model: what the ROS 2 ``um7`` driver publishes from the true motion.
+
+Conventions follow the ROS 2 driver (github.com/ros-drivers/um7, ``src/um7_driver.cpp``, ``tf_ned_to_enu``
+default true) and REP-103/REP-145 where the driver is known to be wrong:
+
+- ``imu/data`` (sensor_msgs/Imu, frame ``imu_link``): orientation of the FLU body in the ENU world (REP-103;
+  the driver's own NED->ENU quaternion shuffle is an open bug, ros-drivers/um7 #13), angular velocity in rad/s
+  and acceleration in m/s^2 in the FLU body, gravity included (+g on z at rest, REP-145).
+- ``imu/mag`` (sensor_msgs/MagneticField): the field in the FLU body, in tesla as the message defines (the
+  driver passes on the UM7's unit-norm, dimensionless processed field).
+- ``imu/rpy`` (geometry_msgs/Vector3Stamped): radians (driver scale 0.0109863 deg/LSB times pi/180), laid out
+  as the driver's ENU mode does: x = NED pitch = -pitch, y = NED roll = roll, z = -NED yaw = yaw - pi/2
+  (counter-clockwise from north, wrapped to [-pi, pi)); pitch, roll, yaw here are REP-103 angles.
+- ``imu/temperature`` (std_msgs/Float32, no header): degrees Celsius.
+
+The boat model is 3-DOF: true roll = pitch = 0, angular velocity (0, 0, r), acceleration (ax, ay, +g).
+``imu_link`` coincides with ``base_link`` (no lever arm).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from boat_twin.sensors import config_from_mapping, decimation_step, gauss_markov, number, vector3
+from boat_twin.units import STANDARD_GRAVITY_MPS2
+from boat_twin.vessel.truth import TruthSeries
+
+WMM2020_VLADIVOSTOK_ENU_TESLA = (-4.892e-6, 26.225e-6, -45.635e-6)
+"""Geomagnetic field (east, north, up), T: WMM2020 at 43.07 N, 131.90 E, 0 m, epoch 2020.0
+(declination -10.57 deg, inclination 59.69 deg, total 52 860 nT)."""
+
+
+@dataclass(frozen=True)
+class Um7Config:
+    """A UM7 (UM7-LT, as on the paper's boat) with the ROS 2 driver's defaults; SI units, validated."""
+
+    rate_hz: float = 10.0
+    """Output rate, Hz; must divide the truth output rate. The paper logged at 10 Hz (driver: 20 Hz)."""
+    gyro_stdev_radps: float = math.radians(0.06)
+    """Angular rate white noise stdev per axis, rad/s: 0.06 deg/s, the driver's default (from hardware)."""
+    gyro_bias_radps: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Constant gyro bias (x, y, z) in the FLU body, rad/s. 0: the driver zeroes the gyros on start-up."""
+    gyro_bias_walk_radps_per_sqrt_s: float = 0.0
+    """Gyro bias random walk, rad/s per sqrt(s): the bias drifts by this times sqrt(elapsed s). 0 = off."""
+    accel_stdev_mps2: float = 4.0e-3 * STANDARD_GRAVITY_MPS2
+    """Acceleration white noise stdev per axis, m/s^2: 4 mg, the driver's default (from hardware)."""
+    roll_pitch_stdev_rad: float = math.radians(3.0)
+    """Roll and pitch estimate error stdev, rad: 3 deg, UM7 datasheet dynamic accuracy (driver default)."""
+    yaw_stdev_rad: float = math.radians(3.0)
+    """Yaw (heading) estimate error stdev, rad: 3 deg, as the driver's default orientation_z_stdev."""
+    orientation_correlation_time_s: float = 0.0
+    """Correlation time of the orientation error, s (first-order Gauss-Markov); 0 = white per sample."""
+    magnetic_field_enu_tesla: tuple[float, float, float] = WMM2020_VLADIVOSTOK_ENU_TESLA
+    """Local geomagnetic field (east, north, up), T: WMM2020 near the default GNSS origin (Vladivostok)."""
+    mag_stdev_tesla: float = 0.5e-6
+    """Magnetometer white noise stdev per axis, T: about 1 % of the field, assumed (no published figure)."""
+    temperature_celsius: float = 25.0
+    """Reported board temperature, deg C; constant, assumed."""
+
+    def __post_init__(self) -> None:
+        for name in (
+            "rate_hz", "gyro_stdev_radps", "gyro_bias_walk_radps_per_sqrt_s", "accel_stdev_mps2",
+            "roll_pitch_stdev_rad", "yaw_stdev_rad", "orientation_correlation_time_s", "mag_stdev_tesla",
+        ):
+            limits: dict[str, Any] = {"minimum": 0.0, "strictly_above": name == "rate_hz"}
+            object.__setattr__(self, name, number(f"um7.{name}", getattr(self, name), **limits))
+        temperature = number("um7.temperature_celsius", self.temperature_celsius)
+        object.__setattr__(self, "temperature_celsius", temperature)
+        for name in ("gyro_bias_radps", "magnetic_field_enu_tesla"):
+            object.__setattr__(self, name, vector3(f"um7.{name}", getattr(self, name)))
+
+    @classmethod
+    def from_dict(cls, data: Any) -> Um7Config:
+        """From a YAML mapping (section ``um7``); unknown or bad fields raise InputError naming them."""
+        return config_from_mapping(cls, data, "um7")
+
+
+@dataclass(frozen=True)
+class ImuMeasurements:
+    """UM7 outputs, time-ordered; per-sample arrays have n rows, covariance diagonals are per series."""
+
+    stamp_s: np.ndarray
+    """Header stamp, s since the start of the trial, shape (n,)."""
+    quaternion_xyzw: np.ndarray
+    """Estimated orientation of the FLU body in ENU (x, y, z, w), w >= 0, shape (n, 4)."""
+    yaw_rad: np.ndarray
+    """Estimated ENU yaw (counter-clockwise from east), rad, unwrapped, shape (n,)."""
+    gyro_radps: np.ndarray
+    """Angular velocity in the FLU body, rad/s, shape (n, 3)."""
+    accel_mps2: np.ndarray
+    """Specific force in the FLU body, gravity included (+g on z at rest), m/s^2, shape (n, 3)."""
+    mag_tesla: np.ndarray
+    """Magnetic field in the FLU body, T, shape (n, 3)."""
+    rpy_rad: np.ndarray
+    """``imu/rpy`` as the driver lays it out: (-pitch, roll, yaw - pi/2 wrapped to [-pi, pi)), rad, (n, 3)."""
+    temperature_celsius: np.ndarray
+    """Board temperature, deg C, shape (n,)."""
+    orientation_covariance_rad2: np.ndarray
+    """Diagonal of the orientation covariance about x, y, z, rad^2, shape (3,)."""
+    gyro_covariance_radps2: np.ndarray
+    """Diagonal of the angular velocity covariance, (rad/s)^2, shape (3,)."""
+    accel_covariance_mps2_2: np.ndarray
+    """Diagonal of the acceleration covariance, (m/s^2)^2, shape (3,)."""
+    mag_covariance_tesla2: np.ndarray
+    """Diagonal of the magnetic field covariance, T^2, shape (3,)."""
+
+    def __len__(self) -> int:
+        return int(self.stamp_s.size)
+
+
+def quaternion_xyzw(roll_rad: np.ndarray, pitch_rad: np.ndarray, yaw_rad: np.ndarray) -> np.ndarray:
+    """Quaternions (n, 4), w >= 0, of R = Rz(yaw) Ry(pitch) Rx(roll) (REP-103 fixed-axis roll, pitch, yaw)."""
+    cr, sr = np.cos(roll_rad / 2.0), np.sin(roll_rad / 2.0)
+    cp, sp = np.cos(pitch_rad / 2.0), np.sin(pitch_rad / 2.0)
+    cy, sy = np.cos(yaw_rad / 2.0), np.sin(yaw_rad / 2.0)
+    q = np.column_stack([
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+        cr * cp * cy + sr * sp * sy,
+    ])
+    return q * np.where(q[:, 3:] < 0.0, -1.0, 1.0)
+
+
+def wrap_pi(angle_rad: np.ndarray) -> np.ndarray:
+    """Angles wrapped to [-pi, pi)."""
+    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class Um7Model:
+    """Turns a :class:`TruthSeries` into :class:`ImuMeasurements`; all randomness comes from ``rng``.
+
+    ``noise=False`` switches off every random effect (white noise, bias random walk, orientation error) and
+    keeps the deterministic ones (rate, constant gyro bias): the measurements are then the truth, exactly.
+    """
+
+    def __init__(self, config: Um7Config, rng: np.random.Generator, *, noise: bool = True) -> None:
+        self.config = config
+        self.rng = rng
+        self.noise = noise
+
+    def measure(self, truth: TruthSeries) -> ImuMeasurements:
+        """Samples at the decimated truth times."""
+        cfg = self.config
+        t_s = np.asarray(truth.t_s, dtype=float)
+        step = decimation_step(t_s, cfg.rate_hz, "um7.rate_hz")
+        stamp_s = t_s[::step]
+        n = stamp_s.size
+        yaw_true = np.asarray(truth.yaw_rad, dtype=float)[::step]
+        gyro = np.zeros((n, 3))
+        gyro[:, 2] = np.asarray(truth.yaw_rate_radps, dtype=float)[::step]
+        gyro += np.asarray(cfg.gyro_bias_radps)
+        accel = np.column_stack([
+            np.asarray(truth.accel_x_mps2, dtype=float)[::step],
+            np.asarray(truth.accel_y_mps2, dtype=float)[::step],
+            np.full(n, STANDARD_GRAVITY_MPS2),
+        ])
+        b_east, b_north, b_up = cfg.magnetic_field_enu_tesla
+        cos_yaw, sin_yaw = np.cos(yaw_true), np.sin(yaw_true)
+        mag = np.column_stack([
+            cos_yaw * b_east + sin_yaw * b_north,
+            -sin_yaw * b_east + cos_yaw * b_north,
+            np.full(n, b_up),
+        ])
+        attitude_error = np.zeros((n, 3))
+        if self.noise:
+            dt_s = 1.0 / cfg.rate_hz
+            stdev = np.array([cfg.roll_pitch_stdev_rad, cfg.roll_pitch_stdev_rad, cfg.yaw_stdev_rad])
+            attitude_error = gauss_markov(self.rng, n, 3, stdev, dt_s, cfg.orientation_correlation_time_s)
+            walk = self.rng.standard_normal((n, 3)) * (cfg.gyro_bias_walk_radps_per_sqrt_s * math.sqrt(dt_s))
+            walk[0] = 0.0
+            gyro += np.cumsum(walk, axis=0) + self.rng.standard_normal((n, 3)) * cfg.gyro_stdev_radps
+            accel += self.rng.standard_normal((n, 3)) * cfg.accel_stdev_mps2
+            mag += self.rng.standard_normal((n, 3)) * cfg.mag_stdev_tesla
+        roll, pitch = attitude_error[:, 0], attitude_error[:, 1]
+        yaw = yaw_true + attitude_error[:, 2]
+        return ImuMeasurements(
+            stamp_s=stamp_s,
+            quaternion_xyzw=quaternion_xyzw(roll, pitch, yaw),
+            yaw_rad=yaw,
+            gyro_radps=gyro,
+            accel_mps2=accel,
+            mag_tesla=mag,
+            rpy_rad=np.column_stack([-pitch, roll, wrap_pi(yaw - math.pi / 2.0)]),
+            temperature_celsius=np.full(n, cfg.temperature_celsius),
+            orientation_covariance_rad2=np.array(
+                [cfg.roll_pitch_stdev_rad, cfg.roll_pitch_stdev_rad, cfg.yaw_stdev_rad]) ** 2,
+            gyro_covariance_radps2=np.full(3, cfg.gyro_stdev_radps**2),
+            accel_covariance_mps2_2=np.full(3, cfg.accel_stdev_mps2**2),
+            mag_covariance_tesla2=np.full(3, cfg.mag_stdev_tesla**2),
+        )
