@@ -23,17 +23,22 @@ RATE_TOLERANCE = 1e-6
 
 
 def number(where: str, value: Any, *, minimum: float | None = None, maximum: float | None = None,
-           strictly_above: bool = False) -> float:
-    """``value`` as a finite float in [minimum, maximum] (or > minimum), else InputError naming ``where``."""
+           above: float | None = None, below: float | None = None) -> float:
+    """``value`` as a finite float within inclusive (minimum, maximum) and exclusive (above, below) bounds.
+
+    Anything else raises InputError naming ``where``.
+    """
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise InputError(f"{where}: expected a number, got {value!r}")
     result = float(value)
     if not math.isfinite(result):
         raise InputError(f"{where}: must be finite, got {result}")
-    if minimum is not None and (result < minimum or (strictly_above and result == minimum)):
-        raise InputError(f"{where}: must be {'>' if strictly_above else '>='} {minimum:g}, got {result:g}")
-    if maximum is not None and result > maximum:
-        raise InputError(f"{where}: must be <= {maximum:g}, got {result:g}")
+    for bound, fails, relation in (
+        (minimum, lambda b: result < b, ">="), (maximum, lambda b: result > b, "<="),
+        (above, lambda b: result <= b, ">"), (below, lambda b: result >= b, "<"),
+    ):
+        if bound is not None and fails(bound):
+            raise InputError(f"{where}: must be {relation} {bound:g}, got {result:g}")
     return result
 
 

@@ -54,13 +54,13 @@ class GnssConfig:
 
     def __post_init__(self) -> None:
         checks: dict[str, dict[str, Any]] = {
-            "rate_hz": {"minimum": 0.0, "strictly_above": True},
+            "rate_hz": {"above": 0.0},
             "horizontal_stdev_m": {"minimum": 0.0},
             "vertical_stdev_m": {"minimum": 0.0},
             "position_correlation_time_s": {"minimum": 0.0},
             "velocity_stdev_mps": {"minimum": 0.0},
             "latency_s": {"minimum": 0.0},
-            "dropout_probability": {"minimum": 0.0, "maximum": 0.999},
+            "dropout_probability": {"minimum": 0.0, "below": 1.0},
             "antenna_height_m": {"minimum": 0.0},
             "origin_lat_deg": {"minimum": -90.0, "maximum": 90.0},
             "origin_lon_deg": {"minimum": -180.0, "maximum": 180.0},
@@ -124,6 +124,8 @@ class GnssModel:
         n = stamp_s.size
 
         def at_state_time(values: np.ndarray) -> np.ndarray:
+            if n == 0:
+                return np.zeros(0)
             return np.interp(state_t_s, t_s, values)  # exact at the truth samples themselves
 
         east_m = at_state_time(truth.east_m)

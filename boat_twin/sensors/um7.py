@@ -66,7 +66,7 @@ class Um7Config:
             "rate_hz", "gyro_stdev_radps", "gyro_bias_walk_radps_per_sqrt_s", "accel_stdev_mps2",
             "roll_pitch_stdev_rad", "yaw_stdev_rad", "orientation_correlation_time_s", "mag_stdev_tesla",
         ):
-            limits: dict[str, Any] = {"minimum": 0.0, "strictly_above": name == "rate_hz"}
+            limits = {"above": 0.0} if name == "rate_hz" else {"minimum": 0.0}
             object.__setattr__(self, name, number(f"um7.{name}", getattr(self, name), **limits))
         temperature = number("um7.temperature_celsius", self.temperature_celsius)
         object.__setattr__(self, "temperature_celsius", temperature)
@@ -172,7 +172,7 @@ class Um7Model:
             stdev = np.array([cfg.roll_pitch_stdev_rad, cfg.roll_pitch_stdev_rad, cfg.yaw_stdev_rad])
             attitude_error = gauss_markov(self.rng, n, 3, stdev, dt_s, cfg.orientation_correlation_time_s)
             walk = self.rng.standard_normal((n, 3)) * (cfg.gyro_bias_walk_radps_per_sqrt_s * math.sqrt(dt_s))
-            walk[0] = 0.0
+            walk[:1] = 0.0  # the bias starts at its constant value
             gyro += np.cumsum(walk, axis=0) + self.rng.standard_normal((n, 3)) * cfg.gyro_stdev_radps
             accel += self.rng.standard_normal((n, 3)) * cfg.accel_stdev_mps2
             mag += self.rng.standard_normal((n, 3)) * cfg.mag_stdev_tesla

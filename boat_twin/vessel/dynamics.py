@@ -144,38 +144,36 @@ def _derivative(
 
 
 @numba.njit(cache=True)
-def _step_rk4(
-    states: np.ndarray,
-    commands: np.ndarray,
+def _step_boat(
+    s: np.ndarray,
+    cmd: np.ndarray,
     k: np.ndarray,
     table: np.ndarray,
     u_max: float,
     extra: np.ndarray,
-    currents: np.ndarray,
+    current: np.ndarray,
     dt: float,
     substeps: int,
 ) -> None:
-    """Advance every boat (rows of ``states``) by ``substeps`` RK4 steps of ``dt`` under held commands."""
+    """Advance one boat's state ``s`` in place by ``substeps`` RK4 steps of ``dt`` under a held command."""
     k1 = np.empty(6)
     k2 = np.empty(6)
     k3 = np.empty(6)
     k4 = np.empty(6)
     tmp = np.empty(6)
-    for b in range(states.shape[0]):
-        s = states[b]
-        for _ in range(substeps):
-            _derivative(s, commands[b], k, table, u_max, extra, currents[b], k1)
-            for j in range(6):
-                tmp[j] = s[j] + 0.5 * dt * k1[j]
-            _derivative(tmp, commands[b], k, table, u_max, extra, currents[b], k2)
-            for j in range(6):
-                tmp[j] = s[j] + 0.5 * dt * k2[j]
-            _derivative(tmp, commands[b], k, table, u_max, extra, currents[b], k3)
-            for j in range(6):
-                tmp[j] = s[j] + dt * k3[j]
-            _derivative(tmp, commands[b], k, table, u_max, extra, currents[b], k4)
-            for j in range(6):
-                s[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+    for _ in range(substeps):
+        _derivative(s, cmd, k, table, u_max, extra, current, k1)
+        for j in range(6):
+            tmp[j] = s[j] + 0.5 * dt * k1[j]
+        _derivative(tmp, cmd, k, table, u_max, extra, current, k2)
+        for j in range(6):
+            tmp[j] = s[j] + 0.5 * dt * k2[j]
+        _derivative(tmp, cmd, k, table, u_max, extra, current, k3)
+        for j in range(6):
+            tmp[j] = s[j] + dt * k3[j]
+        _derivative(tmp, cmd, k, table, u_max, extra, current, k4)
+        for j in range(6):
+            s[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
 
 
 @numba.njit(cache=True)
@@ -192,12 +190,12 @@ def _run_ticks(
     out_states: np.ndarray,
     out_derivatives: np.ndarray,
 ) -> None:
-    """For each output tick i: record states and derivatives under ``commands[i]``, then step the tick."""
-    for i in range(commands.shape[0]):
-        for b in range(states.shape[0]):
+    """For each boat and output tick i: record state and derivative under ``commands[i]``, then step the tick."""
+    for b in range(states.shape[0]):
+        for i in range(commands.shape[0]):
             out_states[i, b] = states[b]
             _derivative(states[b], commands[i, b], k, table, u_max, extra, currents[b], out_derivatives[i, b])
-        _step_rk4(states, commands[i], k, table, u_max, extra, currents, dt, substeps)
+            _step_boat(states[b], commands[i, b], k, table, u_max, extra, currents[b], dt, substeps)
 
 
 class Dynamics:

@@ -32,9 +32,7 @@ class VesselParams:
     length_m: float = 6.0
     """Hull length, m. Dyda & Chumakova (2021)."""
     beam_m: float = 2.6
-    """Overall beam, m. Dyda & Chumakova (2021)."""
-    demihull_spacing_m: float = 1.8
-    """Distance between the two demihull centrelines, m (beam minus one demihull width of 0.8 m; assumed)."""
+    """Overall beam, m. Dyda & Chumakova (2021). Enters through the outboards' offset ``engine_y_m``."""
     draft_m: float = 0.25
     """Draft of each demihull at rest, m (assumed, typical of a 6 m aluminium catamaran at 1.3 t)."""
     radius_of_gyration_yaw_m: float = 1.5
@@ -49,7 +47,8 @@ class VesselParams:
     engine_x_m: float = -2.6
     """Outboards' longitudinal position from the centre of gravity (FLU: forward +), m (transom 0.43·L aft)."""
     engine_y_m: float = 0.9
-    """Outboards' lateral offset from the centreline, m (one per demihull: half the demihull spacing)."""
+    """Outboards' lateral offset from the centreline, m: one per demihull, each demihull ~0.8 m wide at the
+    sides of the 2.6 m beam, so its centreline is 0.9 m out."""
     engine_power_W: float = 29_830.0  # noqa: N815 (unit suffix)
     """Shaft power per outboard, W: 40 hp (Dyda & Chumakova 2021) × 745.7 W/hp."""
     propulsive_efficiency: float = 0.55
