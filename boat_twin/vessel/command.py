@@ -81,12 +81,18 @@ def make_scenario_with_duration(profile: CommandProfile, duration_s: float) -> C
     return CommandProfile(profile.name, profile.times_s, profile.values, duration_s, profile.initial_surge_mps)
 
 
-def summarize(trial_t_s: np.ndarray, states: np.ndarray) -> dict[str, float]:
-    """Figures of a simulated trial's truth: duration, top speed, extreme yaw rate."""
+def summarize(t_s: np.ndarray, states: np.ndarray) -> dict[str, float | None]:
+    """Figures of a simulated trial's truth: duration, top speed, extreme yaw rate, and the final steady
+    turning diameter 2·U/|r| (averaged over the last 20 s; None unless the boat ends in a turn)."""
+    last = t_s >= t_s[-1] - 20.0
+    u, v, r = states[last, 0, 3], states[last, 0, 4], states[last, 0, 5]
+    turning = bool(np.all(np.abs(r) > 0.02) and np.ptp(r) < 0.05 * np.mean(np.abs(r)))
     return {
-        "duration_s": float(trial_t_s[-1]),
+        "duration_s": float(t_s[-1]),
         "max_surge_mps": float(np.max(states[:, 0, 3])),
         "max_abs_yaw_rate_radps": float(np.max(np.abs(states[:, 0, 5]))),
+        "final_turn_diameter_m": float(np.mean(2.0 * np.hypot(u, v) / np.abs(r))) if turning else None,
+        "final_turn_speed_mps": float(np.mean(np.hypot(u, v))) if turning else None,
     }
 
 

@@ -1,0 +1,82 @@
+"""``boat-twin demo``: the main job on the shipped sample — regenerate it, read it back, summarize, plot, identify."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from boat_twin.config import TwinConfig
+from boat_twin.errors import InputError
+from boat_twin.io.bags import read_trial, write_bag
+from boat_twin.io.files import ensure_out_dir, to_json
+from boat_twin.io.trial import Trial
+from boat_twin.plots import plot_trial
+from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.vessel.scenarios import make_scenario
+
+SAMPLE_BAG = Path("bags/thrust_steps_sample")
+"""The shipped sample trial (regenerate: ``make sample``)."""
+SAMPLE_SEED = 1
+"""Seed the sample was made with."""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``demo`` verb."""
+    p = subparsers.add_parser("demo", help="the main job on the shipped sample trial",
+                              description="Regenerate the shipped thrust-steps sample, check it matches, read it "
+                              "back as a Trial, print speeds per thrust level and sensor rates, plot, identify.")
+    p.add_argument("--sample", type=Path, default=SAMPLE_BAG, help=f"sample bag (default {SAMPLE_BAG})")
+    p.add_argument("--out", type=Path, default=Path("out/demo"), help="report directory (default out/demo)")
+    p.add_argument("--force", action="store_true", help="overwrite the regenerated bag in --out")
+    p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")
+    p.set_defaults(handler=run)
+
+
+def thrust_levels(trial: Trial) -> list[dict[str, float]]:
+    """Each run of constant surge thrust: its thrust, duration and the speed over its last 10 s (mean, stdev)."""
+    thrust = trial.surge_thrust_N
+    edges = np.flatnonzero(np.diff(thrust) != 0) + 1
+    levels = []
+    for start, stop in zip(np.r_[0, edges], np.r_[edges, thrust.size], strict=True):
+        tail = (trial.t_s[start:stop] >= trial.t_s[stop - 1] - 10.0)
+        speed = trial.speed_mps[start:stop][tail]
+        speed = speed[np.isfinite(speed)]
+        if speed.size and np.isfinite(thrust[start]):
+            levels.append({"thrust_N": float(thrust[start]), "duration_s": float(trial.t_s[stop - 1] - trial.t_s[start]),
+                           "final_speed_mps": float(speed.mean()), "final_speed_stdev_mps": float(speed.std())})
+    return levels
+
+
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``demo``."""
+    if not args.sample.exists():
+        raise InputError(f"{args.sample}: sample bag not found (run from the repository root, or 'make sample')")
+    out = ensure_out_dir(args.out)
+    print(f"[1/4] regenerating the sample: thrust-steps, seed {SAMPLE_SEED} ...", file=sys.stderr)
+    config = TwinConfig()
+    scenario = make_scenario("thrust-steps", config.vessel, np.random.default_rng(SAMPLE_SEED))
+    regenerated = out / "thrust_steps"
+    write_bag(regenerated, trial_messages(run_sea_trial(config, scenario, SAMPLE_SEED)), force=args.force)
+    print("[2/4] reading both bags back ...", file=sys.stderr)
+    sample, again = read_trial(args.sample), read_trial(regenerated)
+    identical = len(sample) == len(again) and bool(np.array_equal(sample.speed_mps, again.speed_mps, equal_nan=True))
+    levels = thrust_levels(sample)
+    print("[3/4] plotting ...", file=sys.stderr)
+    plot_trial(sample, out / "sample_trial.png", f"{args.sample}: thrust steps")
+    result = {"sample": str(args.sample), "regenerated": str(regenerated), "identical": identical,
+              "metadata": sample.metadata.summary_line(), "levels": levels,
+              "plots": [str(out / "sample_trial.png")]}
+    if args.json:
+        print(to_json(result))
+        return 0
+    print(sample.metadata.summary_line())
+    print(f"regenerated with seed {SAMPLE_SEED}: {'identical' if identical else 'DIFFERENT'} to the shipped sample")
+    print(f"{'surge thrust (N)':>17} {'(kgf)':>6} {'held (s)':>9} {'speed, last 10 s (m/s)':>24} {'(kn)':>6}")
+    for lv in levels:
+        print(f"{lv['thrust_N']:17.1f} {lv['thrust_N'] / 9.80665:6.1f} {lv['duration_s']:9.1f} "
+              f"{lv['final_speed_mps']:16.3f} ± {lv['final_speed_stdev_mps']:.3f} {lv['final_speed_mps'] / 0.514444:6.2f}")
+    print(f"plot: {out / 'sample_trial.png'}")
+    return 0
