@@ -15,6 +15,7 @@ from boat_twin.io.files import ensure_out_dir, to_json
 from boat_twin.io.trial import Trial
 from boat_twin.plots import plot_trial
 from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.units import KGF_N, KNOT_MPS
 from boat_twin.vessel.scenarios import make_scenario
 
 SAMPLE_BAG = Path("bags/thrust_steps_sample")
@@ -45,8 +46,12 @@ def thrust_levels(trial: Trial) -> list[dict[str, float]]:
         speed = trial.speed_mps[start:stop][tail]
         speed = speed[np.isfinite(speed)]
         if speed.size and np.isfinite(thrust[start]):
-            levels.append({"thrust_N": float(thrust[start]), "duration_s": float(trial.t_s[stop - 1] - trial.t_s[start]),
-                           "final_speed_mps": float(speed.mean()), "final_speed_stdev_mps": float(speed.std())})
+            levels.append({
+                "thrust_N": float(thrust[start]),
+                "duration_s": float(trial.t_s[stop - 1] - trial.t_s[start]),
+                "final_speed_mps": float(speed.mean()),
+                "final_speed_stdev_mps": float(speed.std()),
+            })
     return levels
 
 
@@ -76,7 +81,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"regenerated with seed {SAMPLE_SEED}: {'identical' if identical else 'DIFFERENT'} to the shipped sample")
     print(f"{'surge thrust (N)':>17} {'(kgf)':>6} {'held (s)':>9} {'speed, last 10 s (m/s)':>24} {'(kn)':>6}")
     for lv in levels:
-        print(f"{lv['thrust_N']:17.1f} {lv['thrust_N'] / 9.80665:6.1f} {lv['duration_s']:9.1f} "
-              f"{lv['final_speed_mps']:16.3f} ± {lv['final_speed_stdev_mps']:.3f} {lv['final_speed_mps'] / 0.514444:6.2f}")
+        speed = lv["final_speed_mps"]
+        print(f"{lv['thrust_N']:17.1f} {lv['thrust_N'] / KGF_N:6.1f} {lv['duration_s']:9.1f} "
+              f"{speed:16.3f} ± {lv['final_speed_stdev_mps']:.3f} {speed / KNOT_MPS:6.2f}")
     print(f"plot: {out / 'sample_trial.png'}")
     return 0

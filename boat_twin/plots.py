@@ -17,7 +17,8 @@ def plot_trial(trial: Trial, path: Path, title: str) -> None:
     """Track (ENU), speed over ground with the surge thrust, and IMU yaw rate, in one PNG."""
     fig, (track, speed, yaw) = plt.subplots(1, 3, figsize=(15, 4.5))
     track.plot(trial.east_m, trial.north_m, lw=1)
-    track.set(xlabel="east (m)", ylabel="north (m)", title="track (GNSS, local ENU)", aspect="equal")
+    track.set(xlabel="east (m)", ylabel="north (m)", title="track (GNSS, local ENU)")
+    track.set_aspect("equal", adjustable="datalim")
     speed.plot(trial.t_s, trial.speed_mps, lw=1, label="speed over ground (GNSS)")
     speed.set(xlabel="time (s)", ylabel="speed (m/s)", title="speed and thrust")
     thrust = speed.twinx()
