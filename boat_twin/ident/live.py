@@ -1,0 +1,76 @@
+"""The online identifier fed from live topics: latest commands held, one update per GNSS velocity sample.
+
+Used by the ``identifier`` node (and usable by any other live front end); the maths is in
+:class:`~boat_twin.ident.online.OnlineThrustSpeedIdentifier`, which bag replay feeds too.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from boat_twin.ident.online import OnlineThrustSpeedIdentifier
+from boat_twin.vessel.resistance import PowerSeriesResistance
+
+
+class LiveIdentifier:
+    """Holds the last command of each outboard; turns each velocity fix into an identifier sample."""
+
+    def __init__(self, order: int = 3, memory_s: float = 3600.0) -> None:
+        self.order = order
+        self.memory_s = memory_s
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything (a new trial)."""
+        self.core = OnlineThrustSpeedIdentifier(self.order, memory_s=self.memory_s)
+        self.commands = np.array([math.nan, math.nan, 0.0, 0.0])
+        self.max_speed_mps = 0.0
+
+    def set_command(self, index: int, value: float) -> None:
+        """Command 0 thrust_left_N, 1 thrust_right_N, 2 angle_left_rad, 3 angle_right_rad (held)."""
+        self.commands[index] = value
+
+    def on_velocity(self, stamp_s: float, vel_east_mps: float, vel_north_mps: float) -> None:
+        """One GNSS velocity sample: surge thrust Σ T·cos δ of the held commands against speed over ground."""
+        thrust = float(self.commands[0] * math.cos(self.commands[2]) + self.commands[1] * math.cos(self.commands[3]))
+        speed = math.hypot(vel_east_mps, vel_north_mps)
+        self.max_speed_mps = max(self.max_speed_mps, speed)
+        self.core.update(stamp_s, thrust, speed)
+
+    def coefficients(self) -> tuple[list[str], list[float]]:
+        """Labels and values to publish: c_0..c_N of Fc in N/(m/s)^i, then the effective mass in kg (NaN if not yet)."""
+        resistance = self.core.resistance()
+        dynamic = self.core.dynamic()
+        coef = [math.nan] * (self.order + 1) if resistance is None else [float(c) for c in resistance[0]]
+        mass = math.nan if dynamic is None else float(dynamic["mass_kg"])
+        return [f"c{i}_N_per_mps{i}" for i in range(self.order + 1)] + ["effective_mass_kg"], coef + [mass]
+
+    def status(self) -> dict[str, Any]:
+        """Fit quality and counters, for diagnostics."""
+        return self.core.snapshot()
+
+    def model(self) -> dict[str, Any] | None:
+        """The identified model as the simulator loads it (``--model``); None before N + 2 steady points."""
+        resistance = self.core.resistance()
+        if resistance is None:
+            return None
+        top = max(self.max_speed_mps, max(s.speed_mps for s in self.core.steady_points))
+        model: dict[str, Any] = {"resistance": PowerSeriesResistance(tuple(resistance[0]), top).to_dict()}
+        dynamic = self.core.dynamic()
+        if dynamic is not None:
+            model["effective_mass_kg"] = float(dynamic["mass_kg"])
+        return model
+
+    def save(self, path: Path) -> bool:
+        """Write the model YAML to ``path`` (atomically); False if there is nothing to save yet."""
+        from boat_twin.io.files import atomic_write_yaml
+
+        model = self.model()
+        if model is None:
+            return False
+        atomic_write_yaml(path, {"vessel": model})
+        return True
