@@ -23,7 +23,12 @@ def generate_launch_description() -> LaunchDescription:
         DeclareLaunchArgument("noise", default_value="true", description="false: exact measurements"),
         DeclareLaunchArgument("config_file", default_value=os.path.join(share, "config", "boat.yaml"),
                               description="twin configuration YAML (vessel, environment, gnss, um7)"),
+        DeclareLaunchArgument("cable_case", default_value=os.path.join(share, "config", "cable", "default.yaml"),
+                              description="towed-cable case YAML for the cable service"),
         Node(package="boat_twin", executable="simulator", name="simulator", **common,
              parameters=[{"config_file": LaunchConfiguration("config_file"),
                           "seed": LaunchConfiguration("seed"), "noise": LaunchConfiguration("noise")}]),
+        Node(package="boat_twin", executable="identifier", name="identifier", **common),
+        Node(package="boat_twin", executable="cable", name="cable", **common,
+             parameters=[{"case_file": LaunchConfiguration("cable_case")}]),
     ])
