@@ -21,13 +21,19 @@ from boat_twin.data import dyda2021_table1, dyda2021_table1_si
 from boat_twin.errors import InputError
 from boat_twin.ident.dynamic import DynamicWindow, check_samples, identify_dynamic
 from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadyCriteria, detect_steady_segments
-from boat_twin.ident.paper import PAPER_COEFFICIENTS, PAPER_FISHER, PAPER_ORDERS, paper_model_values, reproduce
+from boat_twin.ident.paper import (
+    PAPER_COEFFICIENTS,
+    PAPER_FISHER,
+    PAPER_ORDERS,
+    paper_model_values,
+    reproduce,
+)
 from boat_twin.ident.steady import MAX_ORDER, FitResult, fit_power_series, select_order
 from boat_twin.io.files import atomic_save_figure, atomic_write_text, ensure_out_dir, to_json
 from boat_twin.units import KGF_N, KNOT_MPS
 
 TWO_WAY_WARNING = 0.3
-"""Below this share of the speed range crossed both ways, the report warns that the mass rests on Fc's form."""
+"""Below this share of the speed range crossed both ways, the report warns: the mass rests on Fc's form."""
 
 
 def model_dict(fit: FitResult, effective_mass_kg: float | None = None) -> dict[str, Any]:
@@ -43,7 +49,7 @@ def model_dict(fit: FitResult, effective_mass_kg: float | None = None) -> dict[s
 
 
 def write_model_yaml(path: Path, model: dict[str, Any], comment: str = "") -> None:
-    """Write ``model`` (from :func:`model_dict`) as YAML to ``path`` atomically; ``comment`` lines go on top."""
+    """Write ``model`` (:func:`model_dict`) as YAML to ``path`` atomically; ``comment`` lines go on top."""
     header = "".join(f"# {line}\n" for line in comment.splitlines())
     atomic_write_text(path, header + yaml.safe_dump(model, sort_keys=False))
 
@@ -71,17 +77,20 @@ def identify_arrays(
     Steady points (detector), steady fits of N = 1..``max_order`` with CV/BIC selection (or ``order``),
     mass + Fc from transients (own order selection), and the online identifier replayed over the same
     samples with its agreement with batch. Steady fits impose Fc(0) = 0 unless ``through_origin`` is False
-    (trial steady points start above rest: a free c_0 would be an extrapolation). Returns the ``--json`` contract (SI): ``steady_points``,
-    ``rejected_segments``, ``fits``, ``selected_order``, ``selection_reason``, ``dynamic``, ``online``,
-    ``model`` (for :func:`write_model_yaml`) and ``warnings``. A trial whose transients cannot give the mass
-    still yields the steady model; ``dynamic`` then holds ``{"error": why}``.
+    (trial steady points start above rest: a free c_0 would be an extrapolation). Returns the ``--json``
+    contract (SI): ``steady_points``, ``rejected_segments``, ``fits``, ``selected_order``,
+    ``selection_reason``, ``dynamic``, ``online``, ``model`` (for :func:`write_model_yaml`) and ``warnings``.
+    A trial whose transients cannot give the mass still yields the steady model; ``dynamic`` then holds
+    ``{"error": why}``.
     """
     t, f, v = check_samples(t_s, thrust_N, speed_mps)
     criteria = criteria or SteadyCriteria()
-    if np.ptp(f) <= max(criteria.thrust_tolerance_N, criteria.thrust_tolerance_rel * float(np.max(np.abs(f)))):
+    if np.ptp(f) <= max(
+        criteria.thrust_tolerance_N, criteria.thrust_tolerance_rel * float(np.max(np.abs(f)))
+    ):
         raise InputError(
-            f"thrust is constant ({np.mean(f):.1f} N) over the whole trial: Fc(v) and the mass are unidentifiable "
-            "from one thrust level; record thrust steps"
+            f"thrust is constant ({np.mean(f):.1f} N) over the whole trial: Fc(v) and the mass are "
+            "unidentifiable from one thrust level; record thrust steps"
         )
     segments = detect_steady_segments(t, f, v, criteria)
     points = [s for s in segments if s.accepted]
@@ -90,8 +99,8 @@ def identify_arrays(
     if len(points) < needed:
         why = "; ".join(f"{s.thrust_N:.0f} N at {s.start_s:.0f} s: {s.reason}" for s in rejected[:3])
         raise InputError(
-            f"{len(points)} steady point(s) found, order {order or 1} needs at least {needed} (N + 2): hold more "
-            f"thrust levels until the speed settles ({criteria.window_s:g} s without a trend)"
+            f"{len(points)} steady point(s) found, order {order or 1} needs at least {needed} (N + 2): "
+            f"hold more thrust levels until the speed settles ({criteria.window_s:g} s without a trend)"
             + (f"; rejected: {why}" if why else "")
         )
     speed = np.array([s.speed_mps for s in points])
@@ -107,23 +116,31 @@ def identify_arrays(
     warnings = []
     if not fit.monotone:
         bands = ", ".join(f"{lo:.2f}-{hi:.2f}" for lo, hi in fit.nonmonotone_bands)
-        warnings.append(f"the selected fit decreases at {bands} m/s: steady speed not unique there (use --monotone)")
+        warnings.append(
+            f"the selected fit decreases at {bands} m/s: steady speed not unique there (use --monotone)"
+        )
     if fit.coefficients[0] < 0.0:
-        warnings.append(f"Fc(0) = {fit.coefficients[0]:.3g} N < 0: the model creeps at zero thrust (use --monotone)")
+        warnings.append(
+            f"Fc(0) = {fit.coefficients[0]:.3g} N < 0: the model creeps at zero thrust (use --monotone)"
+        )
     try:
         dyn = identify_dynamic(t, f, v, None, window)
         dynamic: dict[str, Any] = dyn.to_dict()
         if dyn.two_way_fraction < TWO_WAY_WARNING:
             warnings.append(
-                f"only {dyn.two_way_fraction:.0%} of the speed range was crossed both accelerating and decelerating: "
-                "the mass rests on the polynomial form of Fc; add thrust steps down as well as up"
+                f"only {dyn.two_way_fraction:.0%} of the speed range was crossed both accelerating and "
+                "decelerating: the mass rests on the polynomial form of Fc; add thrust steps down as well"
             )
     except InputError as err:
         dyn = None
         dynamic = {"error": str(err)}
     online = OnlineThrustSpeedIdentifier(
-        chosen, dyn.order if dyn else chosen, memory_s=memory_s, through_origin=through_origin,
-        criteria=criteria, window=window,
+        chosen,
+        dyn.order if dyn else chosen,
+        memory_s=memory_s,
+        through_origin=through_origin,
+        criteria=criteria,
+        window=window,
     )
     for sample in zip(t.tolist(), f.tolist(), v.tolist(), strict=True):
         online.update(*sample)
@@ -132,14 +149,22 @@ def identify_arrays(
     grid = np.linspace(speed.min(), speed.max(), 200)
     agreement: dict[str, Any] = {}
     if snap["coefficients"] is not None:
-        agreement["curve_nrms"] = _nrms(np.polynomial.polynomial.polyval(grid, snap["coefficients"]), fit.predict(grid))
+        agreement["curve_nrms"] = _nrms(
+            np.polynomial.polynomial.polyval(grid, snap["coefficients"]), fit.predict(grid)
+        )
     if dyn is not None and snap["dynamic"] is not None:
         agreement["mass_rel"] = snap["dynamic"]["mass_kg"] / dyn.mass_kg - 1.0
     snap["agreement_with_batch"] = agreement
     return {
         "steady_points": [
-            {"speed_mps": s.speed_mps, "thrust_N": s.thrust_N, "duration_s": s.duration_s,
-             "start_s": s.start_s, "end_s": s.end_s, "speed_stderr_mps": s.speed_stderr_mps}
+            {
+                "speed_mps": s.speed_mps,
+                "thrust_N": s.thrust_N,
+                "duration_s": s.duration_s,
+                "start_s": s.start_s,
+                "end_s": s.end_s,
+                "speed_stderr_mps": s.speed_stderr_mps,
+            }
             for s in points
         ],
         "rejected_segments": [s.to_dict() for s in rejected],
@@ -154,7 +179,11 @@ def identify_arrays(
 
 
 def write_trial_report(
-    out_dir: Path, result: dict[str, Any], t_s: np.ndarray, thrust_N: np.ndarray, speed_mps: np.ndarray  # noqa: N803
+    out_dir: Path,
+    result: dict[str, Any],
+    t_s: np.ndarray,
+    thrust_N: np.ndarray,  # noqa: N803 (unit suffix)
+    speed_mps: np.ndarray,
 ) -> list[Path]:
     """Write identify.json, model.yaml, trial.png and resistance.png for an :func:`identify_arrays` result."""
     out = ensure_out_dir(out_dir)
@@ -181,12 +210,21 @@ def write_trial_report(
     grid = np.linspace(0.0, sv.max(), 300)
     ax.plot(sv, [p["thrust_N"] for p in pts], "ko", label="steady points")
     fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
-    ax.plot(grid, np.polynomial.polynomial.polyval(grid, fit["coefficients"]), label=f"steady LSQ, N = {fit['order']}")
+    ax.plot(
+        grid,
+        np.polynomial.polynomial.polyval(grid, fit["coefficients"]),
+        label=f"steady LSQ, N = {fit['order']}",
+    )
     if "coefficients" in result["dynamic"]:
         c = result["dynamic"]["coefficients"]
         ax.plot(grid, np.polynomial.polynomial.polyval(grid, c), "--", label="from transients")
     if result["online"]["coefficients"] is not None:
-        ax.plot(grid, np.polynomial.polynomial.polyval(grid, result["online"]["coefficients"]), ":", label="online RLS")
+        ax.plot(
+            grid,
+            np.polynomial.polynomial.polyval(grid, result["online"]["coefficients"]),
+            ":",
+            label="online RLS",
+        )
     ax.set_xlabel("speed, m/s")
     ax.set_ylabel("resistance Fc, N")
     ax.legend()
@@ -200,21 +238,26 @@ def _table_report(result: dict[str, Any], si_fit: FitResult) -> str:
     fits = {f["order"]: f for f in result["fits"]}
     sel = result["selected_order"]
     lines = [
-        "Dyda & Chumakova (2021), Table 1: 37 rows; v in knots, F in kgf (the paper prints no units; see README).",
+        "Dyda & Chumakova (2021), Table 1: 37 rows; v in knots, F in kgf (the paper prints no units; "
+        "see README).",
         "",
         "Printed model values against the printed coefficients:",
     ]
     for n in PAPER_ORDERS:
         tab = paper["tables"][str(n)]
-        text = f"  N = {n} (Table {tab['table']}): max relative deviation {tab['max_rel_dev_without_misprints']:.1e}"
+        dev = tab["max_rel_dev_without_misprints"]
+        text = f"  N = {n} (Table {tab['table']}): max relative deviation {dev:.1e}"
         for bad in tab["misprints"]:
-            text += (f"; misprint at v = {bad['speed_kn']:g} kn: printed {bad['printed_kgf']:.7f}, "
-                     f"the coefficients give {bad['recomputed_kgf']:.7f}")
+            text += (
+                f"; misprint at v = {bad['speed_kn']:g} kn: printed {bad['printed_kgf']:.7f}, "
+                f"the coefficients give {bad['recomputed_kgf']:.7f}"
+            )
         lines.append(text)
     lines += [
         "",
         f"Fisher statistic by the paper's formula (m = {paper['fisher_formula']['m']}, n = "
-        f"{paper['fisher_formula']['n']} in (n - m - 1), sums over all {paper['fisher_formula']['rows_summed']} rows):",
+        f"{paper['fisher_formula']['n']} in (n - m - 1), sums over all "
+        f"{paper['fisher_formula']['rows_summed']} rows):",
         "  N   Table 7   recomputed   agrees (±0.05)",
     ]
     for n in PAPER_ORDERS:
@@ -230,12 +273,16 @@ def _table_report(result: dict[str, Any], si_fit: FitResult) -> str:
         paper_rmse = f"{paper['rmse'][str(n)]:10.3f}" if str(n) in paper["rmse"] else f"{'-':>10}"
         cv = f"{fr['cv_rmse']:11.3f}" if fr["cv_rmse"] is not None else f"{'inf':>11}"
         mark = "*" if n == sel else " "
-        lines.append(f"  {n}{mark}  {paper_rmse}   {fr['rmse']:8.3f}   {cv}   {fr['bic']:7.2f}   {fr['fisher']:12.1f}"
-                     f"   {'yes' if fr['monotone'] else 'no'}")
+        lines.append(
+            f"  {n}{mark}  {paper_rmse}   {fr['rmse']:8.3f}   {cv}   {fr['bic']:7.2f}   {fr['fisher']:12.1f}"
+            f"   {'yes' if fr['monotone'] else 'no'}"
+        )
     lines += ["", f"Order selection: {result['selection_reason']}.", ""]
     fr = fits[sel]
-    lines.append(f"Selected fit, N = {sel}{' (monotone constraint)' if fr['monotone_constraint'] else ''}, "
-                 "c_i in kgf/kn^i with 95 % intervals:")
+    lines.append(
+        f"Selected fit, N = {sel}{' (monotone constraint)' if fr['monotone_constraint'] else ''}, "
+        "c_i in kgf/kn^i with 95 % intervals:"
+    )
     for i, (c, (lo, hi)) in enumerate(zip(fr["coefficients"], fr["ci95"], strict=True)):
         lines.append(f"  c{i} = {c: .6e}   [{lo: .4e}, {hi: .4e}]")
     if fr["nonmonotone_bands"]:
@@ -244,11 +291,15 @@ def _table_report(result: dict[str, Any], si_fit: FitResult) -> str:
     else:
         lines.append(f"Fc is non-decreasing over {fr['domain'][0]:g}-{fr['domain'][1]:g} kn.")
     if fr["coefficients"][0] < 0.0:
-        lines.append(f"Fc(0) = c0 = {fr['coefficients'][0]:.3g} kgf < 0: a simulator would creep at zero thrust; "
-                     "use --monotone or --through-origin for a simulator model.")
+        lines.append(
+            f"Fc(0) = c0 = {fr['coefficients'][0]:.3g} kgf < 0: a simulator would creep at zero thrust; "
+            "use --monotone or --through-origin for a simulator model."
+        )
     lines += [
         f"SI (N/(m/s)^i): {', '.join(f'{c:.6e}' for c in si_fit.coefficients)}",
-        f"Extrapolation: valid up to {si_fit.domain[1]:.3f} m/s ({fr['domain'][1]:g} kn); the simulator model continues "
+        f"Extrapolation: valid up to {si_fit.domain[1]:.3f} m/s ({fr['domain'][1]:g} kn); the simulator "
+        "model "
+        "continues "
         "beyond as Fc(v_max)·(v/v_max)², never with the polynomial.",
     ]
     return "\n".join(lines) + "\n"
@@ -265,12 +316,16 @@ def _table_figures(result: dict[str, Any]) -> tuple[Figure, Figure]:
     res = Figure(figsize=(11, 4.5))
     rx_paper, rx_lsq = res.subplots(1, 2, sharey=True)
     for n in PAPER_ORDERS:
-        ax_paper.plot(grid, np.polynomial.polynomial.polyval(grid, PAPER_COEFFICIENTS[n]), label=f"paper N = {n}")
+        ax_paper.plot(
+            grid, np.polynomial.polynomial.polyval(grid, PAPER_COEFFICIENTS[n]), label=f"paper N = {n}"
+        )
         rx_paper.plot(speed, thrust - paper_model_values(n), "o-", ms=3, label=f"paper N = {n}")
     for n in orders:
         c = fits[n]["coefficients"]
         ax_lsq.plot(grid, np.polynomial.polynomial.polyval(grid, c), label=f"LSQ N = {n}")
-        rx_lsq.plot(speed, thrust - np.polynomial.polynomial.polyval(speed, c), "o-", ms=3, label=f"LSQ N = {n}")
+        rx_lsq.plot(
+            speed, thrust - np.polynomial.polynomial.polyval(speed, c), "o-", ms=3, label=f"LSQ N = {n}"
+        )
     for ax, title in ((ax_paper, "paper's coefficients"), (ax_lsq, "least-squares optimum")):
         ax.plot(speed, thrust, "ko", ms=4, label="Table 1")
         ax.set_title(title)
@@ -288,21 +343,32 @@ def _table_figures(result: dict[str, Any]) -> tuple[Figure, Figure]:
 def _run_table(args: argparse.Namespace) -> int:
     result = reproduce(args.monotone, args.order, args.max_order, args.through_origin)
     speed_si, thrust_si = dyda2021_table1_si()
-    si_fit = fit_power_series(speed_si, thrust_si, result["selected_order"], args.monotone, args.through_origin)
+    si_fit = fit_power_series(
+        speed_si, thrust_si, result["selected_order"], args.monotone, args.through_origin
+    )
     result["si"] = {
         "order": si_fit.order,
         "coefficients": si_fit.coefficients.tolist(),
         "stderr": si_fit.stderr.tolist(),
         "max_speed_mps": si_fit.domain[1],
-        "units": {"speed": "m/s", "force": "N", "coefficients": "N/(m/s)^i", "knot_mps": KNOT_MPS, "kgf_N": KGF_N},
+        "units": {
+            "speed": "m/s",
+            "force": "N",
+            "coefficients": "N/(m/s)^i",
+            "knot_mps": KNOT_MPS,
+            "kgf_N": KGF_N,
+        },
     }
     report = _table_report(result, si_fit)
     if args.out is not None:
         out = ensure_out_dir(args.out)
         atomic_write_text(out / "identify.json", to_json(result) + "\n")
         atomic_write_text(out / "report.txt", report)
-        write_model_yaml(out / "model.yaml", model_dict(si_fit),
-                         f"Dyda & Chumakova (2021) Table 1 read as kn/kgf, least squares N = {si_fit.order}, SI units")
+        write_model_yaml(
+            out / "model.yaml",
+            model_dict(si_fit),
+            f"Dyda & Chumakova (2021) Table 1 read as kn/kgf, least squares N = {si_fit.order}, SI units",
+        )
         fits_fig, resid_fig = _table_figures(result)
         atomic_save_figure(out / "fits.png", fits_fig)
         atomic_save_figure(out / "residuals.png", resid_fig)
@@ -316,9 +382,57 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--order must be from 1 to {MAX_ORDER}, got {args.order}")
     if not 1 <= args.max_order <= MAX_ORDER:
         raise InputError(f"--max-order must be from 1 to {MAX_ORDER}, got {args.max_order}")
-    if args.table is None:
-        raise InputError("nothing to identify: give --table dyda2021")
-    return _run_table(args)
+    if args.table is not None and args.trial is not None:
+        raise InputError("give a TRIAL or --table, not both")
+    if args.table is not None:
+        return _run_table(args)
+    if args.trial is None:
+        raise InputError("nothing to identify: give a TRIAL (bag) or --table dyda2021")
+    return _run_trial(args)
+
+
+def _run_trial(args: argparse.Namespace) -> int:
+    """A recorded trial: replay it through the online identifier, batch fits, dynamic mass, report."""
+    from boat_twin.io.bags import read_trial
+
+    sys.stderr.write(f"reading {args.trial} ...\n")
+    remap = dict(_role_topic(item) for item in args.topic)
+    trial = read_trial(args.trial, remap=remap, namespace=args.namespace)
+    sys.stderr.write(trial.metadata.summary_line() + "\n")
+    keep = np.isfinite(trial.surge_thrust_N) & np.isfinite(trial.speed_mps)
+    t_s, thrust, speed = trial.t_s[keep], trial.surge_thrust_N[keep], trial.speed_mps[keep]
+    result = identify_arrays(t_s, thrust, speed, order=args.order, max_order=min(args.max_order, 6),
+                             monotone=args.monotone)
+    result["trial"] = {"source": str(args.trial), "metadata": trial.metadata.summary_line(),
+                       "gaps": trial.metadata.gaps, "missing": trial.metadata.missing}
+    if args.out is not None:
+        write_trial_report(args.out, result, t_s, thrust, speed)
+    if args.json:
+        sys.stdout.write(to_json(result) + "\n")
+        return 0
+    fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
+    dyn = result.get("dynamic", {})
+    lines = [
+        f"trial {args.trial}: {len(result['steady_points'])} steady points, "
+        f"{len(result.get('rejected_segments', []))} segments rejected",
+        f"selected order N = {result['selected_order']} ({result.get('selection_reason', '')})",
+        "Fc(v) coefficients c0..cN, N/(m/s)^i: " + ", ".join(f"{c:.4g}" for c in fit["coefficients"]),
+        f"RMSE {fit['rmse']:.2f} N",
+        f"effective mass {dyn['mass_kg']:.0f} kg, 95% CI [{dyn['mass_ci95_kg'][0]:.0f}, {dyn['mass_ci95_kg'][1]:.0f}]"
+        if "mass_kg" in dyn else f"effective mass: {dyn.get('error', 'not identified')}",
+    ]
+    for seg in result.get("rejected_segments", []):
+        lines.append(f"rejected {seg['start_s']:.1f}-{seg['end_s']:.1f} s at {seg['thrust_N']:.0f} N: {seg['reason']}")
+    lines += [f"warning: {w}" for w in result.get("warnings", [])]
+    sys.stdout.write("\n".join(lines) + "\n")
+    return 0
+
+
+def _role_topic(item: str) -> tuple[str, str]:
+    role, sep, topic = item.partition("=")
+    if not sep or not role or not topic:
+        raise InputError(f"--topic {item!r}: expected ROLE=/topic/name")
+    return role, topic
 
 
 def register(subparsers: Any) -> None:
@@ -329,14 +443,36 @@ def register(subparsers: Any) -> None:
         description="Identify the longitudinal model m·dv/dt = F - Fc(v), Fc(v) = sum c_i·v^i "
         "(Dyda & Chumakova 2021). Internally SI; the built-in table is reported in its own units (kn, kgf).",
     )
-    p.add_argument("--table", choices=["dyda2021"],
-                   help="built-in steady-state table: dyda2021 = Dyda & Chumakova (2021) Table 1, v in kn, F in kgf")
-    p.add_argument("--order", type=int, help="power-series order N (default: chosen by leave-one-out CV and BIC)")
-    p.add_argument("--max-order", type=int, default=8, help="highest order N tried by the selection (default 8)")
-    p.add_argument("--monotone", action="store_true",
-                   help="constrain Fc to be non-decreasing from 0 to the top speed and Fc(0) >= 0")
-    p.add_argument("--through-origin", action="store_true", help="impose Fc(0) = c0 = 0 (no resistance at rest)")
+    p.add_argument("trial", nargs="?", type=Path,
+                   help="recorded trial: rosbag2 directory (MCAP or sqlite3) or a bare .mcap file")
+    p.add_argument("--topic", action="append", default=[], metavar="ROLE=TOPIC",
+                   help="remap a trial topic, e.g. gnss_vel=/gps/vel (roles: thrust_left, thrust_right, "
+                   "angle_left, angle_right, gnss_fix, gnss_vel, imu)")
+    p.add_argument("--namespace", default="", help="namespace the trial's topics were recorded under")
+    p.add_argument(
+        "--table",
+        choices=["dyda2021"],
+        help="built-in steady-state table: dyda2021 = Dyda & Chumakova (2021) Table 1, v in kn, F in kgf",
+    )
+    p.add_argument(
+        "--order", type=int, help="power-series order N (default: chosen by leave-one-out CV and BIC)"
+    )
+    p.add_argument(
+        "--max-order", type=int, default=8, help="highest order N tried by the selection (default 8)"
+    )
+    p.add_argument(
+        "--monotone",
+        action="store_true",
+        help="constrain Fc to be non-decreasing from 0 to the top speed and Fc(0) >= 0",
+    )
+    p.add_argument(
+        "--through-origin", action="store_true", help="impose Fc(0) = c0 = 0 (no resistance at rest)"
+    )
     p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
-    p.add_argument("--out", type=Path, metavar="DIR",
-                   help="write report.txt, identify.json, model.yaml (SI) and PNG plots here")
+    p.add_argument(
+        "--out",
+        type=Path,
+        metavar="DIR",
+        help="write report.txt, identify.json, model.yaml (SI) and PNG plots here",
+    )
     p.set_defaults(handler=run)

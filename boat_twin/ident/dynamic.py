@@ -12,8 +12,12 @@ Because ψ vanishes at both ends, Σ ψ_k·Δv_k = −Σ v_k·(ψ_k − ψ_{k−
 over the ramps, so GNSS noise is smoothed, never differentiated (noise variance of the mass regressor
 2σ²·dt/ramp). B_i are Legendre polynomials on the speed domain (conditioning); results are reported in
 the plain power basis. Windows end every ``stride_s``; with the default stride = length they do not overlap,
-so window errors are independent and the ordinary least-squares covariance gives the uncertainty.
-Windows containing a sampling gap longer than ``max_gap_s`` are skipped.
+so window errors are independent and the ordinary least-squares covariance gives the uncertainty (it
+counts the misfit of a polynomial Fc as if it were noise). Windows containing a sampling gap longer than
+``max_gap_s`` are skipped. Identifiability: the mass is separable from the shape of Fc only over speeds the
+boat crossed both accelerating and decelerating (at a given speed, m·(dv/dt_up − dv/dt_down) = F_up −
+F_down whatever Fc is); :attr:`DynamicResult.two_way_fraction` reports that share. A staircase of steps up
+only leaves the mass to the polynomial form of Fc.
 """
 
 from __future__ import annotations
@@ -44,13 +48,18 @@ class DynamicWindow:
 
     def __post_init__(self) -> None:
         if not all(np.isfinite(v) and v > 0.0 for v in asdict(self).values()):
-            raise InputError("dynamic window: length_s, ramp_s, stride_s and max_gap_s must be positive numbers")
+            raise InputError(
+                "dynamic window: length_s, ramp_s, stride_s and max_gap_s must be positive numbers"
+            )
         if self.ramp_s > self.length_s / 2.0:
             raise InputError("dynamic window: ramp_s must not exceed half of length_s")
 
 
 def window_row(
-    t_s: np.ndarray, thrust_N: np.ndarray, speed_mps: np.ndarray, ramp_s: float,  # noqa: N803
+    t_s: np.ndarray,
+    thrust_N: np.ndarray,  # noqa: N803 (unit suffix)
+    speed_mps: np.ndarray,
+    ramp_s: float,
     basis: Callable[[np.ndarray], np.ndarray],
 ) -> tuple[np.ndarray, float, float]:
     """One window's equation: regressors [Σψ·Δv, Σψ·dt·B_i(v̄)...], right side Σψ·dt·F, and Σψ·dt (s)."""
@@ -93,17 +102,23 @@ def check_samples(t_s: Any, thrust_N: Any, speed_mps: Any) -> tuple[np.ndarray, 
         raise InputError("samples: time, thrust and speed must be numbers") from None
     t, f, v = arrays
     if any(a.ndim != 1 for a in arrays) or not t.size == f.size == v.size:
-        raise InputError(f"samples: time, thrust and speed must be 1-D of one length, got {t.size}, {f.size}, {v.size}")
+        raise InputError(
+            f"samples: time, thrust and speed must be 1-D of one length, got {t.size}, {f.size}, {v.size}"
+        )
     if t.size < 3:
         raise InputError(f"samples: at least 3 samples are needed, got {t.size}")
     for name, a in (("time", t), ("thrust", f), ("speed", v)):
         bad = ~np.isfinite(a)
         if np.any(bad):
             raise InputError(
-                f"samples: {int(bad.sum())} {name} value(s) are NaN or infinite (first at t index {int(np.argmax(bad))})"
+                f"samples: {int(bad.sum())} {name} value(s) are NaN or infinite "
+                f"(first at index {int(np.argmax(bad))})"
             )
     if np.any(np.diff(t) <= 0.0):
-        raise InputError(f"samples: time must increase strictly (first violation at index {int(np.argmax(np.diff(t) <= 0)) + 1})")
+        raise InputError(
+            f"samples: time must increase strictly "
+            f"(first violation at index {int(np.argmax(np.diff(t) <= 0)) + 1})"
+        )
     return t, f, v
 
 
@@ -211,8 +226,12 @@ def _solve(x: np.ndarray, y: np.ndarray, weight: np.ndarray) -> dict[str, Any]:
 
 
 def identify_dynamic(
-    t_s: Any, thrust_N: Any, speed_mps: Any, order: int | None = None,  # noqa: N803
-    window: DynamicWindow | None = None, max_order: int = 8,
+    t_s: Any,
+    thrust_N: Any,  # noqa: N803 (unit suffix)
+    speed_mps: Any,
+    order: int | None = None,
+    window: DynamicWindow | None = None,
+    max_order: int = 8,
 ) -> DynamicResult:
     """Least-squares m and c_0..c_N from all windows of a trial; see the module docstring.
 
@@ -224,7 +243,9 @@ def identify_dynamic(
     window = window or DynamicWindow()
     for name, value in (("order", order), ("max_order", max_order)):
         if value is not None and (not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_ORDER):
-            raise InputError(f"dynamic identification: {name} must be an integer from 1 to {MAX_ORDER}, got {value!r}")
+            raise InputError(
+                f"dynamic identification: {name} must be an integer from 1 to {MAX_ORDER}, got {value!r}"
+            )
     domain = speed_domain(v)
     if domain[1] <= domain[0]:
         raise InputError("dynamic identification: the speed is zero throughout; nothing to identify")
@@ -239,8 +260,9 @@ def identify_dynamic(
     rows, rhs, weight, spans = [], [], [], []
     for start, stop in bounds:
         seg = v[start:stop]
-        row, y, w = window_row(t[start:stop], f[start:stop], seg, window.ramp_s,
-                               lambda s: legendre_design(s, domain, top))
+        row, y, w = window_row(
+            t[start:stop], f[start:stop], seg, window.ramp_s, lambda s: legendre_design(s, domain, top)
+        )
         rows.append(row)
         rhs.append(y)
         weight.append(w)
@@ -249,7 +271,9 @@ def identify_dynamic(
     y = np.asarray(rhs)
     w = np.asarray(weight)
     if np.max(np.abs(x[:, 0])) <= 0.0:
-        raise InputError("dynamic identification: the speed never changes within a window; the mass is unidentifiable")
+        raise InputError(
+            "dynamic identification: the speed never changes within a window; the mass is unidentifiable"
+        )
     fits = {n: _solve(x[:, : n + 2], y, w) for n in orders}
     if order is None:
         chosen, reason = choose_order([(n, fits[n]["cv"], fits[n]["bic"]) for n in orders], "N")

@@ -36,13 +36,14 @@ class LiveIdentifier:
 
     def on_velocity(self, stamp_s: float, vel_east_mps: float, vel_north_mps: float) -> None:
         """One GNSS velocity sample: surge thrust Σ T·cos δ of the held commands against speed over ground."""
-        thrust = float(self.commands[0] * math.cos(self.commands[2]) + self.commands[1] * math.cos(self.commands[3]))
+        left, right, angle_left, angle_right = self.commands
+        thrust = float(left * math.cos(angle_left) + right * math.cos(angle_right))
         speed = math.hypot(vel_east_mps, vel_north_mps)
         self.max_speed_mps = max(self.max_speed_mps, speed)
         self.core.update(stamp_s, thrust, speed)
 
     def coefficients(self) -> tuple[list[str], list[float]]:
-        """Labels and values to publish: c_0..c_N of Fc in N/(m/s)^i, then the effective mass in kg (NaN if not yet)."""
+        """Labels and values to publish: c_0..c_N of Fc in N/(m/s)^i, then the effective mass, kg (NaN: not yet)."""
         resistance = self.core.resistance()
         dynamic = self.core.dynamic()
         coef = [math.nan] * (self.order + 1) if resistance is None else [float(c) for c in resistance[0]]

@@ -2,14 +2,20 @@
 that the ROS node and bag replay both feed sample by sample (no ROS here).
 
 Steady-state criterion (stated): thrust is constant while it stays within max(5 N, 1 %) of the segment's
-first value. When the segment ends, its speed is tested over tails of growing length (from ``window_s`` up,
-in steps of ``window_s``/2, at most the last ``max_segment_s``): a straight line v = a + b·t is fitted by
-least squares; the tail passes when the 95 % upper bound of the trend, (|b| + t₀.₉₇₅·se(b))·L, stays
-within ``max_drift_mps`` over the tail length L (the speed has no significant trend: with m ≈ 1.4 t and the
-defaults, the remaining force imbalance m·|dv/dt| is below ~2 N) and the residual spread about the line is
-within ``max_spread_mps`` (no oscillation, no manoeuvre). The steady point is the mean over the longest tail
-whose shorter tails all pass. A segment whose shortest tail fails never settled: it is rejected with the
-reason, never averaged into a biased point.
+first value. When the segment ends, its speed is tested over tails of growing length (``window_s`` = 20 s,
+then in steps of ``window_s``/2, up to the whole segment, at most its last ``max_segment_s``): a straight
+line v = a + b·t is fitted by least squares, and the tail passes when
+
+- trend: the 95 % upper bound of the speed change across the tail, (|b| + t₀.₉₇₅·se(b))·L, is within
+  max(``max_drift_mps`` = 0.05 m/s, ``max_drift_rel`` = 1 % of the mean speed). On the shortest tail this
+  bounds |dv/dt| by 2.5 mm/s², a force imbalance m·|dv/dt| of ~3 N for a 1.4 t boat; with 10 Hz GNSS and
+  0.05 m/s noise, the uncertainty term alone is ~0.024 m/s;
+- spread: the residual standard deviation about the line is within ``max_spread_mps`` (no oscillation, no
+  manoeuvre).
+
+The steady point is the mean over the longest tail whose shorter tails all pass and whose drift bound is no
+looser than the shortest tail's (so a slow approach is not averaged in). A segment whose shortest tail fails
+never settled: it is rejected with the reason, never averaged into a biased point.
 """
 
 from __future__ import annotations
@@ -31,32 +37,39 @@ class RecursiveLeastSquares:
     """θ̂ minimising Σ_j λ^(k−j)·(y_j − x_jᵀθ)², one sample at a time (Ljung & Söderström 1983, §2.2).
 
     ``forgetting`` λ ∈ (0, 1] (1: ordinary least squares). P starts at ``initial_covariance``·I (θ₀ = 0),
-    a negligible prior for regressors and parameters of order one. Against covariance wind-up while the
+    a prior that biases parameters of order one by ~1e-8 relative. Against covariance wind-up while the
     regressors do not excite every direction, trace(P) is kept at or below its initial value.
     """
 
-    def __init__(self, n_params: int, forgetting: float = 1.0, initial_covariance: float = 1e6) -> None:
+    def __init__(self, n_params: int, forgetting: float = 1.0, initial_covariance: float = 1e8) -> None:
         if not 0.0 < forgetting <= 1.0:
             raise InputError(f"RLS: forgetting factor must be in (0, 1], got {forgetting}")
         self._theta = np.zeros(n_params)
         self._p = np.eye(n_params) * initial_covariance
         self._max_trace = n_params * initial_covariance
+        self._trace = self._max_trace
         self.forgetting = forgetting
         self._loss = 0.0
         self._weight = 0.0
         self.n_updates = 0
 
     def update(self, x: np.ndarray, y: float, forgetting: float | None = None) -> float:
-        """Add one observation y ≈ xᵀθ (λ for this step: ``forgetting`` or the default); returns the prior error."""
+        """Add one observation y ≈ xᵀθ (λ: ``forgetting`` or the default); returns the prior error."""
         lam = self.forgetting if forgetting is None else forgetting
-        px = self._p @ x
-        gain = px / (lam + x @ px)
-        error = y - x @ self._theta
-        self._theta = self._theta + gain * error
-        p = (self._p - np.outer(gain, px)) / lam
-        trace = np.trace(p)
-        self._p = p * (self._max_trace / trace) if trace > self._max_trace else p
-        self._loss = lam * self._loss + error * (y - x @ self._theta)
+        px = self._p.dot(x)
+        denom = lam + float(x.dot(px))
+        gain = px / denom
+        error = y - float(x.dot(self._theta))
+        self._theta += gain * error
+        p = self._p
+        p -= gain[:, None] * px
+        p *= 1.0 / lam
+        # trace(P) after the update, without a pass over P: (trace − gain·px)/λ
+        self._trace = (self._trace - float(gain.dot(px))) / lam
+        if self._trace > self._max_trace:
+            p *= self._max_trace / self._trace
+            self._trace = self._max_trace
+        self._loss = lam * self._loss + error * error * lam / denom  # prior × posterior error
         self._weight = lam * self._weight + 1.0
         self.n_updates += 1
         return float(error)
@@ -73,7 +86,7 @@ class RecursiveLeastSquares:
 
     @property
     def noise_variance(self) -> float:
-        """Weighted residual variance: the λ-weighted loss over its effective degrees of freedom (nan if none)."""
+        """Residual variance: the λ-weighted loss over its effective degrees of freedom (nan if none)."""
         dof = self._weight - self._theta.size
         return self._loss / dof if dof > 0.0 else float("nan")
 
@@ -87,10 +100,12 @@ class RecursiveLeastSquares:
 class SteadyCriteria:
     """When a constant-thrust segment counts as steady (see the module docstring)."""
 
-    window_s: float = 30.0
+    window_s: float = 20.0
     """Shortest settled tail, s."""
-    max_drift_mps: float = 0.04
-    """Bound on the speed change the 95 % upper trend implies across the tail, m/s."""
+    max_drift_mps: float = 0.05
+    """Bound on the speed change the 95 % upper trend implies across the tail, m/s (or the relative bound)."""
+    max_drift_rel: float = 0.01
+    """Relative drift bound, -: the bound is max(``max_drift_mps``, this × mean speed of the tail)."""
     max_spread_mps: float = 0.2
     """Bound on the residual standard deviation of speed about its trend, m/s."""
     thrust_tolerance_N: float = 5.0  # noqa: N815 (unit suffix)
@@ -135,34 +150,54 @@ class SteadySegment:
     """Standard error of the mean speed, assuming white noise, m/s."""
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return asdict(self)
+        """JSON-ready dict (undefined figures as None)."""
+        return {
+            k: None if isinstance(x, float) and not math.isfinite(x) else x for k, x in asdict(self).items()
+        }
 
 
 def _tail_starts(t: np.ndarray, first: int, window_s: float) -> np.ndarray:
-    """Start indices of tails of length window_s, 1.5·window_s, ... that fit after index ``first``."""
-    lengths = np.arange(window_s, t[-1] - t[first] + 1e-9, window_s / 2.0)
+    """Start indices of tails of length window_s, 1.5·window_s, ... and of the whole part after ``first``."""
+    held = t[-1] - t[first]
+    lengths = np.r_[np.arange(window_s, held, window_s / 2.0), held]
     return np.searchsorted(t, t[-1] - lengths, side="right") - 1
 
 
-def analyse_segment(t: np.ndarray, speed: np.ndarray, thrust: np.ndarray, criteria: SteadyCriteria) -> SteadySegment:
+def analyse_segment(
+    t: np.ndarray, speed: np.ndarray, thrust: np.ndarray, criteria: SteadyCriteria
+) -> SteadySegment:
     """Verdict on one constant-thrust segment (arrays of its samples, time increasing)."""
     gaps = np.flatnonzero(np.diff(t) > criteria.max_gap_s)
     first = int(gaps[-1]) + 1 if gaps.size else 0
     thrust_mean = float(np.mean(thrust[first:]))
 
-    def rejected(reason: str, speed_mean: float, drift: float = float("nan"), spread: float = float("nan")) -> SteadySegment:
-        return SteadySegment(float(t[0]), float(t[-1]), thrust_mean, False, reason, speed_mean, 0.0, drift, spread,
-                             float("nan"))
+    def rejected(
+        reason: str, speed_mean: float, drift: float = float("nan"), spread: float = float("nan")
+    ) -> SteadySegment:
+        return SteadySegment(
+            float(t[0]),
+            float(t[-1]),
+            thrust_mean,
+            False,
+            reason,
+            speed_mean,
+            0.0,
+            drift,
+            spread,
+            float("nan"),
+        )
 
     held = float(t[-1] - t[first])
     if held < criteria.window_s or t.size - first < 4:
         after = " after a sampling gap" if gaps.size else ""
-        return rejected(f"held {held:.1f} s{after}, shorter than the {criteria.window_s:g} s test window",
-                        float(np.mean(speed[first:])))
+        return rejected(
+            f"held {held:.1f} s{after}, shorter than the {criteria.window_s:g} s test window",
+            float(np.mean(speed[first:])),
+        )
     starts = np.maximum(_tail_starts(t, first, criteria.window_s), first)
     tau = t - t[-1]
     dv = speed - speed[-1]
+
     # suffix sums: statistics of every tail [s, end] in O(1) each
     def suffix(a: np.ndarray) -> np.ndarray:
         return np.cumsum(a[::-1])[::-1][starts]
@@ -177,23 +212,37 @@ def analyse_segment(t: np.ndarray, speed: np.ndarray, thrust: np.ndarray, criter
     se = spread / np.sqrt(sxx)
     length = t[-1] - t[starts]
     drift = (np.abs(slope) + stats.t.ppf(0.975, n - 2.0) * se) * length
-    ok = (drift <= criteria.max_drift_mps) & (spread <= criteria.max_spread_mps)
+    bound = np.maximum(criteria.max_drift_mps, criteria.max_drift_rel * np.abs(speed[-1] + sv / n))
+    # a longer tail is used only while it bounds the drift at least as tightly as the shortest one
+    ok = (drift <= bound) & (spread <= criteria.max_spread_mps) & (drift <= drift[0])
     if not ok[0]:
         last = float(speed[-1] + sv[0] / n[0])
-        if drift[0] > criteria.max_drift_mps:
-            why = (f"speed never settled: trend {slope[0]:+.4f} m/s² over the last {length[0]:.0f} s, drift bound "
-                   f"{drift[0]:.3f} m/s > {criteria.max_drift_mps:g} m/s")
-        else:
+        if spread[0] > criteria.max_spread_mps:
             why = f"speed unsteady: spread {spread[0]:.3f} m/s > {criteria.max_spread_mps:g} m/s"
+        else:
+            why = (
+                f"speed never settled: trend {slope[0]:+.4f} m/s² over the last {length[0]:.0f} s, "
+                f"drift bound {drift[0]:.3f} m/s > {bound[0]:.3g} m/s"
+            )
         return rejected(why, last, float(drift[0]), float(spread[0]))
     j = int(np.argmin(ok)) - 1 if not np.all(ok) else ok.size - 1
     mean = float(speed[-1] + sv[j] / n[j])
-    return SteadySegment(float(t[0]), float(t[-1]), thrust_mean, True, "", mean, float(length[j]),
-                         float(drift[j]), float(spread[j]), float(spread[j] / np.sqrt(n[j])))
+    return SteadySegment(
+        float(t[0]),
+        float(t[-1]),
+        thrust_mean,
+        True,
+        "",
+        mean,
+        float(length[j]),
+        float(drift[j]),
+        float(spread[j]),
+        float(spread[j] / np.sqrt(n[j])),
+    )
 
 
 class SteadyStateDetector:
-    """Streaming splitter of (t, thrust, speed) samples into constant-thrust segments, judged when they end."""
+    """Streaming splitter of (t, thrust, speed) samples into constant-thrust segments, judged at their end."""
 
     def __init__(self, criteria: SteadyCriteria | None = None) -> None:
         self.criteria = criteria or SteadyCriteria()
@@ -207,7 +256,9 @@ class SteadyStateDetector:
         """Add one sample (time increasing); returns the segment that this sample closed, if any."""
         closed = None
         c = self.criteria
-        if self._t and abs(thrust_N - self._ref) > max(c.thrust_tolerance_N, c.thrust_tolerance_rel * abs(self._ref)):
+        if self._t and abs(thrust_N - self._ref) > max(
+            c.thrust_tolerance_N, c.thrust_tolerance_rel * abs(self._ref)
+        ):
             closed = self.finish()
         if not self._t:
             self._ref = thrust_N
@@ -226,8 +277,9 @@ class SteadyStateDetector:
         if not self._t:
             return None
         t = np.fromiter(self._t, float, len(self._t))
-        seg = analyse_segment(t, np.fromiter(self._v, float, t.size), np.fromiter(self._f, float, t.size),
-                              self.criteria)
+        seg = analyse_segment(
+            t, np.fromiter(self._v, float, t.size), np.fromiter(self._f, float, t.size), self.criteria
+        )
         seg = replace(seg, start_s=self._start)
         self._t.clear()
         self._f.clear()
@@ -236,7 +288,10 @@ class SteadyStateDetector:
 
 
 def detect_steady_segments(
-    t_s: Any, thrust_N: Any, speed_mps: Any, criteria: SteadyCriteria | None = None  # noqa: N803
+    t_s: Any,
+    thrust_N: Any,  # noqa: N803 (unit suffix)
+    speed_mps: Any,
+    criteria: SteadyCriteria | None = None,
 ) -> list[SteadySegment]:
     """All constant-thrust segments of a trial with their verdicts (the same code path as online)."""
     t, f, v = check_samples(t_s, thrust_N, speed_mps)
@@ -254,7 +309,8 @@ class OnlineThrustSpeedIdentifier:
     ``order`` on the steady points the detector accepts (as :func:`~boat_twin.ident.steady.fit_power_series`),
     and mass + Fc of order ``dynamic_order`` (default ``order``) on the transient windows (as
     :func:`~boat_twin.ident.dynamic.identify_dynamic`, same window rule). ``through_origin`` imposes
-    Fc(0) = 0 on the steady curve, as the batch fit of a trial does. Inside, speed is scaled by ``speed_scale_mps`` and thrust by ``thrust_scale_N`` for conditioning
+    Fc(0) = 0 on the steady curve, as the batch fit of a trial does. Inside, speed is scaled by
+    ``speed_scale_mps`` and thrust by ``thrust_scale_N`` for conditioning
     only. Non-finite samples and samples not later than the previous one are ignored and counted.
     """
 
@@ -268,14 +324,18 @@ class OnlineThrustSpeedIdentifier:
         criteria: SteadyCriteria | None = None,
         window: DynamicWindow | None = None,
         speed_scale_mps: float = 10.0,
-        thrust_scale_N: float = 1000.0,  # noqa: N803
+        thrust_scale_N: float = 1000.0,  # noqa: N803 (unit suffix)
     ) -> None:
         dynamic_order = order if dynamic_order is None else dynamic_order
         for value in (order, dynamic_order):
             if not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_ORDER:
-                raise InputError(f"online identifier: orders must be integers from 1 to {MAX_ORDER}, got {value!r}")
+                raise InputError(
+                    f"online identifier: orders must be integers from 1 to {MAX_ORDER}, got {value!r}"
+                )
         if not all(math.isfinite(x) and x > 0.0 for x in (memory_s, speed_scale_mps, thrust_scale_N)):
-            raise InputError("online identifier: memory_s, speed_scale_mps and thrust_scale_N must be positive")
+            raise InputError(
+                "online identifier: memory_s, speed_scale_mps and thrust_scale_N must be positive"
+            )
         self.order = int(order)
         self.dynamic_order = int(dynamic_order)
         self.memory_s = memory_s
@@ -318,18 +378,23 @@ class OnlineThrustSpeedIdentifier:
             self._last_steady_t = seg.end_s
 
     def _add_window(self, t_s: float) -> None:
-        t, f, v = (np.array(a) for a in zip(*self._buf))
+        t, f, v = (np.array(a) for a in zip(*self._buf, strict=True))
         if t.size < 3 or np.max(np.diff(t)) > self.window.max_gap_s:
             self.windows_skipped += 1
             return
         row, y, _ = window_row(t, f, v, self.window.ramp_s, self._dyn_basis)
         x = np.concatenate(([row[0] / self._domain[1]], row[1:] / self.window.length_s))
-        self._dynamic.update(x, y / (self._fscale * self.window.length_s), self._forget(t_s, self._last_window_t))
+        self._dynamic.update(
+            x, y / (self._fscale * self.window.length_s), self._forget(t_s, self._last_window_t)
+        )
         self._last_window_t = t_s
 
     def update(self, t_s: float, thrust_N: float, speed_mps: float) -> SteadySegment | None:  # noqa: N803
-        """Feed one sample (s, total thrust N, speed m/s); returns a constant-thrust segment when one closes."""
-        if not (math.isfinite(t_s) and math.isfinite(thrust_N) and math.isfinite(speed_mps)) or t_s <= self._last_t:
+        """Feed one sample (s, total thrust N, speed m/s); returns the constant-thrust segment it closed."""
+        if (
+            not (math.isfinite(t_s) and math.isfinite(thrust_N) and math.isfinite(speed_mps))
+            or t_s <= self._last_t
+        ):
             self.n_ignored += 1
             return None
         self._last_t = t_s
@@ -368,7 +433,7 @@ class OnlineThrustSpeedIdentifier:
         return coef, np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
     def dynamic(self) -> dict[str, Any] | None:
-        """Mass (kg) and Fc c_0..c_N (N/(m/s)^i) from the transient windows, with standard errors; None early."""
+        """Mass (kg) and Fc c_0..c_N (N/(m/s)^i) from the transient windows, standard errors; None early."""
         if self._dynamic.n_updates < self.dynamic_order + 3:
             return None
         to_mass = self._fscale * self.window.length_s / self._domain[1]

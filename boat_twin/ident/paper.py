@@ -1,4 +1,4 @@
-"""Reproduction of Dyda & Chumakova (2021): their power-series fits of Table 1, their Fisher statistic, and ours.
+"""Reproduction of Dyda & Chumakova (2021): their power-series fits of Table 1 and Fisher statistic, and ours.
 
 Everything here is in the table's own units: speed v in knots, thrust F in kgf (the paper prints no units;
 see :func:`boat_twin.data.dyda2021_table1`), so coefficients are in kgf/kn^i.
@@ -46,25 +46,121 @@ FISHER_TOLERANCE = 0.05
 
 TABLE_MODEL_VALUES: dict[int, tuple[float, ...]] = {
     1: (
-        0.0, 3.125, 6.25, 9.375, 12.5, 15.625, 18.75, 21.875, 25.0, 28.125, 31.25, 34.375, 37.5,
-        40.625, 43.75, 46.875, 50.0, 53.125, 56.25, 59.375, 62.5, 65.625, 68.75, 71.875, 75.0,
-        78.125, 81.25, 84.375, 87.5, 90.625, 93.75, 96.875, 100.0, 103.125, 106.25, 109.375, 112.5,
+        0.0,
+        3.125,
+        6.25,
+        9.375,
+        12.5,
+        15.625,
+        18.75,
+        21.875,
+        25.0,
+        28.125,
+        31.25,
+        34.375,
+        37.5,
+        40.625,
+        43.75,
+        46.875,
+        50.0,
+        53.125,
+        56.25,
+        59.375,
+        62.5,
+        65.625,
+        68.75,
+        71.875,
+        75.0,
+        78.125,
+        81.25,
+        84.375,
+        87.5,
+        90.625,
+        93.75,
+        96.875,
+        100.0,
+        103.125,
+        106.25,
+        109.375,
+        112.5,
     ),
     3: (
-        0.0, 2.463531586, 4.933389542, 7.409573868, 9.892084565, 12.38092163, 14.87608507,
-        17.37757488, 19.88539105, 22.3995336, 24.92000252, 27.4467978, 29.97991946, 32.51936749,
-        35.06514189, 37.61724266, 40.1756698, 42.7404233, 45.31150318, 47.88890943, 50.47264205,
-        53.06270104, 55.6590864, 58.26179813, 60.87083623, 63.4862007, 66.10789154, 68.73590875,
-        71.37025233, 74.1092228, 76.6579186, 79.31124129, 81.97089035, 84.63686579, 87.30916759,
-        89.98779576, 92.6727503,
+        0.0,
+        2.463531586,
+        4.933389542,
+        7.409573868,
+        9.892084565,
+        12.38092163,
+        14.87608507,
+        17.37757488,
+        19.88539105,
+        22.3995336,
+        24.92000252,
+        27.4467978,
+        29.97991946,
+        32.51936749,
+        35.06514189,
+        37.61724266,
+        40.1756698,
+        42.7404233,
+        45.31150318,
+        47.88890943,
+        50.47264205,
+        53.06270104,
+        55.6590864,
+        58.26179813,
+        60.87083623,
+        63.4862007,
+        66.10789154,
+        68.73590875,
+        71.37025233,
+        74.1092228,
+        76.6579186,
+        79.31124129,
+        81.97089035,
+        84.63686579,
+        87.30916759,
+        89.98779576,
+        92.6727503,
     ),
     5: (
-        0.0, 0.558733286, 1.27968371, 2.162851272, 3.208235973, 4.415837812, 5.78565679,
-        7.317692906, 9.011946161, 10.86841655, 12.88710409, 15.06800876, 17.41113056, 19.91646951,
-        22.5840256, 25.41379882, 28.40578918, 31.55999668, 34.87642132, 38.3550631, 41.99592201,
-        45.79899807, 49.76429126, 53.89180159, 58.18152906, 62.63347367, 67.24763541, 72.0240143,
-        76.96261032, 82.06342348, 87.32645378, 92.75170122, 98.3391658, 104.0888475, 110.0007464,
-        116.0748624, 122.3111955,
+        0.0,
+        0.558733286,
+        1.27968371,
+        2.162851272,
+        3.208235973,
+        4.415837812,
+        5.78565679,
+        7.317692906,
+        9.011946161,
+        10.86841655,
+        12.88710409,
+        15.06800876,
+        17.41113056,
+        19.91646951,
+        22.5840256,
+        25.41379882,
+        28.40578918,
+        31.55999668,
+        34.87642132,
+        38.3550631,
+        41.99592201,
+        45.79899807,
+        49.76429126,
+        53.89180159,
+        58.18152906,
+        62.63347367,
+        67.24763541,
+        72.0240143,
+        76.96261032,
+        82.06342348,
+        87.32645378,
+        92.75170122,
+        98.3391658,
+        104.0888475,
+        110.0007464,
+        116.0748624,
+        122.3111955,
     ),
 }
 """Model thrust F_mj in kgf at Table 1's speeds as printed in Tables 2 (N = 1), 4 (N = 3) and 6 (N = 5)."""
@@ -76,7 +172,9 @@ PRINT_TOLERANCE = 1e-6
 """Relative deviation above which a printed model value counts as a misprint (the tables print ~10 digits)."""
 
 
-def fisher_statistic(force: np.ndarray, model_force: np.ndarray, m: int = FISHER_M, n: int = FISHER_N) -> float:
+def fisher_statistic(
+    force: np.ndarray, model_force: np.ndarray, m: int = FISHER_M, n: int = FISHER_N
+) -> float:
     """The paper's F_calc = [Σ(F_m − mean F_m)²/m]·(n − m − 1)/Σ(F − F_m)², sums over all given rows."""
     f = np.asarray(force, dtype=float)
     fm = np.asarray(model_force, dtype=float)
@@ -109,7 +207,11 @@ def check_printed_tables() -> dict[int, dict[str, Any]]:
             "max_rel_dev": float(rel.max()),
             "max_rel_dev_without_misprints": float(np.delete(rel, rows).max()),
             "misprints": [
-                {"speed_kn": float(speed_kn[j]), "printed_kgf": float(printed[j]), "recomputed_kgf": float(ours[j])}
+                {
+                    "speed_kn": float(speed_kn[j]),
+                    "printed_kgf": float(printed[j]),
+                    "recomputed_kgf": float(ours[j]),
+                }
                 for j in rows
             ],
         }
@@ -144,13 +246,18 @@ def reproduce(
         entry["fisher"] = fisher_statistic(thrust_kgf, fit.predict(speed_kn))
         fit_dicts.append(entry)
     return {
-        "data": {"source": "Dyda & Chumakova (2021), Table 1", "rows": int(speed_kn.size), "units": {
-            "speed": "kn", "force": "kgf", "coefficients": "kgf/kn^i"}},
+        "data": {
+            "source": "Dyda & Chumakova (2021), Table 1",
+            "rows": int(speed_kn.size),
+            "units": {"speed": "kn", "force": "kgf", "coefficients": "kgf/kn^i"},
+        },
         "paper": {
             "coefficients": {str(n): list(PAPER_COEFFICIENTS[n]) for n in PAPER_ORDERS},
             "fisher": fisher,
             "fisher_printed": {str(n): v for n, v in PAPER_FISHER.items()},
-            "fisher_agrees": {str(n): abs(fisher[str(n)] - PAPER_FISHER[n]) <= FISHER_TOLERANCE for n in PAPER_ORDERS},
+            "fisher_agrees": {
+                str(n): abs(fisher[str(n)] - PAPER_FISHER[n]) <= FISHER_TOLERANCE for n in PAPER_ORDERS
+            },
             "fisher_formula": {"m": FISHER_M, "n": FISHER_N, "rows_summed": int(speed_kn.size)},
             "rmse": rmse,
             "tables": {str(n): v for n, v in check_printed_tables().items()},

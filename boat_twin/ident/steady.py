@@ -36,14 +36,14 @@ from boat_twin.errors import InputError
 from boat_twin.vessel.resistance import PowerSeriesResistance
 
 MAX_ORDER = 12
-"""Highest order accepted: beyond it power-basis coefficients carry no meaning (they cancel to many digits)."""
+"""Highest order accepted: beyond it, power-basis coefficients mean nothing (they cancel to many digits)."""
 
 GRID = 2001
 """Evenly spaced speeds over a fit's domain on which dFc/dv ≥ 0 is imposed (monotone option) and checked."""
 
 
 def speed_domain(speed: np.ndarray) -> tuple[float, float]:
-    """Domain of a fit: from rest (or the lowest speed if negative) to the highest speed, same unit as input."""
+    """Domain of a fit: from rest (or the lowest speed, if negative) to the highest speed; input units."""
     lo = min(0.0, float(np.min(speed)))
     hi = float(np.max(speed))
     return lo, hi
@@ -78,10 +78,12 @@ def _bands(grid: np.ndarray, bad: np.ndarray) -> tuple[tuple[float, float], ...]
     if not np.any(bad):
         return ()
     edges = np.flatnonzero(np.diff(np.r_[0, bad.astype(np.int8), 0]))
-    return tuple((float(grid[s]), float(grid[e - 1])) for s, e in zip(edges[::2], edges[1::2]))
+    return tuple((float(grid[s]), float(grid[e - 1])) for s, e in zip(edges[::2], edges[1::2], strict=True))
 
 
-def nonmonotone_bands(coefficients: np.ndarray, domain: tuple[float, float]) -> tuple[tuple[float, float], ...]:
+def nonmonotone_bands(
+    coefficients: np.ndarray, domain: tuple[float, float]
+) -> tuple[tuple[float, float], ...]:
     """Speed bands inside ``domain`` where the power series ``coefficients`` decreases (dFc/dv < 0)."""
     grid = np.linspace(domain[0], domain[1], GRID)
     slope = polynomial.polyval(grid, polynomial.polyder(np.asarray(coefficients, dtype=float)))
@@ -136,7 +138,7 @@ class FitResult:
         return not self.nonmonotone_bands
 
     def predict(self, speed: np.ndarray | float) -> np.ndarray:
-        """The fitted polynomial at ``speed`` (no extrapolation rule: use :meth:`resistance_model` for that)."""
+        """The fitted polynomial at ``speed`` (no extrapolation rule: :meth:`resistance_model` has one)."""
         return polynomial.polyval(np.asarray(speed, dtype=float), self.coefficients)
 
     def resistance_model(self) -> PowerSeriesResistance:
@@ -152,7 +154,7 @@ class FitResult:
             "ci95": self.ci95.tolist(),
             "sse": self.sse,
             "rmse": self.rmse,
-            "r2": self.r2,
+            "r2": self.r2 if np.isfinite(self.r2) else None,
             "aic": self.aic,
             "bic": self.bic,
             "cv_rmse": self.cv_rmse if np.isfinite(self.cv_rmse) else None,
@@ -177,7 +179,9 @@ def check_points(speed: Any, force: Any, what: str = "steady points") -> tuple[n
         raise InputError(f"{what}: speed and force must be 1-D arrays of the same length")
     bad = ~(np.isfinite(v) & np.isfinite(f))
     if np.any(bad):
-        raise InputError(f"{what}: {int(bad.sum())} point(s) are NaN or infinite (first at index {int(np.argmax(bad))})")
+        raise InputError(
+            f"{what}: {int(bad.sum())} point(s) are NaN or infinite (first at index {int(np.argmax(bad))})"
+        )
     return v, f
 
 
@@ -191,13 +195,11 @@ def _check_order(order: int, v: np.ndarray, what: str) -> None:
         )
     distinct = np.unique(v).size
     if distinct < order + 1:
-        raise InputError(
-            f"{what}: order {order} needs at least {order + 1} distinct speeds, got {distinct}"
-        )
+        raise InputError(f"{what}: order {order} needs at least {order + 1} distinct speeds, got {distinct}")
 
 
 def _solve_monotone(r: np.ndarray, b: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """Rows of ``g`` active at min ||R·a − b|| subject to g·a ≥ 0 (LSI → LDP → NNLS, Lawson & Hanson ch. 23)."""
+    """Rows of ``g`` active at min ||R·a − b|| s.t. g·a ≥ 0 (LSI → LDP → NNLS, Lawson & Hanson ch. 23)."""
     gz = linalg.solve_triangular(r, g.T, trans="T").T  # constraints on z = R·a: (g·R⁻¹)·z ≥ 0
     h = -gz @ b  # with w = z − b: gz·w ≥ h; least-distance problem min ||w||
     e = np.vstack([gz.T, h[None, :]])
@@ -346,8 +348,12 @@ def choose_order(candidates: Sequence[tuple[int, float, float]], force_unit: str
     dropped = sorted(c[0] for c in candidates if c not in kept)
     text = (
         f"N = {chosen[0]} among {span}: BIC {chosen[2]:.2f}"
-        + (" is the lowest" if chosen is best_bic else f" within {BIC_MARGIN:g} of the lowest ({best_bic[2]:.2f} at "
-           f"N = {best_bic[0]}), so the lower order is kept")
+        + (
+            " is the lowest"
+            if chosen is best_bic
+            else f" within {BIC_MARGIN:g} of the lowest ({best_bic[2]:.2f} at "
+            f"N = {best_bic[0]}), so the lower order is kept"
+        )
         + f"; leave-one-out CV RMSE {chosen[1]:.3g} {force_unit} (best {best_cv[1]:.3g} at N = {best_cv[0]})"
     )
     if dropped:

@@ -21,6 +21,10 @@ from boat_twin.errors import InputError
 from boat_twin.units import KGF_N
 from boat_twin.vessel.params import VesselParams, max_thrust_N, surge_time_constant_s
 
+SETTLED_RECORD_S = 30.0
+"""Time each thrust step is held after settling, s: the identifier's steady-state detector judges and averages
+the last 20 s of a segment (boat_twin.ident.online), with margin."""
+
 CSV_HEADER = ("t", "thrust_left_N", "thrust_right_N", "angle_left_rad", "angle_right_rad")
 """The header a command CSV file must have, in this order."""
 
@@ -73,7 +77,8 @@ def thrust_steps(
     """The paper's experiment: a staircase of total thrust levels, split equally between the outboards.
 
     Each level is held for ``settle_time_constants`` local surge time constants m11/(dFc/du) at its steady
-    speed (6 → within 0.25 % of the final speed), at least 30 s and at most 150 s; then 60 s at idle.
+    speed (6 → within 0.25 % of the final speed; at least 30 s, at most 150 s), plus
+    :data:`SETTLED_RECORD_S` of settled speed for the steady-state detector to average; then 60 s at idle.
     """
     levels = levels_N or tuple(f * KGF_N for f in THRUST_STEP_LEVELS_KGF)
     times, rows, t = [], [], 0.0
@@ -81,7 +86,7 @@ def thrust_steps(
         tau = surge_time_constant_s(params, steady_speed_mps(params, level))
         times.append(t)
         rows.append([level / 2.0, level / 2.0, 0.0, 0.0])
-        t += float(np.clip(settle_time_constants * tau, 30.0, 150.0))
+        t += float(np.clip(settle_time_constants * tau, 30.0, 150.0)) + SETTLED_RECORD_S
     times.append(t)
     rows.append([0.0, 0.0, 0.0, 0.0])
     return CommandProfile("thrust-steps", np.array(times), np.array(rows), t + 60.0)
