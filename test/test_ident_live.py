@@ -39,3 +39,23 @@ def test_live_identifier_matches_direct_replay_and_saves_a_loadable_model(tmp_pa
     assert params.resistance.force_N(u) == pytest.approx(truth, rel=0.15)
     live.reset()
     assert live.model() is None and not live.save(tmp_path / "again.yaml")
+
+
+def test_identify_cli_on_a_simulated_bag(tmp_path, capsys) -> None:
+    import json
+
+    from boat_twin.cli import main
+
+    bag = tmp_path / "steps"
+    assert main(["simulate", "thrust-steps", "--seed", "3", "--out", str(bag)]) == 0
+    capsys.readouterr()
+    assert main(["identify", str(bag), "--json", "--out", str(tmp_path / "report")]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert len(result["steady_points"]) >= 9
+    assert result["dynamic"]["mass_kg"] == pytest.approx(TwinConfig().vessel.mass_kg * 1.05, rel=0.05)
+    for point in result["steady_points"]:
+        truth = float(TwinConfig().vessel.resistance.force_N(point["speed_mps"]))
+        assert point["thrust_N"] == pytest.approx(truth, rel=0.02)
+    assert load_params(tmp_path / "report" / "model.yaml").resistance.order == result["selected_order"]
+    assert main(["identify", str(bag), "--topic", "gnss_vel=/nowhere"]) == 2
+    assert "not in the bag" in capsys.readouterr().err
