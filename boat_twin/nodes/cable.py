@@ -22,16 +22,13 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import rclpy
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from nav_msgs.msg import Path as PathMsg
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
@@ -41,6 +38,7 @@ from std_srvs.srv import Trigger
 from boat_twin.cable.case import CableCase, case_from_parameters, case_parameters, load_case, with_overrides
 from boat_twin.cable.problems import CableSolution, solve_depth, solve_length
 from boat_twin.errors import InputError
+from boat_twin.nodes.spin import run_node
 
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -151,21 +149,7 @@ class CableNode(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run boat_twin cable``."""
-    rclpy.init(args=args)
-    try:
-        node = CableNode()
-    except InputError as err:
-        sys.stderr.write(f"cable: error: {err}\n")
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node("cable", CableNode, args)
 
 
 if __name__ == "__main__":

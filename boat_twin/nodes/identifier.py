@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped
 from rclpy.node import Node
@@ -21,6 +20,7 @@ from std_srvs.srv import Trigger
 
 from boat_twin.ident.live import LiveIdentifier
 from boat_twin.io.messages import COMMAND_TOPICS, TOPIC_GNSS_VEL
+from boat_twin.nodes.spin import run_node
 
 
 class IdentifierNode(Node):
@@ -71,14 +71,6 @@ class IdentifierNode(Node):
         return response
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run boat_twin identifier``."""
-    rclpy.init(args=args)
-    node = IdentifierNode()
-    try:
-        rclpy.spin(node)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    return run_node("identifier", IdentifierNode, args)

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
 from rosidl_runtime_py.utilities import get_message
@@ -18,6 +17,7 @@ from std_msgs.msg import Float64
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.io import messages
 from boat_twin.live import LiveTwin
+from boat_twin.nodes.spin import run_node
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 
 SENSOR_TOPICS = ("gnss/fix", "gnss/vel", "imu/data", "imu/mag", "imu/rpy", "imu/temperature")
@@ -52,14 +52,6 @@ class SimulatorNode(Node):
                 publisher.publish(messages.serialize(msg, messages.TOPICS[topic]))
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run boat_twin simulator``."""
-    rclpy.init(args=args)
-    node = SimulatorNode()
-    try:
-        rclpy.spin(node)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    return run_node("simulator", SimulatorNode, args)
