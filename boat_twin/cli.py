@@ -17,6 +17,8 @@ from boat_twin.errors import InputError
 VERB_MODULES = (
     "boat_twin.vessel.command",
     "boat_twin.ident.command",
+    "boat_twin.diagnose.command",
+    "boat_twin.convert",
     "boat_twin.cable.command",
     "boat_twin.demo",
 )

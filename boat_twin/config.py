@@ -2,18 +2,21 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+import yaml
+
 from boat_twin.errors import InputError
-from boat_twin.io.files import load_yaml
+from boat_twin.io.files import atomic_write_text, load_yaml
 from boat_twin.sensors.gnss import GnssConfig
 from boat_twin.sensors.um7 import Um7Config
 from boat_twin.vessel.environment import Environment
-from boat_twin.vessel.params import VesselParams, params_from_dict
+from boat_twin.vessel.params import VesselParams, params_from_dict, params_to_dict
+from boat_twin.vessel.tow import TowConfig
 
-SECTIONS = ("vessel", "environment", "gnss", "um7")
+SECTIONS = ("vessel", "environment", "gnss", "um7", "tow")
 """Top-level keys of a twin configuration file."""
 
 
@@ -25,6 +28,8 @@ class TwinConfig:
     environment: Environment = field(default_factory=Environment)
     gnss: GnssConfig = field(default_factory=GnssConfig)
     um7: Um7Config = field(default_factory=Um7Config)
+    tow: TowConfig | None = None
+    """A towed body (extra surge drag), or None."""
 
 
 def _environment(data: Any, where: str) -> Environment:
@@ -61,6 +66,7 @@ def config_from_dict(data: Any, where: str, base: TwinConfig | None = None) -> T
             environment=_environment(data["environment"], where) if "environment" in data else base.environment,
             gnss=GnssConfig.from_dict(data["gnss"]) if "gnss" in data else base.gnss,
             um7=Um7Config.from_dict(data["um7"]) if "um7" in data else base.um7,
+            tow=TowConfig.from_dict(data["tow"], where) if data.get("tow") is not None else base.tow,
         )
     except InputError as err:
         text = str(err)
@@ -70,3 +76,22 @@ def config_from_dict(data: Any, where: str, base: TwinConfig | None = None) -> T
 def load_config(path: Path, base: TwinConfig | None = None) -> TwinConfig:
     """Read a twin configuration file (any subset of the sections)."""
     return config_from_dict(load_yaml(path), str(path), base)
+
+
+def config_to_dict(config: TwinConfig) -> dict[str, Any]:
+    """Plain data that :func:`config_from_dict` reads back (the layout of config/boat.yaml)."""
+    data: dict[str, Any] = {
+        "vessel": params_to_dict(config.vessel),
+        "environment": asdict(config.environment),
+        "gnss": asdict(config.gnss),
+        "um7": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(config.um7).items()},
+    }
+    if config.tow is not None:
+        data["tow"] = config.tow.to_dict()
+    return data
+
+
+def save_config(config: TwinConfig, path: Path, comment: str = "") -> None:
+    """Write ``config`` as a twin configuration YAML (atomically); ``comment`` lines go on top."""
+    header = "".join(f"# {line}\n" for line in comment.splitlines())
+    atomic_write_text(path, header + yaml.safe_dump(config_to_dict(config), sort_keys=False))

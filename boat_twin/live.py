@@ -19,6 +19,7 @@ from boat_twin.sensors.gnss import GnssModel
 from boat_twin.sensors.um7 import Um7Model
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.simulate import INTEGRATION_RATE_HZ, OUTPUT_RATE_HZ, SimulationRecord
+from boat_twin.vessel.tow import tow_drag_table
 
 
 class LiveTwin:
@@ -30,9 +31,9 @@ class LiveTwin:
 
     def __init__(self, config: TwinConfig, seed: int = 0, noise: bool = True, epoch_s: float = 0.0) -> None:
         self.config = config
-        self.dynamics = Dynamics(config.vessel)
+        self.dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
         self.state = np.zeros((1, 6))
-        self.currents = np.array([[config.environment.current_east_mps, config.environment.current_north_mps]])
+        self.environments = config.environment.as_vector()[None, :]
         self.commands = np.zeros(4)
         self.epoch_s = epoch_s
         self.tick_index = 0
@@ -59,7 +60,7 @@ class LiveTwin:
         """Record this tick under the held commands, step the dynamics one output period, return the messages."""
         commands = self.commands[None, None, :].copy()
         substeps = round(INTEGRATION_RATE_HZ / OUTPUT_RATE_HZ)
-        states, derivatives = self.dynamics.run(self.state, commands, self.currents, 1.0 / INTEGRATION_RATE_HZ,
+        states, derivatives = self.dynamics.run(self.state, commands, self.environments, 1.0 / INTEGRATION_RATE_HZ,
                                                 substeps)
         now = self.time_s
         self._history.append((now, states[0], commands[0], derivatives[0]))

@@ -14,6 +14,7 @@ from boat_twin.sensors.gnss import GnssMeasurements, GnssModel
 from boat_twin.sensors.um7 import ImuMeasurements, Um7Model
 from boat_twin.vessel.scenarios import Scenario
 from boat_twin.vessel.simulate import SimulationRecord, simulate
+from boat_twin.vessel.tow import tow_drag_table
 
 COMMAND_HEARTBEAT_S = 1.0
 """Command topics are logged when a value changes and at least once per this period, s (as a helm or
@@ -32,7 +33,8 @@ class SeaTrial:
 def run_sea_trial(config: TwinConfig, scenario: Scenario, seed: int, noise: bool = True) -> SeaTrial:
     """Simulate ``scenario`` with the boat, sea and sensors of ``config``; one seeded RNG drives all noise."""
     rng = np.random.default_rng(seed)
-    record = simulate(config.vessel, scenario, config.environment)
+    record = simulate(config.vessel, scenario, config.environment,
+                      extra_drag_N=tow_drag_table(config.tow, config.vessel))
     truth = record.truth()
     gnss = GnssModel(config.gnss, rng, noise=noise).measure(truth)
     imu = Um7Model(config.um7, rng, noise=noise).measure(truth)

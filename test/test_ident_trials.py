@@ -1,56 +1,70 @@
-"""Simulated thrust-steps trials: m·du/dt = F − Fc(u) integrated with solve_ivp, GNSS-like speed noise."""
+"""Identification of trials from boat_twin's own simulator: run_sea_trial → rosbag2 → read_trial → identify.
+
+The truth is the simulated boat: Fc(u) = the Table 1 curve (TableResistance), surge mass with added mass m11;
+GNSS velocity noise 0.05 m/s per axis at 10 Hz, 0.1 s latency. Bad input goes through ``boat_twin.cli.main``.
+"""
 
 import json
+import math
+import re
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 
+from boat_twin.cli import main
+from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
-from boat_twin.ident.command import identify_arrays, model_dict, write_model_yaml, write_trial_report
+from boat_twin.ident.command import (
+    identify_arrays,
+    model_dict,
+    trial_samples,
+    write_model_yaml,
+    write_trial_report,
+)
 from boat_twin.ident.dynamic import identify_dynamic
 from boat_twin.ident.steady import fit_power_series
-from boat_twin.vessel.params import load_params
-from boat_twin.vessel.resistance import PowerSeriesResistance, dyda2021_resistance
+from boat_twin.io import messages
+from boat_twin.io.bags import read_trial, write_bag
+from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.vessel.params import VesselParams, load_params
+from boat_twin.vessel.resistance import PowerSeriesResistance
+from boat_twin.vessel.scenarios import CommandProfile, thrust_steps
+from boat_twin.vessel.simulate import simulate
 
-MASS_KG = 1365.0  # 1.3 t plus 5 % surge added mass
-NOISE_MPS = 0.05  # GNSS velocity noise, 1σ
-RATE_HZ = 10.0
+CONFIG = TwinConfig()
+TRUTH = CONFIG.vessel.resistance
+MASS_KG = CONFIG.vessel.mass_kg * (1.0 + CONFIG.vessel.surge_added_mass_ratio)  # 1.3 t + 5 % surge added mass
+NOISE_MPS = CONFIG.gnss.velocity_stdev_mps
 LEVELS_N = (150, 300, 420, 455, 480, 530, 700, 900, 1150, 1000, 800, 600, 490, 445, 350, 200)
-HOLDS_S = (90, 60, 120, 200, 200, 120, 60, 60, 60, 60, 60, 60, 200, 200, 150, 90)
-"""Steps up and down over the Table 1 curve; hump levels (420-530 N, time constants to 40 s) held longer."""
+"""Total thrust steps up and down over the Table 1 curve, through its hump (420-530 N); each held as
+``thrust_steps`` holds it (6 local surge time constants, 30-150 s, + 30 s settled), then 60 s idle (31 min)."""
 
 
-def simulate(levels, holds, resistance, seed: int, noise: float = NOISE_MPS):
-    """(t s, thrust N, measured speed m/s, true speed m/s) at 10 Hz; thrust held between samples."""
-    rng = np.random.default_rng(seed)
-    t_all, f_all, u_all = [], [], []
-    u0, t0 = 0.0, 0.0
-    for level, hold in zip(levels, holds, strict=True):
-        t = t0 + np.arange(round(hold * RATE_HZ)) / RATE_HZ
-        sol = solve_ivp(
-            lambda _t, u, f=level: (f - resistance.force_N(u)) / MASS_KG,
-            (t0, t0 + hold),
-            [u0],
-            t_eval=np.append(t, t0 + hold),
-            rtol=1e-9,
-            atol=1e-9,
-            max_step=1.0,
-        )
-        t_all.append(t)
-        f_all.append(np.full(t.size, float(level)))
-        u_all.append(sol.y[0][:-1])
-        u0, t0 = sol.y[0][-1], t0 + hold
-    u = np.concatenate(u_all)
-    return np.concatenate(t_all), np.concatenate(f_all), u + rng.normal(0.0, noise, u.size), u
+def recorded(profile, seed: int) -> list:
+    """Messages of ``profile`` simulated with sensor noise ``seed``: commands and GNSS, as a recording of what
+    the identifier reads (no IMU or truth topics: 2.7 times fewer messages to write, the same identification)."""
+    sea_trial = run_sea_trial(CONFIG, profile, seed=seed)
+    return [m for m in trial_messages(sea_trial, truth=False) if not m[0].startswith("imu/")]
 
 
-TRUTH = dyda2021_resistance()
+def record(profile, seed: int, directory) -> tuple:
+    """Simulate ``profile`` with sensor noise ``seed``, write the bag, read it back: (Trial, bag path)."""
+    bag = directory / f"{profile.name}-{seed}"
+    write_bag(bag, recorded(profile, seed))
+    return read_trial(bag), bag
+
+
+def staircase(levels, holds_s) -> CommandProfile:
+    """Total thrust ``levels`` (N, split equally between the outboards) held ``holds_s`` each, straight ahead."""
+    times = np.concatenate([[0.0], np.cumsum(holds_s)[:-1]])
+    rows = np.array([[f / 2.0, f / 2.0, 0.0, 0.0] for f in levels])
+    return CommandProfile(f"steps{len(levels)}", times, rows, float(np.sum(holds_s)))
 
 
 @pytest.fixture(scope="module", params=[0, 1, 2])
-def identified(request):
-    t, f, v, _ = simulate(LEVELS_N, HOLDS_S, TRUTH, seed=request.param)
+def identified(request, tmp_path_factory):
+    trial, _ = record(thrust_steps(CONFIG.vessel, LEVELS_N), request.param, tmp_path_factory.mktemp("bags"))
+    t, f, v = trial_samples(trial)
     return t, f, v, identify_arrays(t, f, v)
 
 
@@ -60,11 +74,13 @@ def nrms(a: np.ndarray, b: np.ndarray) -> float:
 
 def test_steady_points_within_2_percent_of_the_true_resistance(identified) -> None:
     *_, result = identified
-    points = result["steady_points"]
-    assert len(points) >= 12
-    for p in points:
+    moving = [p for p in result["steady_points"] if p["thrust_N"] > 0.0]
+    assert len(moving) >= 12
+    for p in moving:
         assert p["thrust_N"] == pytest.approx(float(TRUTH.force_N(p["speed_mps"])), rel=0.02)
         assert p["duration_s"] >= 20.0
+    # at rest (the closing idle) GNSS speed over ground is |2-D noise|, mean σ·√(π/2) = 0.063 m/s, not a speed
+    assert all(p["speed_mps"] < 2.0 * NOISE_MPS for p in result["steady_points"] if p["thrust_N"] == 0.0)
 
 
 def test_fitted_curve_within_2_percent_rms_over_the_visited_speeds(identified) -> None:
@@ -100,11 +116,11 @@ def test_online_within_1_percent_of_batch(identified) -> None:
     assert result["online"]["steady_points"] == len(result["steady_points"])
 
 
-def test_a_level_that_never_settles_is_rejected_and_reported() -> None:
+def test_a_level_that_never_settles_is_rejected_and_reported(tmp_path) -> None:
     # 445 N sits on the hump (time constant ≈ 36 s): 45 s after the step from 400 N it is still accelerating
     levels, holds = (150, 300, 400, 445, 600, 800, 1000), (60, 60, 90, 45, 60, 60, 60)
-    t, f, v, _ = simulate(levels, holds, TRUTH, seed=4)
-    result = identify_arrays(t, f, v, order=2)
+    trial, _ = record(staircase(levels, holds), 4, tmp_path)
+    result = identify_arrays(*trial_samples(trial), order=2)
     rejected = [s for s in result["rejected_segments"] if round(s["thrust_N"]) == 445]
     assert len(rejected) == 1 and rejected[0]["reason"].startswith("speed never settled")
     assert 445 not in {round(p["thrust_N"]) for p in result["steady_points"]}
@@ -115,7 +131,9 @@ def test_a_level_that_never_settles_is_rejected_and_reported() -> None:
 def test_dynamic_identification_is_exact_for_a_representable_resistance() -> None:
     truth = PowerSeriesResistance((0.0, 60.0, 8.0, 0.5), 20.0)
     levels = (200, 600, 300, 1000, 500, 1400, 100)
-    t, f, _, u = simulate(levels, (60,) * len(levels), truth, seed=0)
+    record_ = simulate(VesselParams(resistance=truth), staircase(levels, (60,) * len(levels)))
+    t, u = record_.t_s, record_.states[:, 0, 3]
+    f = record_.commands[:, 0, 0] + record_.commands[:, 0, 1]
     dyn = identify_dynamic(t, f, u, 3)
     assert dyn.mass_kg == pytest.approx(MASS_KG, rel=2e-3)
     grid = np.linspace(0.5, u.max(), 50)
@@ -132,6 +150,7 @@ def test_model_yaml_loads_as_vessel_override(identified, tmp_path) -> None:
     assert params.resistance.force_N(3.0) == pytest.approx(
         np.polynomial.polynomial.polyval(3.0, fit["coefficients"])
     )
+    assert params.mass_kg * (1.0 + params.surge_added_mass_ratio) == pytest.approx(result["dynamic"]["mass_kg"])
     written = write_trial_report(tmp_path / "report", result, t, f, v)
     assert all(p.stat().st_size > 0 for p in written)
     speed = [p["speed_mps"] for p in result["steady_points"]]
@@ -139,25 +158,85 @@ def test_model_yaml_loads_as_vessel_override(identified, tmp_path) -> None:
     assert model_dict(fit_power_series(speed, thrust, 2)).keys() == {"resistance"}
 
 
-@pytest.fixture(scope="module")
-def short_trial():
-    return simulate((150, 400, 800, 1100), (60, 90, 60, 60), TRUTH, seed=7)[:3]
-
-
-def test_too_few_steady_points_says_what_is_needed(short_trial) -> None:
-    with pytest.raises(InputError, match=r"4 steady point\(s\) found, order 3 needs at least 5 \(N \+ 2\)"):
-        identify_arrays(*short_trial, order=3)
-
-
-def test_constant_thrust_is_unidentifiable(short_trial) -> None:
-    t, _, v = short_trial
-    with pytest.raises(InputError, match="thrust is constant .* unidentifiable"):
-        identify_arrays(t, np.full(t.size, 500.0), v)
-
-
-def test_nan_samples_are_refused(short_trial) -> None:
-    t, f, v = short_trial
+def test_nan_samples_are_refused_by_the_array_interface(identified) -> None:
+    t, f, v, _ = identified
     v = v.copy()
     v[[100, 200]] = np.nan
     with pytest.raises(InputError, match=r"2 speed value\(s\) are NaN or infinite \(first at index 100\)"):
         identify_arrays(t, f, v)
+
+
+# Bad input through the command line: exit code 2 and one line on stderr, never a traceback.
+
+SHORT = staircase((150, 400, 800, 1100), (90, 90, 60, 60))
+"""Four settled levels: enough for N = 2 (N + 2 = 4), too few for N = 3."""
+
+
+@pytest.fixture(scope="module")
+def short_messages() -> list:
+    return recorded(SHORT, 7)
+
+
+def edited_bag(messages_, directory, edit=None):
+    """A bag of ``messages_``, each passed through ``edit(topic, stamp_ns, msg)`` → message or None (dropped)."""
+    bag = directory / "edited"
+    edit = edit or (lambda *m: m)
+    write_bag(bag, sorted((m for m in (edit(*m) for m in messages_) if m is not None), key=lambda m: m[1]))
+    return bag
+
+
+def identify_fails(capsys, *argv: str) -> str:
+    """Run ``boat-twin identify ARGV``; assert exit 2 and a one-line error last on stderr (after any progress
+    lines), no traceback; return the error line."""
+    assert main(["identify", *map(str, argv)]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    errors = [line for line in lines if "error" in line.lower()]
+    assert errors == lines[-1:] and lines[-1].startswith("boat-twin identify: error: ")
+    assert not any("Traceback" in line for line in lines)
+    return lines[-1]
+
+
+def test_cli_too_few_steady_points_says_what_is_needed(tmp_path, capsys, short_messages) -> None:
+    bag = edited_bag(short_messages, tmp_path)
+    err = identify_fails(capsys, bag, "--order", "3")
+    assert re.search(r"4 steady point\(s\) found, order 3 needs at least 5 \(N \+ 2\): hold more thrust levels", err)
+    assert main(["identify", str(bag), "--order", "2", "--json"]) == 0  # the same bag suffices for N = 2
+    assert len(json.loads(capsys.readouterr().out)["steady_points"]) == 4
+
+
+def test_cli_constant_thrust_is_unidentifiable(tmp_path, capsys) -> None:
+    _, bag = record(staircase((600,), (240,)), 7, tmp_path)
+    err = identify_fails(capsys, bag)
+    assert re.search(r"thrust is constant \(600\.0 N\) over the whole trial: .* unidentifiable", err)
+
+
+@pytest.mark.parametrize(
+    ("dropped", "expected"),
+    [
+        (messages.TOPIC_THRUST_LEFT, "no left outboard's thrust (thrust_left) in the trial"),
+        (messages.TOPIC_GNSS_VEL, "no GNSS velocity (gnss_vel) in the trial"),
+    ],
+)
+def test_cli_missing_thrust_or_velocity_topic(tmp_path, capsys, short_messages, dropped, expected) -> None:
+    bag = edited_bag(short_messages, tmp_path, lambda topic, ns, msg: None if topic == dropped else (topic, ns, msg))
+    assert expected in identify_fails(capsys, bag)
+
+
+def test_cli_nan_samples_are_refused(tmp_path, capsys, short_messages) -> None:
+    def nan_velocity(topic, ns, msg):
+        if topic == messages.TOPIC_GNSS_VEL and 100 * 10**9 <= ns < 101 * 10**9:
+            msg = messages.twist_stamped(msg.header, (math.nan, math.nan, 0.0))
+        return topic, ns, msg
+
+    err = identify_fails(capsys, edited_bag(short_messages, tmp_path, nan_velocity))
+    assert "10 sample(s) are NaN outside the reported gaps (first: speed over ground at t = 100.0 s)" in err
+
+
+def test_cli_commands_and_gnss_without_overlap_in_time(tmp_path, capsys, short_messages) -> None:
+    later_ns = int(SHORT.duration_s * 1e9) + 10**9  # every command after the last GNSS sample
+
+    def commands_later(topic, ns, msg):
+        return (topic, ns + later_ns, msg) if topic in messages.COMMAND_TOPICS else (topic, ns, msg)
+
+    err = identify_fails(capsys, edited_bag(short_messages, tmp_path, commands_later))
+    assert "commands and GNSS do not overlap in time" in err

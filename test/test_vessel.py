@@ -1,6 +1,7 @@
 """Physics of the vessel model: steady speed, turning, current drift, ensemble, parameters and scenarios."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -48,14 +49,23 @@ def test_reference_turn_is_reproduced_on_both_sides() -> None:
 
 
 def test_boat_drifts_with_the_current() -> None:
+    # Without windage: otherwise the still air over the drifting boat is a (real, small) wind.
+    params = replace(PARAMS, frontal_windage_area_m2=0.0, lateral_windage_area_m2=0.0)
     env = Environment(current_east_mps=0.3, current_north_mps=-0.2)
-    record = simulate(PARAMS, constant(0.0, duration_s=100.0), env)
+    record = simulate(params, constant(0.0, duration_s=100.0), env)
     truth = record.truth()
     assert truth.east_m[-1] == pytest.approx(30.0, abs=1e-9)
     assert truth.north_m[-1] == pytest.approx(-20.0, abs=1e-9)
-    moving = simulate(PARAMS, constant(150.0, duration_s=300.0), env).truth()
+    moving = simulate(params, constant(150.0, duration_s=300.0), env).truth()
     assert moving.vel_east_mps[-1] - moving.surge_mps[-1] == pytest.approx(0.3, abs=1e-9)
-    assert moving.surge_mps[-1] == pytest.approx(steady_speed_mps(PARAMS, 300.0), rel=2e-3)
+    assert moving.surge_mps[-1] == pytest.approx(steady_speed_mps(params, 300.0), rel=2e-3)
+
+
+def test_wind_pushes_the_boat_downwind_and_calm_air_changes_nothing() -> None:
+    calm = simulate(PARAMS, constant(300.0, duration_s=120.0)).truth()
+    assert calm.north_m[-1] == pytest.approx(0.0, abs=1e-9)
+    windy = simulate(PARAMS, constant(300.0, duration_s=20.0), Environment(wind_north_mps=10.0)).truth()
+    assert windy.north_m[-1] > 2.0  # a 10 m/s beam wind sets the boat ~4 m to leeward in 20 s
 
 
 def test_ensemble_matches_single_runs_exactly() -> None:

@@ -28,8 +28,11 @@ from boat_twin.ident.paper import (
     paper_model_values,
     reproduce,
 )
+from boat_twin.ident.resimulate import Resimulation, resimulate, resimulation_figure
 from boat_twin.ident.steady import MAX_ORDER, FitResult, fit_power_series, select_order
 from boat_twin.io.files import atomic_save_figure, atomic_write_text, ensure_out_dir, to_json
+from boat_twin.io.sources import add_trial_options
+from boat_twin.io.trial import Trial
 from boat_twin.units import KGF_N, KNOT_MPS
 
 TWO_WAY_WARNING = 0.3
@@ -57,6 +60,54 @@ def write_model_yaml(path: Path, model: dict[str, Any], comment: str = "") -> No
 def _nrms(a: np.ndarray, b: np.ndarray) -> float:
     """RMS of a − b relative to the RMS of b."""
     return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
+
+
+def trial_samples(trial: Trial) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Time (s), surge thrust Σ T·cos δ (N) and GNSS speed over ground (m/s) of a trial's known samples.
+
+    Samples before the first command or velocity fix and inside reported GNSS velocity gaps are unknown and
+    skipped; a NaN anywhere else is a non-finite value in the recording itself and refused (InputError).
+    """
+    source = trial.metadata.source
+    for role, what in (("thrust_left", "left outboard's thrust"), ("thrust_right", "right outboard's thrust"),
+                       ("gnss_vel", "GNSS velocity")):
+        if role in trial.metadata.missing:
+            raise InputError(f"{source}: no {what} ({role}) in the trial: the identifier needs the surge thrust of "
+                             "both outboards and the speed over ground")
+    t, thrust, speed = trial.t_s, trial.surge_thrust_N, trial.speed_mps
+    known = np.isfinite(thrust) & np.isfinite(speed)
+    if not np.any(known):
+        raise InputError(f"{source}: no sample has both a thrust command and a GNSS velocity "
+                         "(commands and GNSS do not overlap in time)")
+    in_gap = np.zeros(t.size, dtype=bool)
+    for role, start_s, end_s in trial.metadata.gaps:
+        if role == "gnss_vel":
+            in_gap |= (t > start_s) & (t < end_s)
+    bad = ~known & ~in_gap & (t >= t[np.argmax(known)])
+    if np.any(bad):
+        first = int(np.argmax(bad))
+        name = "surge thrust" if not np.isfinite(thrust[first]) else "speed over ground"
+        raise InputError(f"{source}: {int(bad.sum())} sample(s) are NaN outside the reported gaps (first: "
+                         f"{name} at t = {t[first]:.1f} s): the recording holds non-finite values")
+    return t[known], thrust[known], speed[known]
+
+
+def replay_online(
+    t_s: np.ndarray,
+    thrust_N: np.ndarray,  # noqa: N803 (unit suffix)
+    speed_mps: np.ndarray,
+    identifier: OnlineThrustSpeedIdentifier,
+) -> OnlineThrustSpeedIdentifier:
+    """Feed a trial's samples to ``identifier`` one by one in timestamp order, then close its last segment.
+
+    The replay of ``boat-twin identify TRIAL``: the same :meth:`~OnlineThrustSpeedIdentifier.update` calls the
+    identifier node makes live. Returns ``identifier``.
+    """
+    for sample in zip(np.asarray(t_s).tolist(), np.asarray(thrust_N).tolist(), np.asarray(speed_mps).tolist(),
+                      strict=True):
+        identifier.update(*sample)
+    identifier.finish()
+    return identifier
 
 
 def identify_arrays(
@@ -142,10 +193,7 @@ def identify_arrays(
         criteria=criteria,
         window=window,
     )
-    for sample in zip(t.tolist(), f.tolist(), v.tolist(), strict=True):
-        online.update(*sample)
-    online.finish()
-    snap = online.snapshot()
+    snap = replay_online(t, f, v, online).snapshot()
     grid = np.linspace(speed.min(), speed.max(), 200)
     agreement: dict[str, Any] = {}
     if snap["coefficients"] is not None:
@@ -184,10 +232,15 @@ def write_trial_report(
     t_s: np.ndarray,
     thrust_N: np.ndarray,  # noqa: N803 (unit suffix)
     speed_mps: np.ndarray,
+    resimulation: Resimulation | None = None,
 ) -> list[Path]:
-    """Write identify.json, model.yaml, trial.png and resistance.png for an :func:`identify_arrays` result."""
+    """Write identify.json, model.yaml, trial.png, resistance.png (and resimulation.png: measured vs
+    re-simulated speed, when ``resimulation`` is given) for an :func:`identify_arrays` result."""
     out = ensure_out_dir(out_dir)
     written = [out / "identify.json", out / "model.yaml", out / "trial.png", out / "resistance.png"]
+    if resimulation is not None:
+        written.append(out / "resimulation.png")
+        atomic_save_figure(written[-1], resimulation_figure(resimulation))
     atomic_write_text(written[0], to_json(result) + "\n")
     write_model_yaml(written[1], result["model"], f"boat-twin identify: order {result['selected_order']}, SI")
     fig = Figure(figsize=(9, 6))
@@ -392,21 +445,28 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_trial(args: argparse.Namespace) -> int:
-    """A recorded trial: replay it through the online identifier, batch fits, dynamic mass, report."""
-    from boat_twin.io.bags import read_trial
+    """A recorded trial: replay it through the online identifier, batch fits, dynamic mass, re-simulation with
+    the identified model (closing the loop), report."""
+    from boat_twin.io.sources import read_trial_file
 
     sys.stderr.write(f"reading {args.trial} ...\n")
     remap = dict(_role_topic(item) for item in args.topic)
-    trial = read_trial(args.trial, remap=remap, namespace=args.namespace)
+    trial = read_trial_file(args.trial, remap=remap, namespace=args.namespace, calibration=args.calibration)
     sys.stderr.write(trial.metadata.summary_line() + "\n")
-    keep = np.isfinite(trial.surge_thrust_N) & np.isfinite(trial.speed_mps)
-    t_s, thrust, speed = trial.t_s[keep], trial.surge_thrust_N[keep], trial.speed_mps[keep]
+    t_s, thrust, speed = trial_samples(trial)
     result = identify_arrays(t_s, thrust, speed, order=args.order, max_order=min(args.max_order, 6),
                              monotone=args.monotone)
     result["trial"] = {"source": str(args.trial), "metadata": trial.metadata.summary_line(),
                        "gaps": trial.metadata.gaps, "missing": trial.metadata.missing}
+    sys.stderr.write("re-simulating the trial's commands with the identified model ...\n")
+    try:
+        resim: Resimulation | None = resimulate(trial, result["model"])
+        result["resimulation"] = resim.to_dict()
+    except InputError as err:  # the identification stands; say why the loop could not be closed
+        resim = None
+        result["resimulation"] = {"error": str(err)}
     if args.out is not None:
-        write_trial_report(args.out, result, t_s, thrust, speed)
+        write_trial_report(args.out, result, t_s, thrust, speed, resim)
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0
@@ -423,9 +483,25 @@ def _run_trial(args: argparse.Namespace) -> int:
     ]
     for seg in result.get("rejected_segments", []):
         lines.append(f"rejected {seg['start_s']:.1f}-{seg['end_s']:.1f} s at {seg['thrust_N']:.0f} N: {seg['reason']}")
+    lines.append(_resimulation_line(result["resimulation"]))
     lines += [f"warning: {w}" for w in result.get("warnings", [])]
     sys.stdout.write("\n".join(lines) + "\n")
     return 0
+
+
+def _resimulation_line(resim: dict[str, Any]) -> str:
+    """One report line: the speed error of the re-simulated trial (or why there is none)."""
+    if "error" in resim:
+        return f"re-simulation: not done ({resim['error']})"
+    mass = "identified" if resim["mass_identified"] else "default boat's"
+    relative = f" = {resim['speed_nrmse']:.1%} of the mean speed {resim['mean_speed_mps']:.2f} m/s" \
+        if resim["speed_nrmse"] is not None else ""
+    return (
+        f"re-simulated with the identified model ({mass} mass {resim['effective_mass_kg']:.0f} kg, calm water): "
+        f"speed RMSE {resim['speed_rmse_mps']:.3f} m/s{relative} over {resim['duration_s']:.0f} s "
+        f"(bias {resim['speed_bias_mps']:+.3f} m/s, max {resim['speed_max_abs_error_mps']:.2f} m/s; "
+        f"GNSS speed noise {resim['speed_noise_mps']:.3f} m/s)"
+    )
 
 
 def _role_topic(item: str) -> tuple[str, str]:
@@ -445,10 +521,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("trial", nargs="?", type=Path,
                    help="recorded trial: rosbag2 directory (MCAP or sqlite3) or a bare .mcap file")
-    p.add_argument("--topic", action="append", default=[], metavar="ROLE=TOPIC",
-                   help="remap a trial topic, e.g. gnss_vel=/gps/vel (roles: thrust_left, thrust_right, "
-                   "angle_left, angle_right, gnss_fix, gnss_vel, imu)")
-    p.add_argument("--namespace", default="", help="namespace the trial's topics were recorded under")
+    add_trial_options(p)
     p.add_argument(
         "--table",
         choices=["dyda2021"],

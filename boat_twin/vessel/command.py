@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -12,9 +13,9 @@ from boat_twin.config import TwinConfig, load_config
 from boat_twin.errors import InputError
 from boat_twin.io.files import to_json
 from boat_twin.sea_trial import run_sea_trial, trial_messages
-from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import describe, load_params
 from boat_twin.vessel.scenarios import SCENARIO_NAMES, CommandProfile, make_scenario, read_command_csv
+from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -40,6 +41,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap", help="rosbag2 storage (default mcap)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output")
     p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")
+    p.add_argument("--mavlink", metavar="URL",
+                   help="run live as a MAVLink surface boat (ArduPilot Rover streams and manual control), e.g. "
+                   "udpout:127.0.0.1:14550 (a ground station on this machine) or udpin:127.0.0.1:14551; "
+                   "without a scenario the ground station alone drives it until --duration or Ctrl-C")
+    p.add_argument("--mavlink-speed", type=float, default=1.0, metavar="FACTOR",
+                   help="simulated seconds per wall-clock second of a --mavlink run (default 1: real time; "
+                   "0: as fast as possible); a --tlog run without --mavlink goes as fast as possible")
+    p.add_argument("--tlog", type=Path, metavar="FILE",
+                   help="record the MAVLink telemetry as a .tlog (MAVProxy format; with or without --mavlink)")
+    p.add_argument("--mavlink-rate", action="append", default=[], metavar="GROUP=HZ",
+                   help="telemetry stream rate, Hz, per ArduPilot group (EXT_STAT, POSITION, RC_CHAN, EXTRA1, "
+                   "EXTRA2, EXTRA3, or ALL); default Rover's 1 Hz each. Identification from a .tlog needs 10 Hz "
+                   "POSITION, RC_CHAN and EXTRA1")
+    p.add_argument("--allow-remote", action="store_true",
+                   help="allow a --mavlink address that is not loopback (exposes the twin to the network)")
     p.set_defaults(handler=run)
 
 
@@ -47,9 +63,10 @@ def load_twin_config(args: argparse.Namespace) -> TwinConfig:
     """The configuration from --config, --model and --current, in that order of precedence (last wins)."""
     config = load_config(args.config) if args.config else TwinConfig()
     if args.model:
-        config = TwinConfig(load_params(args.model, config.vessel), config.environment, config.gnss, config.um7)
+        config = replace(config, vessel=load_params(args.model, config.vessel))
     if args.current:
-        config = TwinConfig(config.vessel, Environment(*args.current), config.gnss, config.um7)
+        config = replace(config, environment=replace(config.environment, current_east_mps=args.current[0],
+                                                     current_north_mps=args.current[1]))
     return config
 
 
@@ -99,6 +116,8 @@ def summarize(t_s: np.ndarray, states: np.ndarray) -> dict[str, float | None]:
 def run(args: argparse.Namespace) -> int:
     """Handler of ``simulate``."""
     config = load_twin_config(args)
+    if args.mavlink is not None or args.tlog is not None:
+        return _run_mavlink(args, config)
     scenario = _scenario(args, config)
     if args.out is None and not args.json:
         raise InputError("nothing to do: give --out BAG (and/or --json)")
@@ -117,4 +136,64 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stdout)
         if args.out is not None:
             print(f"wrote {result['messages']} messages to {args.out}")
+    return 0
+
+
+def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
+    """``--mavlink`` / ``--tlog``: the live twin as a MAVLink boat, paced by ``--mavlink-speed``; Ctrl-C ends it."""
+    import math
+    import signal
+    import time
+
+    from boat_twin.io.files import prepare_output
+    from boat_twin.io.mavlink_link import MavlinkBoat, parse_stream_rates, progress_to_stderr
+    from boat_twin.live import LiveTwin
+
+    if math.isnan(args.mavlink_speed) or args.mavlink_speed < 0.0:
+        raise InputError(f"--mavlink-speed must be a non-negative factor, got {args.mavlink_speed!r}")
+    scenario = _scenario(args, config) if (args.scenario or args.commands or args.mavlink is None) else None
+    duration = scenario.duration_s if scenario is not None else args.duration
+    if duration is not None and not duration > 0.0:
+        raise InputError(f"--duration must be a positive number of seconds, got {duration!r}")
+    if args.out is not None:
+        prepare_output(args.out, args.force)  # refuse an existing bag before the link starts
+    twin = LiveTwin(config, seed=args.seed, noise=not args.no_noise, epoch_s=round(time.time(), 3))
+    stopping: list[bool] = []
+    with MavlinkBoat(twin, args.mavlink, allow_remote=args.allow_remote, tlog=args.tlog, overwrite=args.force,
+                     scenario=scenario, rates_hz=parse_stream_rates(args.mavlink_rate)) as link:
+        speed = args.mavlink_speed if args.mavlink is not None else 0.0
+        where = args.mavlink or "no network"
+        sys.stderr.write(f"MAVLink boat (system {link.system_id}) -> {where}, "
+                         f"{'as fast as possible' if speed == 0 else f'{speed:g}x real time'}"
+                         f"{'' if duration is not None else '; Ctrl-C to stop'}\n")
+        try:  # Ctrl-C ends the run cleanly (the .tlog and the bag are completed)
+            previous = signal.signal(signal.SIGINT, lambda *_: stopping.append(True))
+        except ValueError:  # not the main thread: no handler
+            previous = None
+        try:
+            ticks = link.ticks(duration, speed, stop=lambda: bool(stopping), progress=progress_to_stderr)
+            if args.out is not None:
+                from boat_twin.io.bags import write_bag
+
+                count = write_bag(args.out, (m for tick in ticks for m in tick), args.storage, args.force)
+            else:
+                count = None
+                for _ in ticks:
+                    pass
+        finally:
+            if previous is not None:
+                signal.signal(signal.SIGINT, previous)
+        progress_to_stderr(link.summary_line())
+        result = {"scenario": scenario.name if scenario is not None else None, "seed": args.seed,
+                  "mavlink": args.mavlink, "speed": speed,
+                  "duration_s": max(twin.tick_index - 1, 0) / OUTPUT_RATE_HZ,
+                  "tlog": str(args.tlog) if args.tlog else None, "link": link.stats.as_dict()}
+    if count is not None:
+        result.update(bag=str(args.out), messages=count)
+    if args.json:
+        print(to_json(result))
+    else:
+        name = scenario.name if scenario is not None else "ground-station control"
+        print(f"streamed {name}: {result['duration_s']:.1f} s simulated, {link.stats.packets_sent} packets sent, "
+              f"{link.stats.packets_logged} logged" + (f", {count} messages to {args.out}" if count else ""))
     return 0

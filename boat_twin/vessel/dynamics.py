@@ -10,13 +10,18 @@ velocity alone (Fossen 2011, Property 8.1), so::
     m33·ṙ = N − (m22 − m11)·u·v − x_c·a_v·|u|·v − a_r·|u|·r − N_rr·|r|·r
     ė = u·cos ψ − v·sin ψ + c_e,   ṅ = u·sin ψ + v·cos ψ + c_n,   ψ̇ = r
 
-with the outboards' thrust vectors (thrust T_i at steering angle δ_i, at (x_e, ±y_e))::
+with the outboards' thrust vectors (thrust T_i at steering angle δ_i, at (x_e, ±y_e)) plus the wind's::
 
-    X = Σ T_i·cos δ_i,   Y = Σ T_i·sin δ_i,   N = Σ (x_e·T_i·sin δ_i − y_i·T_i·cos δ_i)
+    X = Σ T_i·cos δ_i + X_w,   Y = Σ T_i·sin δ_i + Y_w,   N = Σ (x_e·T_i·sin δ_i − y_i·T_i·cos δ_i) + x_w·Y_w
 
-Delivered thrust is the command limited to the engine's envelope: astern down to −k·T_bollard, ahead up to
-min(T_bollard, η·P/|u|). Fc(u) is any :class:`~boat_twin.vessel.resistance.ResistanceModel`, tabulated on a
-fine uniform grid for the compiled kernel (linear interpolation, quadratic tail as the model itself).
+Delivered thrust is the engine's factor k_i times the command limited to the engine's envelope: astern down to
+−k·T_bollard, ahead up to min(T_bollard, η·P/|u|); the real steering angle is the command plus a constant
+offset, limited to ±δ_max. The wind force is quadratic drag on the above-water areas in the apparent wind
+(u_a, v_a) (body frame, air relative to the hull): X_w = ½ρ_a·C_a·A_F·(|V_a|·u_a + |V|·u), Y_w likewise with
+A_L and v, acting at x_w (the centre of windage); the |V|·u term removes the calm-air drag the measured
+resistance already holds, so the wind force vanishes in calm air and still water.
+Fc(u) is any :class:`~boat_twin.vessel.resistance.ResistanceModel`, tabulated on a fine uniform grid for the
+compiled kernel (linear interpolation, quadratic tail as the model itself).
 The kernel steps N boats at once (an ensemble), compiled with numba.
 """
 
@@ -27,7 +32,12 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from boat_twin.vessel.params import VesselParams, derive_coefficients
+from boat_twin.vessel.params import (
+    AIR_DENSITY_KGPM3,
+    WINDAGE_DRAG_COEFFICIENT,
+    VesselParams,
+    derive_coefficients,
+)
 
 STATE_NAMES = ("east_m", "north_m", "yaw_rad", "u_mps", "v_mps", "r_radps")
 """Order of the state vector's components."""
@@ -51,6 +61,12 @@ class CompiledModel:
 # Indices into CompiledModel.coefficients.
 _K_M11, _K_M22, _K_M33, _K_AV, _K_XC, _K_AR, _K_YVV, _K_NRR = range(8)
 _K_XE, _K_YE, _K_ETA_P, _K_BOLLARD, _K_REVERSE, _K_MAX_STEER = range(8, 14)
+_K_FACTOR_LEFT, _K_FACTOR_RIGHT, _K_STEER_OFFSET, _K_WIND_X, _K_WIND_Y, _K_WIND_XC = range(14, 20)
+
+
+def resistance_grid_mps(params: VesselParams) -> np.ndarray:
+    """Speeds through water at which the kernel tabulates resistance and any extra drag, m/s."""
+    return np.linspace(0.0, params.resistance.max_speed_mps, RESISTANCE_TABLE_POINTS)
 
 
 def compile_model(params: VesselParams, extra_drag_N: np.ndarray | None = None) -> CompiledModel:  # noqa: N803
@@ -60,7 +76,7 @@ def compile_model(params: VesselParams, extra_drag_N: np.ndarray | None = None) 
     """
     coeff = derive_coefficients(params)
     u_max = params.resistance.max_speed_mps
-    grid = np.linspace(0.0, u_max, RESISTANCE_TABLE_POINTS)
+    grid = resistance_grid_mps(params)
     table = np.asarray(params.resistance.force_N(grid), dtype=float)
     extra = np.zeros_like(grid) if extra_drag_N is None else np.asarray(extra_drag_N, dtype=float)
     values = np.array(
@@ -79,6 +95,12 @@ def compile_model(params: VesselParams, extra_drag_N: np.ndarray | None = None) 
             params.bollard_thrust_N,
             params.reverse_thrust_ratio * params.bollard_thrust_N,
             params.max_steering_rad,
+            params.thrust_factor_left,
+            params.thrust_factor_right,
+            params.steering_offset_rad,
+            0.5 * AIR_DENSITY_KGPM3 * WINDAGE_DRAG_COEFFICIENT * params.frontal_windage_area_m2,
+            0.5 * AIR_DENSITY_KGPM3 * WINDAGE_DRAG_COEFFICIENT * params.lateral_windage_area_m2,
+            params.windage_centre_x_m,
         ]
     )
     return CompiledModel(values, table, float(u_max), extra)
@@ -114,18 +136,32 @@ def _derivative(
     table: np.ndarray,
     u_max: float,
     extra: np.ndarray,
-    current: np.ndarray,
+    env: np.ndarray,
     out: np.ndarray,
 ) -> None:
     """Time derivative of one boat's state ``s`` under command ``cmd``, written into ``out``."""
     psi, u, v, r = s[2], s[3], s[4], s[5]
-    t_left = _delivered_thrust(cmd[0], u, k)
-    t_right = _delivered_thrust(cmd[1], u, k)
-    d_left = min(max(cmd[2], -k[_K_MAX_STEER]), k[_K_MAX_STEER])
-    d_right = min(max(cmd[3], -k[_K_MAX_STEER]), k[_K_MAX_STEER])
+    t_left = k[_K_FACTOR_LEFT] * _delivered_thrust(cmd[0], u, k)
+    t_right = k[_K_FACTOR_RIGHT] * _delivered_thrust(cmd[1], u, k)
+    d_left = min(max(cmd[2] + k[_K_STEER_OFFSET], -k[_K_MAX_STEER]), k[_K_MAX_STEER])
+    d_right = min(max(cmd[3] + k[_K_STEER_OFFSET], -k[_K_MAX_STEER]), k[_K_MAX_STEER])
     x_force = t_left * np.cos(d_left) + t_right * np.cos(d_right)
     y_force = t_left * np.sin(d_left) + t_right * np.sin(d_right)
     n_moment = k[_K_XE] * y_force - k[_K_YE] * (t_left * np.cos(d_left) - t_right * np.cos(d_right))
+    c, sn = np.cos(psi), np.sin(psi)
+    # Apparent wind in the body frame: wind over ground minus the hull's velocity over ground.
+    air_east = env[2] - (u * c - v * sn + env[0])
+    air_north = env[3] - (u * sn + v * c + env[1])
+    u_air = air_east * c + air_north * sn
+    v_air = -air_east * sn + air_north * c
+    air_speed = np.sqrt(u_air * u_air + v_air * v_air)
+    calm_speed = np.sqrt(u * u + v * v)
+    # Minus the calm-air drag at the speed through water: the measured resistance Fc(u) already holds it.
+    x_wind = k[_K_WIND_X] * (air_speed * u_air + calm_speed * u)
+    y_wind = k[_K_WIND_Y] * (air_speed * v_air + calm_speed * v)
+    x_force += x_wind
+    y_force += y_wind
+    n_moment += k[_K_WIND_XC] * y_wind
     m11, m22, m33 = k[_K_M11], k[_K_M22], k[_K_M33]
     drag = _resistance(u, table, u_max) + _resistance(u, extra, u_max)
     out[3] = (x_force + m22 * v * r - drag) / m11
@@ -137,9 +173,8 @@ def _derivative(
         - k[_K_AR] * abs(u) * r
         - k[_K_NRR] * abs(r) * r
     ) / m33
-    c, sn = np.cos(psi), np.sin(psi)
-    out[0] = u * c - v * sn + current[0]
-    out[1] = u * sn + v * c + current[1]
+    out[0] = u * c - v * sn + env[0]
+    out[1] = u * sn + v * c + env[1]
     out[2] = r
 
 
@@ -151,7 +186,7 @@ def _step_boat(
     table: np.ndarray,
     u_max: float,
     extra: np.ndarray,
-    current: np.ndarray,
+    env: np.ndarray,
     dt: float,
     substeps: int,
 ) -> None:
@@ -162,16 +197,16 @@ def _step_boat(
     k4 = np.empty(6)
     tmp = np.empty(6)
     for _ in range(substeps):
-        _derivative(s, cmd, k, table, u_max, extra, current, k1)
+        _derivative(s, cmd, k, table, u_max, extra, env, k1)
         for j in range(6):
             tmp[j] = s[j] + 0.5 * dt * k1[j]
-        _derivative(tmp, cmd, k, table, u_max, extra, current, k2)
+        _derivative(tmp, cmd, k, table, u_max, extra, env, k2)
         for j in range(6):
             tmp[j] = s[j] + 0.5 * dt * k2[j]
-        _derivative(tmp, cmd, k, table, u_max, extra, current, k3)
+        _derivative(tmp, cmd, k, table, u_max, extra, env, k3)
         for j in range(6):
             tmp[j] = s[j] + dt * k3[j]
-        _derivative(tmp, cmd, k, table, u_max, extra, current, k4)
+        _derivative(tmp, cmd, k, table, u_max, extra, env, k4)
         for j in range(6):
             s[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
 
@@ -184,7 +219,7 @@ def _run_ticks(
     table: np.ndarray,
     u_max: float,
     extra: np.ndarray,
-    currents: np.ndarray,
+    environments: np.ndarray,
     dt: float,
     substeps: int,
     out_states: np.ndarray,
@@ -194,8 +229,8 @@ def _run_ticks(
     for b in range(states.shape[0]):
         for i in range(commands.shape[0]):
             out_states[i, b] = states[b]
-            _derivative(states[b], commands[i, b], k, table, u_max, extra, currents[b], out_derivatives[i, b])
-            _step_boat(states[b], commands[i, b], k, table, u_max, extra, currents[b], dt, substeps)
+            _derivative(states[b], commands[i, b], k, table, u_max, extra, environments[b], out_derivatives[i, b])
+            _step_boat(states[b], commands[i, b], k, table, u_max, extra, environments[b], dt, substeps)
 
 
 class Dynamics:
@@ -206,16 +241,17 @@ class Dynamics:
         self.model = compile_model(params, extra_drag_N)
 
     def run(
-        self, states: np.ndarray, commands: np.ndarray, currents: np.ndarray, dt_s: float, substeps: int
+        self, states: np.ndarray, commands: np.ndarray, environments: np.ndarray, dt_s: float, substeps: int
     ) -> tuple[np.ndarray, np.ndarray]:
         """Run len(commands) output ticks of ``substeps``·``dt_s`` each, commands held over a tick.
 
-        ``states`` (N, 6) is advanced in place; ``commands`` is (ticks, N, 4), ``currents`` (N, 2) m/s ENU.
+        ``states`` (N, 6) is advanced in place; ``commands`` is (ticks, N, 4), ``environments`` (N, 4)
+        :meth:`Environment.as_vector` rows (current and wind over ground, ENU, m/s).
         Returns the states at the start of every tick and their time derivatives, both (ticks, N, 6).
         """
         m = self.model
         out_states = np.empty((commands.shape[0],) + states.shape)
         out_derivatives = np.empty_like(out_states)
         _run_ticks(states, commands, m.coefficients, m.resistance_N, m.resistance_max_speed_mps,
-                   m.extra_drag_N, currents, dt_s, substeps, out_states, out_derivatives)
+                   m.extra_drag_N, environments, dt_s, substeps, out_states, out_derivatives)
         return out_states, out_derivatives

@@ -21,6 +21,16 @@ from boat_twin.vessel.resistance import ResistanceModel, dyda2021_resistance, re
 
 WATER_DENSITY_KGPM3 = 1025.0
 """Sea water density at 15 °C, 35 PSU, kg/m^3 (ITTC 7.5-02-01-03)."""
+AIR_DENSITY_KGPM3 = 1.225
+"""Air density at 15 °C, sea level, kg/m^3 (ISA)."""
+WINDAGE_DRAG_COEFFICIENT = 0.8
+"""Drag coefficient of a small boat's hull and console above water, -: 0.6-1.0 (Blendermann 1994)."""
+
+
+SIGNED_FIELDS = ("engine_x_m", "lateral_centre_x_m", "steering_offset_rad", "windage_centre_x_m")
+"""Parameters that may be zero or negative (positions and offsets)."""
+NON_NEGATIVE_FIELDS = ("frontal_windage_area_m2", "lateral_windage_area_m2")
+"""Parameters that may be zero (0 m² of windage: no wind force); all others must be positive."""
 
 
 @dataclass(frozen=True)
@@ -67,6 +77,20 @@ class VesselParams:
     """Reference turn: steady turning diameter, m (10·L at 20°, 6 m/s: thrust vectoring alone turns wide)."""
     turn_drift_rad: float = math.radians(4.0)
     """Reference turn: drift angle, rad (a planing catamaran skids little: 3-6°)."""
+    thrust_factor_left: float = 1.0
+    """Fraction of its command the left outboard delivers, -: 1 as built; less for a fouled propeller or a
+    tired engine (the diagnosis' ``thrust_asymmetry``)."""
+    thrust_factor_right: float = 1.0
+    """Fraction of its command the right outboard delivers, -."""
+    steering_offset_rad: float = 0.0
+    """Outboards' real steering angle minus the commanded one, rad (linkage misalignment; positive turns
+    the thrust to port like a positive command)."""
+    frontal_windage_area_m2: float = 2.6
+    """Above-water area seen from ahead, m²: the 2.6 m beam × ~1 m of freeboard and console (assumed)."""
+    lateral_windage_area_m2: float = 6.0
+    """Above-water area seen from the side, m²: the 6 m length × ~1 m (assumed)."""
+    windage_centre_x_m: float = 0.5
+    """Centre of the lateral windage forward of the centre of gravity, m (console forward of midships; assumed)."""
     resistance: ResistanceModel = field(default_factory=dyda2021_resistance)
     """Calm-water surge resistance Fc(u); default the measured Table 1 of Dyda & Chumakova (2021)."""
 
@@ -77,7 +101,9 @@ class VesselParams:
             value = getattr(self, f.name)
             if not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise InputError(f"vessel parameter '{f.name}' must be a finite number, got {value!r}")
-            if f.name not in ("engine_x_m", "lateral_centre_x_m") and value <= 0.0:
+            if f.name in NON_NEGATIVE_FIELDS and value < 0.0:
+                raise InputError(f"vessel parameter '{f.name}' must not be negative, got {value!r}")
+            if f.name not in SIGNED_FIELDS + NON_NEGATIVE_FIELDS and value <= 0.0:
                 raise InputError(f"vessel parameter '{f.name}' must be positive, got {value!r}")
         if self.turn_steering_rad >= self.max_steering_rad + 1e-12:
             raise InputError("vessel parameter 'turn_steering_rad' must not exceed 'max_steering_rad'")

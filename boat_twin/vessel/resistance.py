@@ -7,7 +7,9 @@ with the square of speed (Savitsky 1964; Faltinsen 2005, ch. 9), so this is the 
 
 Models are written to / read from plain dicts (the YAML of a vessel or of an identified model):
 ``{"model": "table", "speed_mps": [...], "force_N": [...]}`` or
-``{"model": "power_series", "coefficients": [c0, c1, ...], "max_speed_mps": u_max}`` with c_i in N/(m/s)^i.
+``{"model": "power_series", "coefficients": [c0, c1, ...], "max_speed_mps": u_max}`` with c_i in N/(m/s)^i, or
+``{"model": "corrected", "base": {...}, "speed_mps": [...], "factor": [...]}`` (a base curve times a
+piecewise-linear factor: what the diagnosis' ``resistance_shape`` writes).
 """
 
 from __future__ import annotations
@@ -122,6 +124,45 @@ class PowerSeriesResistance:
         }
 
 
+@dataclass(frozen=True)
+class CorrectedResistance:
+    """A base curve times a piecewise-linear factor of speed: Fc(u) = Fc_base(u)·k(u).
+
+    ``k`` is linear between the knots (``speeds_mps``, ``factors``) and constant beyond the first and the
+    last knot. It describes a resistance that differs from the base over a speed band (fouling, a load, a
+    different displacement-to-planing transition).
+    """
+
+    base: ResistanceModel
+    speeds_mps: tuple[float, ...]
+    factors: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        knots, factors = np.asarray(self.speeds_mps, float), np.asarray(self.factors, float)
+        if knots.size < 2 or knots.size != factors.size or np.any(np.diff(knots) <= 0):
+            raise InputError("corrected resistance: need ≥ 2 increasing 'speed_mps' knots, one 'factor' each")
+        if not np.all(np.isfinite(factors)) or np.any(factors <= 0):
+            raise InputError("corrected resistance: every 'factor' must be a positive number")
+
+    @property
+    def max_speed_mps(self) -> float:
+        """Speed up to which the base is valid, m/s."""
+        return self.base.max_speed_mps
+
+    def factor(self, speed_mps: np.ndarray | float) -> np.ndarray:
+        """k(|u|), -."""
+        return np.interp(np.abs(np.asarray(speed_mps, dtype=float)), self.speeds_mps, self.factors)
+
+    def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:  # noqa: N802
+        """Fc_base(u)·k(|u|), N."""
+        return self.base.force_N(speed_mps) * self.factor(speed_mps)
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"model": "corrected", "base": {...}, "speed_mps": [...], "factor": [...]}``."""
+        return {"model": "corrected", "base": self.base.to_dict(), "speed_mps": [float(x) for x in self.speeds_mps],
+                "factor": [float(x) for x in self.factors]}
+
+
 def _float_list(spec: Mapping[str, Any], key: str, where: str) -> tuple[float, ...]:
     values = spec.get(key)
     if not isinstance(values, Sequence) or isinstance(values, str):
@@ -145,7 +186,13 @@ def resistance_from_dict(spec: Mapping[str, Any], where: str = "resistance") -> 
         except (TypeError, ValueError):
             raise InputError(f"{where}: 'max_speed_mps' must be a number") from None
         return PowerSeriesResistance(_float_list(spec, "coefficients", where), max_speed)
-    raise InputError(f"{where}: unknown model {kind!r} (expected 'table' or 'power_series')")
+    if kind == "corrected":
+        base = resistance_from_dict(spec.get("base"), f"{where}: base")
+        try:
+            return CorrectedResistance(base, _float_list(spec, "speed_mps", where), _float_list(spec, "factor", where))
+        except InputError as err:
+            raise InputError(f"{where}: {err}") from None
+    raise InputError(f"{where}: unknown model {kind!r} (expected 'table', 'power_series' or 'corrected')")
 
 
 def dyda2021_resistance() -> TableResistance:

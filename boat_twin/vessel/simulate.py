@@ -73,7 +73,7 @@ def simulate(
         states[:, 3] = scenario.initial_surge_mps
     else:
         states = np.array(initial_states, dtype=float)
-    currents = np.tile([environment.current_east_mps, environment.current_north_mps], (states.shape[0], 1))
+    environments = np.tile(environment.as_vector(), (states.shape[0], 1))
     n_ticks = int(np.floor(scenario.duration_s * OUTPUT_RATE_HZ + 1e-9)) + 1
     t_s = np.arange(n_ticks) / OUTPUT_RATE_HZ
     substeps = int(round(INTEGRATION_RATE_HZ / OUTPUT_RATE_HZ))
@@ -82,7 +82,7 @@ def simulate(
         index = np.searchsorted(scenario.times_s, t_s + 1e-9, side="right") - 1
         rows = np.where(index[:, None] >= 0, scenario.values[np.maximum(index, 0)], 0.0)
         commands = np.repeat(rows[:, None, :], states.shape[0], axis=1)
-        out_states, derivatives = dynamics.run(states, commands, currents, dt_s, substeps)
+        out_states, derivatives = dynamics.run(states, commands, environments, dt_s, substeps)
     else:
         commands = np.empty((n_ticks, states.shape[0], 4))
         out_states = np.empty((n_ticks,) + states.shape)
@@ -90,6 +90,6 @@ def simulate(
         for i, t in enumerate(t_s):
             commands[i] = scenario.command(float(t), states)
             out_states[i : i + 1], derivatives[i : i + 1] = dynamics.run(
-                states, commands[i : i + 1], currents, dt_s, substeps
+                states, commands[i : i + 1], environments, dt_s, substeps
             )
     return SimulationRecord(t_s, out_states, commands, derivatives, environment)

@@ -1,0 +1,156 @@
+"""The diagnosis of a trial as the ``--json`` contract, a short readable report and PNG plots."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows
+from boat_twin.diagnose.search import BIC_THRESHOLD, MIN_HELDOUT_GAIN, Candidate, Fit, Selection, ci95
+from boat_twin.diagnose.structure import Signature
+
+UNITS = {"vel_east_mps": "m/s", "vel_north_mps": "m/s", "yaw_rate_radps": "rad/s", "heading_rad": "rad",
+         "speed_mps": "m/s", "position_m": "m"}
+"""Unit of every reported signal."""
+
+
+def signal_rmse(windows: Windows, prediction: Prediction) -> dict[str, float]:
+    """RMS of measured − predicted per signal, speed over ground and horizontal position, SI."""
+    out = {}
+    for s in SIGNALS:
+        out[s] = float(np.sqrt(np.nanmean((windows.measured[s] - prediction.signals[s]) ** 2)))
+    measured_speed = np.hypot(windows.measured["vel_east_mps"], windows.measured["vel_north_mps"])
+    predicted_speed = np.hypot(prediction.signals["vel_east_mps"], prediction.signals["vel_north_mps"])
+    out["speed_mps"] = float(np.sqrt(np.nanmean((measured_speed - predicted_speed) ** 2)))
+    miss = np.linalg.norm(windows.position - prediction.position, axis=-1)
+    out["position_m"] = float(np.sqrt(np.nanmean(miss**2)))
+    return out
+
+
+def _signal_gain(new: Fit, old: Fit) -> dict[str, float]:
+    """Held-out gain per signal: 1 − held-out SSE(new) / held-out SSE(old)."""
+    return {s: float(1.0 - new.heldout_sse[i] / old.heldout_sse[i]) for i, s in enumerate(SIGNALS)}
+
+
+def _candidate_dict(candidate: Candidate, round_index: int) -> dict[str, Any]:
+    _, values, _ = candidate.fit.split()[-1]
+    return {"effect": candidate.effect.name, "parameters": candidate.effect.named(values),
+            "delta_bic": candidate.delta_bic, "heldout_gain": candidate.heldout_gain, "round": round_index + 1,
+            "named": candidate.named}
+
+
+def verdict(selection: Selection) -> list[dict[str, Any]]:
+    """The named effects with their final parameters, 95 % intervals and held-out gain per signal."""
+    out, previous = [], selection.baseline
+    final = {e.name: (v, s) for e, v, s in selection.final.split()}
+    for candidate in selection.named:
+        values, stderr = final[candidate.effect.name]
+        lo, hi = ci95(values, stderr)
+        out.append({
+            "effect": candidate.effect.name,
+            "parameters": candidate.effect.named(values),
+            "ci95": {n: [float(a), float(b)] for n, a, b in zip(candidate.effect.parameter_names, lo, hi,
+                                                                  strict=True)},
+            "gain": _signal_gain(candidate.fit, previous),
+        })
+        previous = candidate.fit
+    return out
+
+
+def result_dict(windows: Windows, selection: Selection, baseline: Prediction, extended: Prediction,
+                signatures: list[Signature], extended_model: str | None, sigma: dict[str, float]) -> dict[str, Any]:
+    """The ``--json`` contract (SI units)."""
+    candidates = [_candidate_dict(c, i) for i, r in enumerate(selection.rounds) for c in r]
+    return {
+        "trial": windows.trial.metadata.source,
+        "windows": {"count": int(windows.t_s.shape[1]), "length_s": float(windows.t_s.shape[0] * windows.dt_s)},
+        "noise": sigma,
+        "baseline": {"rmse": signal_rmse(windows, baseline)},
+        "extended": {"rmse": signal_rmse(windows, extended)},
+        "candidates": candidates,
+        "verdict": verdict(selection),
+        "unexplained": bool(signatures),
+        "signature": [s.to_dict() for s in signatures],
+        "extended_model": extended_model,
+    }
+
+
+def text_report(result: dict[str, Any]) -> str:
+    """What was wrong, where, the cause, its size ± uncertainty, the gain per signal."""
+    lines = [f"trial       {result['trial']}: {result['windows']['count']} windows of "
+             f"{result['windows']['length_s']:g} s replayed from the sensors"]
+    base, ext = result["baseline"]["rmse"], result["extended"]["rmse"]
+    lines.append("signal            baseline RMSE   extended RMSE")
+    for s in ("speed_mps", *SIGNALS, "position_m"):
+        lines.append(f"  {s:16s} {base[s]:10.4f}      {ext[s]:10.4f}  {UNITS[s]}")
+    if not result["verdict"]:
+        lines.append("verdict     no significant discrepancy a catalogue effect explains")
+    for v in result["verdict"]:
+        parts = [f"{k} = {val:.4g} [{v['ci95'][k][0]:.4g}, {v['ci95'][k][1]:.4g}]" for k, val in
+                 v["parameters"].items()]
+        gains = ", ".join(f"{s} {g:+.0%}" for s, g in v["gain"].items() if abs(g) >= 0.005)
+        lines.append(f"verdict     {v['effect']}: " + "; ".join(parts))
+        lines.append(f"            held-out gain: {gains}")
+    first = [c for c in result["candidates"] if c["round"] == 1]
+    lines.append("candidates (round 1)  ΔBIC      held-out gain")
+    for c in sorted(first, key=lambda c: c["delta_bic"]):
+        lines.append(f"  {c['effect']:18s} {c['delta_bic']:10.1f}  {c['heldout_gain']:+8.1%}")
+    if result["unexplained"]:
+        for sig in result["signature"]:
+            lines.append(f"unexplained {sig['signal']}: held-out R² {sig['heldout_r2']:.2f}, correlated with "
+                         f"{', '.join(sig['correlated_with'])}; worst around t = {sig['worst_time_s']:.0f} s")
+    if result["extended_model"]:
+        lines.append(f"model       {result['extended_model']}")
+    return "\n".join(lines)
+
+
+def _concatenated(windows: Windows, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Windows joined along trial time, NaN between them so lines break."""
+    t = np.vstack([windows.t_s, np.full((1, windows.t_s.shape[1]), np.nan)]).T.ravel()
+    v = np.vstack([values, np.full((1, values.shape[1]), np.nan)]).T.ravel()
+    return t, v
+
+
+def signal_figure(windows: Windows, baseline: Prediction, extended: Prediction, signals: list[str]) -> Figure:
+    """Measured vs baseline vs extended prediction for each signal concerned."""
+    fig = Figure(figsize=(10, 2.6 * len(signals)), layout="constrained")
+    for ax, s in zip(fig.subplots(len(signals), 1, squeeze=False)[:, 0], signals, strict=True):
+        ax.plot(*_concatenated(windows, windows.measured[s]), ".", ms=1.5, color="0.5", label="measured")
+        ax.plot(*_concatenated(windows, baseline.signals[s]), lw=1.0, label="baseline model")
+        ax.plot(*_concatenated(windows, extended.signals[s]), lw=1.0, label="extended model")
+        ax.set_ylabel(f"{s} [{UNITS[s]}]")
+    ax.set_xlabel("trial time [s]")
+    ax.legend(loc="upper right", fontsize=8)
+    return fig
+
+
+def residual_figure(windows: Windows, baseline: Prediction, extended: Prediction) -> Figure:
+    """Residuals (measured − predicted) of every signal before and after the extension."""
+    fig = Figure(figsize=(10, 9), layout="constrained")
+    for ax, s in zip(fig.subplots(len(SIGNALS), 1)[:], SIGNALS, strict=True):
+        ax.plot(*_concatenated(windows, windows.measured[s] - baseline.signals[s]), lw=0.6, label="baseline")
+        ax.plot(*_concatenated(windows, windows.measured[s] - extended.signals[s]), lw=0.6, label="extended")
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_ylabel(f"Δ{s} [{UNITS[s]}]", fontsize=8)
+    ax.set_xlabel("trial time [s]")
+    ax.legend(loc="upper right", fontsize=8)
+    return fig
+
+
+def evidence_figure(result: dict[str, Any]) -> Figure:
+    """ΔBIC and held-out gain of every candidate in round 1, with the decision thresholds."""
+    first = sorted([c for c in result["candidates"] if c["round"] == 1], key=lambda c: c["delta_bic"])
+    names = [c["effect"] for c in first]
+    fig = Figure(figsize=(10, 4), layout="constrained")
+    ax_bic, ax_gain = fig.subplots(1, 2)
+    ax_bic.barh(names, [c["delta_bic"] for c in first], color=["C3" if c["named"] else "C0" for c in first])
+    ax_bic.axvline(BIC_THRESHOLD, color="k", ls="--", lw=0.8)
+    ax_bic.set_xscale("symlog")
+    ax_bic.set_xlabel("ΔBIC against the baseline (named: red; threshold dashed)")
+    ax_gain.barh(names, [100 * c["heldout_gain"] for c in first])
+    ax_gain.axvline(100 * MIN_HELDOUT_GAIN, color="k", ls="--", lw=0.8)
+    ax_gain.set_xlabel("held-out gain [%]")
+    ax_gain.set_yticklabels([])
+    return fig

@@ -1,0 +1,267 @@
+"""Fit catalogue effects to a trial, judge them on held-out time, and name the ones the data support.
+
+Method (README "Diagnosis" states it with the numbers):
+
+- Residuals are measured − predicted (:mod:`~boat_twin.diagnose.replay`) per signal, divided by the signal's
+  white-noise level estimated from the data itself, so signals of different units weigh by their information.
+- The windows are grouped into :data:`FOLDS` contiguous blocks of time. A model's parameters are fitted
+  (``scipy.optimize.least_squares``) on all blocks but one and judged on the one left out, for every block:
+  the *held-out gain* of a candidate is 1 − SSE_held-out(candidate) / SSE_held-out(current model).
+  The same fold fits give jackknife standard errors of the parameters (so time-correlated residuals widen
+  them honestly) and 95 % intervals with the t quantile of FOLDS − 1 degrees of freedom.
+- BIC with an effective sample size: each signal's n divided by the integrated autocorrelation time of the
+  candidate's residuals, ΔBIC = Σ_s n_eff,s·ln(SSE_s,new / SSE_s,old) + Δk·ln(Σ n_eff,s).
+- Decision rule: a candidate is *named* when ΔBIC < :data:`BIC_THRESHOLD` (very strong evidence, Kass &
+  Raftery 1995) **and** its held-out gain > :data:`MIN_HELDOUT_GAIN` **and** its 95 % interval excludes the
+  null value of at least one parameter **and** its size reaches :data:`~boat_twin.diagnose.effects.MIN_SIZES`.
+  Forward selection: the named candidate with the lowest ΔBIC joins the model, its parameters stay free,
+  and the remaining candidates are tried again against the extended model.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.stats import t as student_t
+
+from boat_twin.config import TwinConfig
+from boat_twin.diagnose.effects import MIN_SIZES, Effect
+from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, noise_scale, predict
+from boat_twin.errors import InputError
+
+FOLDS = 5
+"""Contiguous blocks of time for held-out judgement and jackknife uncertainty."""
+BIC_THRESHOLD = -10.0
+"""ΔBIC below this names a candidate (with the two other conditions): 'very strong' evidence."""
+MIN_HELDOUT_GAIN = 0.01
+"""A named candidate must lower the held-out weighted SSE by more than this fraction."""
+MAX_EFFECTS = 3
+"""Forward selection stops after this many named effects."""
+INFEASIBLE_RESIDUAL = 1e3
+"""Normalized residual of every sample for parameters the vessel loader refuses: steers the fit away."""
+MAX_EVALUATIONS = 40
+"""Model evaluations per least-squares fit (each a replay of every window)."""
+
+
+@dataclass
+class Residuals:
+    """Normalized residuals of one model: signal → (T, m) (NaN where not measured)."""
+
+    values: dict[str, np.ndarray]
+    prediction: Prediction
+
+    def sse(self) -> np.ndarray:
+        """(n_signals, m) sums of squares per signal and window."""
+        return np.stack([np.nansum(self.values[s] ** 2, axis=0) for s in SIGNALS])
+
+    def counts(self) -> np.ndarray:
+        """(n_signals, m) samples per signal and window."""
+        return np.stack([np.sum(np.isfinite(self.values[s]), axis=0) for s in SIGNALS])
+
+
+@dataclass
+class Fit:
+    """A model (effects with parameters) fitted to a trial, with its held-out judgement."""
+
+    effects: list[Effect]
+    values: np.ndarray
+    """All effects' parameters, concatenated, SI."""
+    stderr: np.ndarray
+    sse: np.ndarray
+    """(n_signals,) in-sample SSE with the full-data fit."""
+    heldout_sse: np.ndarray
+    """(n_signals,) SSE of every block predicted by the fit without it."""
+    residuals: Residuals
+    n_eff: np.ndarray = field(default_factory=lambda: np.zeros(len(SIGNALS)))
+    """(n_signals,) effective sample sizes of the residuals."""
+
+    def split(self) -> list[tuple[Effect, np.ndarray, np.ndarray]]:
+        """(effect, values, stderr) per effect."""
+        out, i = [], 0
+        for effect in self.effects:
+            out.append((effect, self.values[i:i + effect.size], self.stderr[i:i + effect.size]))
+            i += effect.size
+        return out
+
+
+def correlation_time(residual: np.ndarray) -> float:
+    """Integrated autocorrelation time (samples) of (T, m) residuals: 1 + 2·Σρ(k) up to ρ's first dip < 0.05."""
+    x = np.where(np.isfinite(residual), residual, 0.0)
+    x = x - x.mean(axis=0)
+    var = float(np.sum(x * x))
+    if var <= 0.0:
+        return 1.0
+    tau = 1.0
+    for lag in range(1, x.shape[0] // 2):
+        rho = float(np.sum(x[lag:] * x[:-lag])) / var
+        if rho < 0.05:
+            break
+        tau += 2.0 * rho
+    return tau
+
+
+class Diagnosis:
+    """One trial's windows, the base model, and everything needed to fit and judge extensions of it."""
+
+    def __init__(self, windows: Windows, base: TwinConfig, progress: Callable[[str], None] | None = None) -> None:
+        self.windows = windows
+        self.base = base
+        self.sigma = {s: noise_scale(windows.measured[s]) for s in SIGNALS}
+        m = windows.t_s.shape[1]
+        self.folds = np.minimum(np.arange(m) * FOLDS // m, FOLDS - 1)
+        self.progress = progress or (lambda _msg: None)
+        self.evaluations = 0
+
+    def config(self, effects: list[Effect], values: np.ndarray) -> TwinConfig:
+        """The base extended by ``effects`` with the concatenated parameter ``values``."""
+        config, i = self.base, 0
+        for effect in effects:
+            config = effect.apply(config, values[i:i + effect.size])
+            i += effect.size
+        return config
+
+    def residuals(self, config: TwinConfig) -> Residuals:
+        """Normalized residuals of ``config`` over every window."""
+        self.evaluations += 1
+        try:
+            prediction = predict(self.windows, config)
+        except InputError:  # parameters the boat cannot have (e.g. a reference turn it could not hold)
+            infeasible = {s: np.full(self.windows.t_s.shape, INFEASIBLE_RESIDUAL) for s in SIGNALS}
+            return Residuals(infeasible, Prediction(infeasible, np.zeros(self.windows.position.shape)))
+        values = {}
+        for s in SIGNALS:
+            scale = self.sigma[s] if np.isfinite(self.sigma[s]) and self.sigma[s] > 0 else 1.0
+            values[s] = (self.windows.measured[s] - prediction.signals[s]) / scale
+        return Residuals(values, prediction)
+
+    def _fit_values(self, effects: list[Effect], start: np.ndarray, train: np.ndarray) -> np.ndarray:
+        """Least squares over the windows ``train`` (bool (m,)), in scaled parameters; returns SI values."""
+        null = np.concatenate([e.null for e in effects])
+        scale = np.concatenate([e.scale for e in effects])
+        lower = (np.concatenate([e.lower for e in effects]) - null) / scale
+        upper = (np.concatenate([e.upper for e in effects]) - null) / scale
+        # A null on a bound (tow drag 0) would start the trust region on it, where it cannot grow: start one
+        # scale unit inside.
+        x0 = np.clip((start - null) / scale, lower + np.minimum(1.0, (upper - lower) / 2), upper - 1e-9)
+
+        def fun(x: np.ndarray) -> np.ndarray:
+            res = self.residuals(self.config(effects, null + scale * x))
+            stacked = np.concatenate([res.values[s][:, train].ravel() for s in SIGNALS])
+            return np.where(np.isfinite(stacked), stacked, 0.0)
+
+        result = least_squares(fun, x0, bounds=(lower, upper), diff_step=0.01, max_nfev=MAX_EVALUATIONS,
+                               method="trf", x_scale=1.0, xtol=1e-3, ftol=1e-4)
+        return null + scale * result.x
+
+    def fit(self, effects: list[Effect], start: np.ndarray | None = None) -> Fit:
+        """Fit ``effects`` on all windows and on every leave-one-block-out split."""
+        null = np.concatenate([e.null for e in effects]) if effects else np.zeros(0)
+        start = null if start is None else start
+        all_windows = np.ones(self.folds.size, dtype=bool)
+        if not effects:
+            res = self.residuals(self.base)
+            sse = res.sse().sum(axis=1)
+            return self._finish(Fit(effects, null, np.zeros(0), sse, sse, res))
+        values = self._fit_values(effects, start, all_windows)
+        res = self.residuals(self.config(effects, values))
+        heldout = np.zeros(len(SIGNALS))
+        fold_values = []
+        for k in range(FOLDS):
+            held = self.folds == k
+            fold = self._fit_values(effects, values, ~held)
+            fold_values.append(fold)
+            heldout += self.residuals(self.config(effects, fold)).sse()[:, held].sum(axis=1)
+        fold_values = np.array(fold_values)
+        stderr = np.sqrt((FOLDS - 1) / FOLDS * np.sum((fold_values - fold_values.mean(axis=0)) ** 2, axis=0))
+        return self._finish(Fit(effects, values, stderr, res.sse().sum(axis=1), heldout, res))
+
+    def _finish(self, fit: Fit) -> Fit:
+        counts = fit.residuals.counts().sum(axis=1)
+        tau = np.array([correlation_time(fit.residuals.values[s]) for s in SIGNALS])
+        fit.n_eff = counts / tau
+        return fit
+
+
+def delta_bic(new: Fit, old: Fit) -> float:
+    """BIC(new) − BIC(old) with the new model's effective sample sizes (see the module docstring)."""
+    n_eff = np.maximum(new.n_eff, 1.0)
+    ratio = np.maximum(new.sse, 1e-300) / np.maximum(old.sse, 1e-300)
+    extra = new.values.size - old.values.size
+    return float(np.sum(n_eff * np.log(ratio)) + extra * np.log(np.sum(n_eff)))
+
+
+def heldout_gain(new: Fit, old: Fit) -> float:
+    """1 − held-out SSE(new) / held-out SSE(old), all signals weighted by their noise."""
+    return float(1.0 - new.heldout_sse.sum() / old.heldout_sse.sum())
+
+
+def ci95(values: np.ndarray, stderr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """95 % interval with the t quantile of FOLDS − 1 degrees of freedom."""
+    half = student_t.ppf(0.975, FOLDS - 1) * stderr
+    return values - half, values + half
+
+
+def excludes_null(effect: Effect, values: np.ndarray, stderr: np.ndarray) -> bool:
+    """True when the 95 % interval of at least one parameter leaves out the effect's null value."""
+    lo, hi = ci95(values, stderr)
+    return bool(np.any((effect.null < lo) | (effect.null > hi)))
+
+
+@dataclass
+class Candidate:
+    """One effect tried against the current model in one round of forward selection."""
+
+    effect: Effect
+    fit: Fit
+    delta_bic: float
+    heldout_gain: float
+    significant: bool
+    size: float
+    """The effect's magnitude (:attr:`Effect.magnitude`)."""
+
+    @property
+    def named(self) -> bool:
+        """The decision rule."""
+        return (self.delta_bic < BIC_THRESHOLD and self.heldout_gain > MIN_HELDOUT_GAIN and self.significant
+                and self.size >= MIN_SIZES[self.effect.name])
+
+
+@dataclass
+class Selection:
+    """The outcome of forward selection."""
+
+    baseline: Fit
+    final: Fit
+    rounds: list[list[Candidate]]
+    named: list[Candidate]
+    """The named candidates in the order they joined the model."""
+
+
+def forward_select(diagnosis: Diagnosis, effects: dict[str, Effect]) -> Selection:
+    """Forward selection over ``effects`` with the decision rule of :class:`Candidate`."""
+    baseline = diagnosis.fit([])
+    current = baseline
+    rounds: list[list[Candidate]] = []
+    chosen: list[Candidate] = []
+    remaining = dict(effects)
+    while remaining and len(current.effects) < MAX_EFFECTS:
+        round_ = []
+        for name, effect in remaining.items():
+            diagnosis.progress(f"round {len(rounds) + 1}: {name}")
+            start = np.concatenate([current.values, effect.null])
+            fit = diagnosis.fit(current.effects + [effect], start)
+            _, values, stderr = fit.split()[-1]
+            round_.append(Candidate(effect, fit, delta_bic(fit, current), heldout_gain(fit, current),
+                                    excludes_null(effect, values, stderr), effect.magnitude(values)))
+        rounds.append(round_)
+        named = [c for c in round_ if c.named]
+        if not named:
+            break
+        best = min(named, key=lambda c: c.delta_bic)
+        chosen.append(best)
+        current = best.fit
+        del remaining[best.effect.name]
+    return Selection(baseline, current, rounds, chosen)

@@ -1,0 +1,88 @@
+"""Is anything left in the residuals? A held-out regression of each signal's residual on what the boat did.
+
+After the best extensions, a residual that is only noise (and the replay's own small initialization error)
+cannot be predicted from the boat's situation. A residual that an unmodelled effect leaves — a wind that
+depends on heading, a drag that depends on speed — can. Each signal's normalized residual is regressed on
+:data:`REGRESSOR_NAMES`, each also multiplied by the time since the window's start (an unmodelled force
+makes the error grow through the window), with the same leave-one-block-out folds as the diagnosis; the
+held-out R² above :data:`R2_THRESHOLD` marks structure. The signature names the signal, the regressors that
+carry it and the time where the residual is largest.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from boat_twin.diagnose.replay import SIGNALS, Windows
+
+REGRESSOR_NAMES = ("cos_heading", "sin_heading", "speed", "yaw_rate", "thrust_sum", "thrust_difference",
+                   "steering")
+"""What the residual may depend on, from commands and measurements."""
+R2_THRESHOLD = 0.15
+"""Held-out R² of a residual above this: structure the model does not explain (set above what clean trials
+of every kind give in the accuracy study, README 'Diagnosis')."""
+RIDGE = 1e-3
+"""Ridge regularization relative to the regressors' scale (they are standardized)."""
+
+
+@dataclass(frozen=True)
+class Signature:
+    """Structure left in one signal's residual."""
+
+    signal: str
+    heldout_r2: float
+    correlated_with: tuple[str, ...]
+    """The regressors with the largest standardized weights, strongest first."""
+    worst_time_s: float
+    """Trial time of the middle of the window where the residual is largest, s."""
+
+    def to_dict(self) -> dict[str, object]:
+        """Plain data for the JSON report."""
+        return {"signal": self.signal, "heldout_r2": self.heldout_r2, "correlated_with": list(self.correlated_with),
+                "worst_time_s": self.worst_time_s}
+
+
+def regressors(windows: Windows) -> tuple[np.ndarray, tuple[str, ...]]:
+    """(T, m, k) regressors and their names: the situation, and the situation × time into the window."""
+    cmd = windows.commands
+    heading = windows.measured["heading_rad"]
+    speed = np.hypot(windows.measured["vel_east_mps"], windows.measured["vel_north_mps"])
+    base = np.stack([np.cos(heading), np.sin(heading), speed, windows.measured["yaw_rate_radps"],
+                     cmd[..., 0] + cmd[..., 1], cmd[..., 0] - cmd[..., 1], 0.5 * (cmd[..., 2] + cmd[..., 3])],
+                    axis=-1)
+    elapsed = (windows.t_s - windows.t_s[0])[..., None]
+    names = REGRESSOR_NAMES + tuple(f"{n}*time" for n in REGRESSOR_NAMES)
+    return np.concatenate([base, base * elapsed, np.ones(base.shape[:2] + (1,))], axis=-1), names
+
+
+def _solve(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    gram = x.T @ x
+    return np.linalg.solve(gram + RIDGE * np.trace(gram) / gram.shape[0] * np.eye(gram.shape[0]), x.T @ y)
+
+
+def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], folds: np.ndarray) -> list[Signature]:
+    """Signals whose residual the situation predicts on held-out blocks (held-out R² > R2_THRESHOLD)."""
+    x_all, names = regressors(windows)
+    found = []
+    for signal in SIGNALS:
+        r = residuals[signal]
+        ok = np.isfinite(r) & np.all(np.isfinite(x_all), axis=-1)
+        mean, std = x_all[ok].mean(axis=0), x_all[ok].std(axis=0)
+        std[std == 0] = 1.0
+        std[-1], mean[-1] = 1.0, 0.0
+        x = (x_all - mean) / std
+        predicted = np.full(r.shape, np.nan)
+        for k in np.unique(folds):
+            train = ok & (folds != k)[None, :]
+            test = ok & (folds == k)[None, :]
+            predicted[test] = x[test] @ _solve(x[train], r[train])
+        r2 = 1.0 - np.nansum((r - predicted)[ok] ** 2) / np.sum((r[ok] - r[ok].mean()) ** 2)
+        if r2 > R2_THRESHOLD:
+            weights = _solve(x[ok], r[ok])[:-1]
+            order = np.argsort(-np.abs(weights))[:3]
+            worst = int(np.nanargmax(np.nanmean(r**2, axis=0)))
+            middle = float(windows.t_s[windows.t_s.shape[0] // 2, worst])
+            found.append(Signature(signal, float(r2), tuple(names[i] for i in order), middle))
+    return found
