@@ -63,7 +63,7 @@ def scenario(kind: str, params: VesselParams, rng: np.random.Generator, duration
 
 def draw_effect(name: str, base: TwinConfig, rng: np.random.Generator) -> tuple[TwinConfig, dict[str, Any]]:
     """The true config with effect ``name`` at a random size 1.2-2× its threshold, and the truth to find."""
-    size = THRESHOLDS[name] * rng.uniform(1.2, 2.0)
+    size = THRESHOLDS.get(name, 1.0) * rng.uniform(1.2, 2.0)
     sign = float(rng.choice([-1.0, 1.0]))
     vessel = base.vessel
     if name == "water_current":
