@@ -327,7 +327,8 @@ class _Rows:
         self.data.extend(row)
 
     def array(self) -> np.ndarray:
-        return np.frombuffer(self.data, dtype=float).reshape(-1, self.width).copy()
+        """The rows as an (n, width) view of the buffer (no copy; append nothing after this)."""
+        return np.frombuffer(self.data, dtype=float).reshape(-1, self.width)
 
 
 class _Chatter:
@@ -511,7 +512,7 @@ def _read_tlog(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[str, 
                               msg.roll, -msg.pitch, msg.rollspeed, -msg.pitchspeed))
 
     def raw_imu(msg: Any, recv: float) -> None:
-        if getattr(msg, "id", 0):
+        if "id" in msg.fieldnames and msg.id:  # (without the field, msg.id is the message id)
             return  # a second IMU
         t, sid = usec64(msg.time_usec, recv, current=True)
         rows["RAW_IMU"].add((t, sid, msg.xacc * mg, -msg.yacc * mg, -msg.zacc * mg,
@@ -706,21 +707,21 @@ def _resample(src_t: np.ndarray, src_v: np.ndarray, dst_t: np.ndarray) -> np.nda
     """Linear interpolation of (n, k) samples onto ``dst_t``; NaN outside them and across gaps."""
     out = np.full((dst_t.size, src_v.shape[1]), np.nan)
     order = np.argsort(src_t, kind="stable")
-    t, v = src_t[order], src_v[order]
+    t = src_t[order]
     keep = np.concatenate([[True], np.diff(t) > 0]) if t.size else np.zeros(0, bool)
-    t, v = t[keep], v[keep]
+    rows, t = order[keep], t[keep]
     if t.size == 0:
         return out
     if t.size == 1:
-        out[np.abs(dst_t - t[0]) < 1e-6] = v[0]
+        out[np.abs(dst_t - t[0]) < 1e-6] = src_v[rows[0]]
         return out
     max_gap = GAP_TOLERANCE_PERIODS * float(np.median(np.diff(t)))
     right = np.clip(np.searchsorted(t, dst_t), 1, t.size - 1)
-    left = right - 1
-    w = ((dst_t - t[left]) / (t[right] - t[left]))[:, None]
-    out = v[left] + w * (v[right] - v[left])
-    bad = (dst_t < t[0] - 1e-6) | (dst_t > t[-1] + 1e-6) | (t[right] - t[left] > max_gap)
-    out[bad] = np.nan
+    bad = (dst_t < t[0] - 1e-6) | (dst_t > t[-1] + 1e-6) | (t[right] - t[right - 1] > max_gap)
+    for k in range(src_v.shape[1]):  # column by column: no (n, k) temporaries
+        column = np.interp(dst_t, t, src_v[rows, k])
+        column[bad] = np.nan
+        out[:, k] = column
     return out
 
 
