@@ -17,6 +17,7 @@ setup(
         (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
         (f"share/{PACKAGE}/config/cable", glob("config/cable/*.yaml")),
+        (f"share/{PACKAGE}/config/mavlink", glob("config/mavlink/*.yaml")),
     ],
     python_requires=">=3.10",
     install_requires=[
