@@ -122,6 +122,8 @@ def test_runs_test_sees_structure_and_not_noise() -> None:
     (["diagnose", "--table", "nope"], "dyda2021"),
     (["diagnose", "--table", "dyda2021", "--model-order", "2"], "orders 1, 3, 5"),
     (["diagnose", "missing.mcap"], "missing.mcap"),
+    (["diagnose", "missing.mcap", "--table", "dyda2021"], "either a TRIAL or --table"),
+    (["diagnose", "missing.mcap", "--window", "0"], "--window"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv: list[str], message: str, capsys: pytest.CaptureFixture) -> None:
     assert main(argv) == 2
@@ -134,3 +136,10 @@ def test_outputs_are_not_overwritten_without_force(tmp_path: Path, capsys: pytes
     assert main(["diagnose", "--table", "dyda2021", "--out", str(tmp_path)]) == 2
     assert (tmp_path / "extended_model.yaml").read_text() == "keep\n"
     assert "--force" in capsys.readouterr().err
+
+
+def test_a_trial_too_short_to_split_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    bag = hidden.write_trial(tmp_path / "short.mcap", TwinConfig(), "random", 1, 60.0)
+    assert main(["diagnose", str(bag)]) == 2
+    err = capsys.readouterr().err
+    assert "windows" in err and "at least" in err and err.count("\n") == 1

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from boat_twin.config import TwinConfig, load_config, save_config
+from boat_twin.config import TwinConfig, save_config
 from boat_twin.data import dyda2021_table1
 from boat_twin.diagnose.effects import catalogue
 from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, cut_windows
@@ -33,7 +33,7 @@ from boat_twin.io.files import (
 from boat_twin.io.sources import TRIAL_HELP, add_trial_options, trial_from_args
 from boat_twin.io.trial import Trial
 from boat_twin.units import KGF_N, KNOT_MPS
-from boat_twin.vessel.params import load_params
+from boat_twin.vessel.command import load_twin_config
 from boat_twin.vessel.resistance import TableResistance
 
 WINDOW_S = 20.0
@@ -72,13 +72,6 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
     return TrialDiagnosis(windows, selection, base, extended, baseline_prediction, extended_prediction, result)
 
 
-def _base_config(args: argparse.Namespace) -> TwinConfig:
-    config = load_config(args.config) if args.config else TwinConfig()
-    if args.model:
-        config = replace(config, vessel=load_params(args.model, config.vessel))
-    return config
-
-
 def _out_dir(args: argparse.Namespace, names: tuple[str, ...]) -> Path | None:
     """--out, checked before any work: existing outputs are refused without --force (replaced atomically)."""
     if args.out is None:
@@ -98,7 +91,7 @@ def _run_trial(args: argparse.Namespace) -> int:
     out = _out_dir(args, (EXTENDED_MODEL_NAME, "diagnosis_signals.png", "diagnosis_residuals.png",
                           "diagnosis_evidence.png", "diagnosis.json"))
     trial = trial_from_args(args.trial, args)
-    done = diagnose_trial(trial, _base_config(args), args.window, None if args.json else _progress)
+    done = diagnose_trial(trial, load_twin_config(args), args.window, None if args.json else _progress)
     if not args.json:
         sys.stderr.write("\r" + " " * 72 + "\r")
     result = done.result

@@ -186,16 +186,3 @@ def predict(windows: Windows, config: TwinConfig) -> Prediction:
                  "heading_rad": heading},
         position=position + offset[None, :, :],
     )
-
-
-def noise_scale(values: np.ndarray) -> float:
-    """White-noise standard deviation of a signal sampled along axis 0, from robust second differences.
-
-    For x_k = s_k + e_k with smooth s, Δ²x ≈ e_{k+1} − 2e_k + e_{k−1}, of variance 6σ²; the median
-    absolute deviation (×1.4826) makes outliers and manoeuvres count little.
-    """
-    d2 = np.diff(values, n=2, axis=0)
-    d2 = d2[np.isfinite(d2)]
-    if d2.size < 10:
-        return float("nan")
-    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))

@@ -29,8 +29,9 @@ from scipy.stats import t as student_t
 
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.effects import MIN_SIZES, Effect
-from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, noise_scale, predict
+from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, predict
 from boat_twin.errors import InputError
+from boat_twin.signal_noise import white_noise_stdev
 
 FOLDS = 5
 """Contiguous blocks of time for held-out judgement and jackknife uncertainty."""
@@ -109,7 +110,7 @@ class Diagnosis:
     def __init__(self, windows: Windows, base: TwinConfig, progress: Callable[[str], None] | None = None) -> None:
         self.windows = windows
         self.base = base
-        self.sigma = {s: noise_scale(windows.measured[s]) for s in SIGNALS}
+        self.sigma = {s: white_noise_stdev(windows.measured[s]) for s in SIGNALS}
         m = windows.t_s.shape[1]
         self.folds = np.minimum(np.arange(m) * FOLDS // m, FOLDS - 1)
         self.progress = progress or (lambda _msg: None)

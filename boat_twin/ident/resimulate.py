@@ -17,12 +17,10 @@ from matplotlib.figure import Figure
 
 from boat_twin.errors import InputError
 from boat_twin.io.trial import COMMAND_ROLES, Trial
+from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.vessel.params import VesselParams, params_from_dict
 from boat_twin.vessel.scenarios import CommandProfile
 from boat_twin.vessel.simulate import simulate
-
-MAD_TO_SIGMA = 1.4826
-"""Standard deviation of a normal variable per median absolute deviation, -."""
 
 
 @dataclass(frozen=True)
@@ -68,15 +66,6 @@ class Resimulation:
         }
 
 
-def _speed_noise_mps(speed_mps: np.ndarray) -> float:
-    """σ of white noise on a smooth signal: second differences have variance 6σ²; MAD makes it robust to steps."""
-    d2 = speed_mps[2:] - 2.0 * speed_mps[1:-1] + speed_mps[:-2]
-    d2 = d2[np.isfinite(d2)]
-    if d2.size == 0:
-        return float("nan")
-    return float(MAD_TO_SIGMA * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
-
-
 def _held_commands(trial: Trial, first: int) -> np.ndarray:
     """Commands from sample ``first`` on; a command not yet received there takes its first received value."""
     commands = trial.commands[first:].copy()
@@ -114,7 +103,7 @@ def resimulate(trial: Trial, model: dict[str, Any], base: VesselParams | None = 
         t_s=trial.t_s[first:][keep],
         measured_mps=speed[first:][keep],
         simulated_mps=simulated[keep],
-        speed_noise_mps=_speed_noise_mps(speed[first:]),
+        speed_noise_mps=white_noise_stdev(speed[first:]),
         effective_mass_kg=params.mass_kg * (1.0 + params.surge_added_mass_ratio),
         mass_identified="effective_mass_kg" in model,
     )

@@ -60,13 +60,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def load_twin_config(args: argparse.Namespace) -> TwinConfig:
-    """The configuration from --config, --model and --current, in that order of precedence (last wins)."""
+    """The configuration from --config, --model and --current (where the verb has it), last wins."""
     config = load_config(args.config) if args.config else TwinConfig()
     if args.model:
         config = replace(config, vessel=load_params(args.model, config.vessel))
-    if args.current:
-        config = replace(config, environment=replace(config.environment, current_east_mps=args.current[0],
-                                                     current_north_mps=args.current[1]))
+    current = getattr(args, "current", None)
+    if current:
+        config = replace(config, environment=replace(config.environment, current_east_mps=current[0],
+                                                     current_north_mps=current[1]))
     return config
 
 
