@@ -125,11 +125,12 @@ def plan(seeds: int, effects: tuple[str, ...]) -> list[tuple[str, str, int]]:
     return out
 
 
-def draw(effect: str, base: TwinConfig, seed: int) -> tuple[TwinConfig, dict[str, Any]]:
-    """The true boat of a study trial."""
+def draw(effect: str, base: TwinConfig, kind: str, seed: int, duration_s: float) -> tuple[TwinConfig, dict[str, Any]]:
+    """The true boat of a study trial (a resistance change inside the speeds the trial visits)."""
     if effect == "clean":
         return base, {}
-    return hidden.draw_effect(effect, base, np.random.default_rng(seed))
+    speeds = hidden.visited_speeds_mps(base, kind, seed, duration_s) if effect == "resistance_shape" else (2.5, 7.5)
+    return hidden.draw_effect(effect, base, np.random.default_rng(seed), speeds)
 
 
 def size_error(effect: str, params: dict[str, float], truth: dict[str, Any], base: TwinConfig) -> float | None:
@@ -151,7 +152,7 @@ def size_error(effect: str, params: dict[str, float], truth: dict[str, Any], bas
     if effect == "resistance_shape":
         values = np.array(list(params.values()))
         peak = float(values[np.argmax(np.abs(values))])
-        return abs(peak - truth["change"]) / truth["change"]
+        return abs(peak - truth["change"]) / abs(truth["change"])
     if effect == "tow_load":
         return abs(params["drag_scale"] - truth["drag_scale"]) / truth["drag_scale"]
     return None
@@ -168,7 +169,7 @@ def truth_in_ci(entry: dict[str, Any], truth: dict[str, Any]) -> bool | None:
 def run_trial(effect: str, kind: str, seed: int, base: TwinConfig, duration_s: float, workdir: Path,
               frols: FrolsDetector | None) -> Outcome:
     """Generate, write, read and diagnose one study trial (and run the FROLS reference on it)."""
-    config, truth = draw(effect, base, seed)
+    config, truth = draw(effect, base, kind, seed, duration_s)
     bag = hidden.write_trial(workdir / f"{effect}-{seed}", config, kind, seed, duration_s)
     trial = read_trial(bag)
     shutil.rmtree(bag, ignore_errors=True)

@@ -65,7 +65,8 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
     extended = diagnosis.config(selection.final.effects, selection.final.values)
     baseline_prediction = selection.baseline.residuals.prediction
     extended_prediction = selection.final.residuals.prediction
-    signatures = residual_structure(windows, selection.final.residuals.values, diagnosis.folds)
+    signatures = residual_structure(windows, selection.final.residuals.values, extended_prediction,
+                                    diagnosis.folds)
     result = result_dict(windows, selection, baseline_prediction, extended_prediction, signatures, None,
                          diagnosis.sigma)
     result["evaluations"] = diagnosis.evaluations

@@ -61,8 +61,23 @@ def scenario(kind: str, params: VesselParams, rng: np.random.Generator, duration
     raise ValueError(f"unknown trial kind {kind!r}")
 
 
-def draw_effect(name: str, base: TwinConfig, rng: np.random.Generator) -> tuple[TwinConfig, dict[str, Any]]:
-    """The true config with effect ``name`` at a random size 1.2-2× its threshold, and the truth to find."""
+def visited_speeds_mps(config: TwinConfig, kind: str, seed: int, duration_s: float) -> tuple[float, float]:
+    """10th and 90th percentile of the surge speed of the ``kind`` trial :func:`write_trial` runs with ``seed``,
+    m/s (simulated without noise): where a resistance change can be seen at all."""
+    rng = np.random.default_rng(seed)
+    record = run_sea_trial(config, scenario(kind, config.vessel, rng, duration_s, config.tow), seed,
+                           noise=False).record
+    low, high = np.percentile(record.states[:, 0, 3], [10.0, 90.0])
+    return float(low), float(high)
+
+
+def draw_effect(name: str, base: TwinConfig, rng: np.random.Generator,
+                speeds_mps: tuple[float, float] = (2.5, 7.5)) -> tuple[TwinConfig, dict[str, Any]]:
+    """The true config with effect ``name`` at a random size 1.2-2× its threshold, and the truth to find.
+
+    A ``resistance_shape`` change covers half of the speed range ``speeds_mps`` (m/s; pass the trial's
+    :func:`visited_speeds_mps`), at a random place inside it, with ramps a fifth of its width at both ends.
+    """
     size = THRESHOLDS.get(name, 1.0) * rng.uniform(1.2, 2.0)
     sign = float(rng.choice([-1.0, 1.0]))
     vessel = base.vessel
@@ -87,12 +102,14 @@ def draw_effect(name: str, base: TwinConfig, rng: np.random.Generator) -> tuple[
         factor = 1.0 + sign * size
         return replace(base, vessel=replace(vessel, mass_kg=vessel.mass_kg * factor)), {"mass_factor": factor}
     if name == "resistance_shape":
-        low = rng.uniform(2.5, 4.5)
-        knots = (low - 0.5, low, low + 2.5, low + 3.0)
-        factors = (1.0, 1.0 + size, 1.0 + size, 1.0)
+        width = 0.5 * (speeds_mps[1] - speeds_mps[0])
+        low = rng.uniform(speeds_mps[0], speeds_mps[1] - width)
+        ramp = 0.2 * width
+        knots = (max(low - ramp, 0.0), low, low + width, low + width + ramp)
+        factors = (1.0, 1.0 + sign * size, 1.0 + sign * size, 1.0)
         resistance = CorrectedResistance(vessel.resistance, knots, factors)
-        return replace(base, vessel=replace(vessel, resistance=resistance)), {"band_mps": [low, low + 2.5],
-                                                                               "change": size}
+        return replace(base, vessel=replace(vessel, resistance=resistance)), {"band_mps": [low, low + width],
+                                                                               "change": sign * size}
     if name == "tow_load":
         scale = rng.uniform(0.6, 1.5)
         return replace(base, tow=TowConfig(drag_scale=scale)), {"drag_scale": scale}

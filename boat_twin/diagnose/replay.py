@@ -33,6 +33,8 @@ SETTLING_S = 1.0
 REPLAY_INTEGRATION_RATE_HZ = 20.0
 """RK4 rate of the replay, Hz: on a 20°/20° zigzag it differs from the simulator's 50 Hz by < 2e-7 m/s and
 < 2e-8 rad/s (far below the sensors' noise) at 2.5× less cost."""
+SWAY_OBSERVER_S = 5.0
+"""Run-in of the sway observer before each window, s: ~2 sway time constants at 1.5 m/s, 12 at 10 m/s."""
 MIN_WINDOWS = 6
 """Fewer usable windows than this and a trial cannot be split into training and held-out parts."""
 
@@ -115,29 +117,57 @@ def _integrated(rate: np.ndarray, dt: float) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * dt)])
 
 
-def initial_states(windows: Windows, config: TwinConfig) -> np.ndarray:
+def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, heading: np.ndarray,
+                   surge: np.ndarray, yaw_rate: np.ndarray) -> np.ndarray:
+    """(m,) sway through water at each window's start, m/s: the model's sway equation run over the
+    :data:`SWAY_OBSERVER_S` before it, from rest, driven by the recorded commands and the *measured* heading,
+    surge (GNSS) and yaw rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length).
+
+    Sway is a fast state (time constant m22 / (Y_v·u): 0.4 s at 10 m/s), so it forgets its start; the gyro
+    that drives it through the m11·u·r term is 50× less noisy than a sway read from GNSS velocity and IMU
+    heading (±0.06 m/s), which at low speed turns into a spurious turn of several degrees per window.
+    Samples without commands or sensors hold the sway.
+    """
+    trial, dt = windows.trial, windows.dt_s
+    sway = np.zeros(windows.start_index.size)
+    environments = np.tile(config.environment.as_vector(), (sway.size, 1))
+    for lag in range(int(round(SWAY_OBSERVER_S / dt)), 0, -1):
+        index = windows.start_index - lag
+        inside = index >= 0
+        index = np.maximum(index, 0)
+        states = np.zeros((sway.size, 6))
+        states[:, 2], states[:, 3], states[:, 4], states[:, 5] = heading[index], surge[index], sway, yaw_rate[index]
+        commands = trial.commands[index][None]
+        _, derivative = dynamics.run(states, commands, environments, dt, 1)
+        rate = derivative[0, :, 4]
+        sway = np.where(inside & np.isfinite(rate), sway + dt * rate, sway)
+    return sway
+
+
+def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics) -> np.ndarray:
     """(m, 6) state at each window's start, from the sensors as ``config`` says they err.
 
     Heading: mean over ±:data:`HEADING_SMOOTHING_S` of IMU yaw with the gyro's turn removed (the 3° IMU yaw
-    noise drops to ~0.3°); yaw rate: gyro − bias, 3-sample mean; velocity through water: the GNSS velocity
-    stamped t0 + latency (it describes t0), 3-sample mean, minus the current, split along that heading.
-    Every term is a measurement, so initialization errors are noise with zero mean, never a bias that a
-    catalogue effect could absorb.
+    noise drops to ~0.3°); yaw rate: gyro − bias, 3-sample mean; surge through water: the GNSS velocity
+    stamped t + latency (it describes t), 3-sample mean, minus the current, along that heading; sway: the
+    :func:`_sway_observer`. Every term is a measurement or driven by measurements, so initialization errors
+    are noise with zero mean, never a bias that a catalogue effect could absorb.
     """
     trial, dt = windows.trial, windows.dt_s
     bias = float(config.um7.gyro_bias_radps[2])
     half = max(1, int(round(HEADING_SMOOTHING_S / dt)))
     turned = _integrated(trial.yaw_rate_radps - bias, dt)
-    heading = (_centred_mean(trial.heading_rad - turned, half) + turned)[windows.start_index]
-    r0 = _centred_mean(trial.yaw_rate_radps, 1)[windows.start_index] - bias
-    t0 = windows.t_s[0] + float(config.gnss.latency_s)
+    heading = _centred_mean(trial.heading_rad - turned, half) + turned
+    yaw_rate = _centred_mean(trial.yaw_rate_radps, 1) - bias
+    stamped = trial.t_s + float(config.gnss.latency_s)
     env = config.environment
-    we = np.interp(t0, trial.t_s, _centred_mean(trial.vel_east_mps, 1)) - env.current_east_mps
-    wn = np.interp(t0, trial.t_s, _centred_mean(trial.vel_north_mps, 1)) - env.current_north_mps
-    states = np.zeros((heading.size, 6))
-    states[:, 2], states[:, 5] = heading, r0
-    states[:, 3] = we * np.cos(heading) + wn * np.sin(heading)
-    states[:, 4] = -we * np.sin(heading) + wn * np.cos(heading)
+    we = np.interp(stamped, trial.t_s, _centred_mean(trial.vel_east_mps, 1)) - env.current_east_mps
+    wn = np.interp(stamped, trial.t_s, _centred_mean(trial.vel_north_mps, 1)) - env.current_north_mps
+    surge = we * np.cos(heading) + wn * np.sin(heading)
+    start = windows.start_index
+    states = np.zeros((start.size, 6))
+    states[:, 2], states[:, 3], states[:, 5] = heading[start], surge[start], yaw_rate[start]
+    states[:, 4] = _sway_observer(windows, config, dynamics, heading, surge, yaw_rate)
     return states
 
 
@@ -163,7 +193,7 @@ class Prediction:
 def predict(windows: Windows, config: TwinConfig) -> Prediction:
     """Run every window's commands through ``config``'s model from its measured initial state."""
     dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
-    states = initial_states(windows, config)
+    states = initial_states(windows, config, dynamics)
     substeps = max(1, int(round(windows.dt_s * REPLAY_INTEGRATION_RATE_HZ)))
     environments = np.tile(config.environment.as_vector(), (states.shape[0], 1))
     path, _ = dynamics.run(states, windows.commands, environments, windows.dt_s / substeps, substeps)

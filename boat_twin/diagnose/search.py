@@ -13,7 +13,10 @@ Method (README "Diagnosis" states it with the numbers):
   candidate's residuals, ΔBIC = Σ_s n_eff,s·ln(SSE_s,new / SSE_s,old) + Δk·ln(Σ n_eff,s).
 - Decision rule: a candidate is *named* when ΔBIC < :data:`BIC_THRESHOLD` (very strong evidence, Kass &
   Raftery 1995) **and** its held-out gain > :data:`MIN_HELDOUT_GAIN` **and** its 95 % interval excludes the
-  null value of at least one parameter **and** its size reaches :data:`~boat_twin.diagnose.effects.MIN_SIZES`.
+  null value of at least one parameter **and** its size reaches :data:`~boat_twin.diagnose.effects.MIN_SIZES`
+  **and** no parameter ends on a bound of its physical range (:attr:`Effect.lower`/``upper``: a current of
+  3 m/s or a resistance × 4 that the fit wants is a stand-in for another cause, e.g. a resistance change
+  taking up a towed body's drag).
   Forward selection: the named candidate with the lowest ΔBIC joins the model, its parameters stay free,
   and the remaining candidates are tried again against the extended model.
 """
@@ -43,6 +46,8 @@ MAX_EFFECTS = 3
 """Forward selection stops after this many named effects."""
 INFEASIBLE_RESIDUAL = 1e3
 """Normalized residual of every sample for parameters the vessel loader refuses: steers the fit away."""
+BOUND_MARGIN = 0.01
+"""A fitted parameter this close to a bound (fraction of its range) is on it."""
 MAX_EVALUATIONS = 40
 """Model evaluations per least-squares fit (each a replay of every window)."""
 
@@ -112,7 +117,7 @@ class Diagnosis:
         self.base = base
         self.sigma = {s: white_noise_stdev(windows.measured[s]) for s in SIGNALS}
         m = windows.t_s.shape[1]
-        self.folds = np.minimum(np.arange(m) * FOLDS // m, FOLDS - 1)
+        self.folds = np.arange(m) % FOLDS
         self.progress = progress or (lambda _msg: None)
         self.evaluations = 0
 
@@ -205,6 +210,14 @@ def ci95(values: np.ndarray, stderr: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return values - half, values + half
 
 
+def on_bound(effect: Effect, values: np.ndarray) -> bool:
+    """True when a parameter lies within :data:`BOUND_MARGIN` of its range from a bound that is not its null."""
+    margin = BOUND_MARGIN * (effect.upper - effect.lower)
+    low = (values <= effect.lower + margin) & (effect.lower != effect.null)
+    high = (values >= effect.upper - margin) & (effect.upper != effect.null)
+    return bool(np.any(low | high))
+
+
 def excludes_null(effect: Effect, values: np.ndarray, stderr: np.ndarray) -> bool:
     """True when the 95 % interval of at least one parameter leaves out the effect's null value."""
     lo, hi = ci95(values, stderr)
@@ -222,12 +235,14 @@ class Candidate:
     significant: bool
     size: float
     """The effect's magnitude (:attr:`Effect.magnitude`)."""
+    at_bound: bool
+    """A parameter ended on a bound of its physical range: the effect stands in for something else."""
 
     @property
     def named(self) -> bool:
         """The decision rule."""
         return (self.delta_bic < BIC_THRESHOLD and self.heldout_gain > MIN_HELDOUT_GAIN and self.significant
-                and self.size >= MIN_SIZES[self.effect.name])
+                and self.size >= MIN_SIZES[self.effect.name] and not self.at_bound)
 
 
 @dataclass
@@ -256,7 +271,8 @@ def forward_select(diagnosis: Diagnosis, effects: dict[str, Effect]) -> Selectio
             fit = diagnosis.fit(current.effects + [effect], start)
             _, values, stderr = fit.split()[-1]
             round_.append(Candidate(effect, fit, delta_bic(fit, current), heldout_gain(fit, current),
-                                    excludes_null(effect, values, stderr), effect.magnitude(values)))
+                                    excludes_null(effect, values, stderr), effect.magnitude(values),
+                                    on_bound(effect, values)))
         rounds.append(round_)
         named = [c for c in round_ if c.named]
         if not named:

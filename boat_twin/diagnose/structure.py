@@ -15,11 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from boat_twin.diagnose.replay import SIGNALS, Windows
+from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows
 
 REGRESSOR_NAMES = ("cos_heading", "sin_heading", "speed", "yaw_rate", "thrust_sum", "thrust_difference",
                    "steering")
-"""What the residual may depend on, from commands and measurements."""
+"""What the residual may depend on: the commands and the model's prediction."""
 R2_THRESHOLD = 0.15
 """Held-out R² of a residual above this: structure the model does not explain (set above what clean trials
 of every kind give in the accuracy study, README 'Diagnosis')."""
@@ -44,12 +44,17 @@ class Signature:
                 "worst_time_s": self.worst_time_s}
 
 
-def regressors(windows: Windows) -> tuple[np.ndarray, tuple[str, ...]]:
-    """(T, m, k) regressors and their names: the situation, and the situation × time into the window."""
+def regressors(windows: Windows, prediction: Prediction) -> tuple[np.ndarray, tuple[str, ...]]:
+    """(T, m, k) regressors and their names: the situation, and the situation × time into the window.
+
+    The situation is what the boat was commanded and what the model predicts it did — never a measured
+    signal, whose noise is part of the residual it would be regressed against.
+    """
     cmd = windows.commands
-    heading = windows.measured["heading_rad"]
-    speed = np.hypot(windows.measured["vel_east_mps"], windows.measured["vel_north_mps"])
-    base = np.stack([np.cos(heading), np.sin(heading), speed, windows.measured["yaw_rate_radps"],
+    predicted = prediction.signals
+    heading = predicted["heading_rad"]
+    speed = np.hypot(predicted["vel_east_mps"], predicted["vel_north_mps"])
+    base = np.stack([np.cos(heading), np.sin(heading), speed, predicted["yaw_rate_radps"],
                      cmd[..., 0] + cmd[..., 1], cmd[..., 0] - cmd[..., 1], 0.5 * (cmd[..., 2] + cmd[..., 3])],
                     axis=-1)
     elapsed = (windows.t_s - windows.t_s[0])[..., None]
@@ -62,9 +67,10 @@ def _solve(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.linalg.solve(gram + RIDGE * np.trace(gram) / gram.shape[0] * np.eye(gram.shape[0]), x.T @ y)
 
 
-def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], folds: np.ndarray) -> list[Signature]:
+def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], prediction: Prediction,
+                       folds: np.ndarray) -> list[Signature]:
     """Signals whose residual the situation predicts on held-out blocks (held-out R² > R2_THRESHOLD)."""
-    x_all, names = regressors(windows)
+    x_all, names = regressors(windows, prediction)
     found = []
     for signal in SIGNALS:
         r = residuals[signal]
