@@ -18,6 +18,7 @@ import yaml
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.diagnose import hidden
+from boat_twin.diagnose.command import diagnose_trial
 from boat_twin.diagnose.replay import cut_windows, predict
 from boat_twin.diagnose.table import runs_test_p
 from boat_twin.io.bags import read_trial
@@ -84,6 +85,24 @@ def test_clean_trial_has_an_empty_verdict(tmp_path: Path, kind: str, seed: int) 
     result = _diagnose(tmp_path, TwinConfig(), kind, seed)
     assert result["verdict"] == [], result["verdict"]
     assert not result["unexplained"], result["signature"]
+
+
+FALSE_ALARM_SEEDS = 20
+"""Clean trials in the false-alarm test; at most one may name an effect (≤ 5 %)."""
+FALSE_ALARM_TRIAL_S = 180.0
+"""Shorter than the other tests' trials (9 windows instead of 15), so the test stays fast; shorter trials give
+the decision rule less data, the harder case for false alarms."""
+
+
+def test_false_alarms_stay_at_most_5_percent_over_many_clean_trials(tmp_path: Path) -> None:
+    alarms = []
+    for i in range(FALSE_ALARM_SEEDS):
+        kind = hidden.TRIAL_KINDS[i % len(hidden.TRIAL_KINDS)]
+        bag = hidden.write_trial(tmp_path / f"clean-{i}.mcap", TwinConfig(), kind, 500 + i, FALSE_ALARM_TRIAL_S)
+        verdict = diagnose_trial(read_trial(bag), TwinConfig()).result["verdict"]
+        if verdict:
+            alarms.append((kind, 500 + i, [v["effect"] for v in verdict]))
+    assert len(alarms) <= 0.05 * FALSE_ALARM_SEEDS, alarms
 
 
 def test_wind_outside_the_catalogue_is_unexplained_not_mislabelled(tmp_path: Path) -> None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import savgol_filter
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
@@ -33,6 +34,10 @@ SETTLING_S = 1.0
 REPLAY_INTEGRATION_RATE_HZ = 20.0
 """RK4 rate of the replay, Hz: on a 20°/20° zigzag it differs from the simulator's 50 Hz by < 2e-7 m/s and
 < 2e-8 rad/s (far below the sensors' noise) at 2.5× less cost."""
+SURGE_SMOOTHING_S = 1.0
+"""A window's initial surge is a local quadratic fit to ±this long of GNSS surge, s: 0.05 m/s noise → 0.016 m/s,
+and a change of the latency moves the fit smoothly instead of picking another noisy sample (which the surge's
+35 s time constant at low speed would carry through the whole window, and a latency fit would exploit)."""
 SWAY_OBSERVER_S = 5.0
 """Run-in of the sway observer before each window, s: ~2 sway time constants at 1.5 m/s, 12 at 10 m/s."""
 MIN_WINDOWS = 6
@@ -111,6 +116,20 @@ def _centred_mean(values: np.ndarray, half: int) -> np.ndarray:
         return np.where(count > 0, total / np.maximum(count, 1.0), np.nan)
 
 
+def _local_quadratic(values: np.ndarray, half: int) -> np.ndarray:
+    """Least-squares quadratic over ±``half`` samples evaluated at the centre (Savitzky-Golay), NaN kept NaN.
+
+    Unlike a moving mean it follows the surge's curvature after a thrust step without bias; gaps are bridged
+    linearly for the filter only.
+    """
+    finite = np.isfinite(values)
+    if finite.sum() <= 2 * half + 1:
+        return values
+    index = np.arange(values.size)
+    filled = np.interp(index, index[finite], values[finite])
+    return np.where(finite, savgol_filter(filled, 2 * half + 1, 2), np.nan)
+
+
 def _integrated(rate: np.ndarray, dt: float) -> np.ndarray:
     """Cumulative trapezoid integral of ``rate`` from sample 0, same length, NaN treated as 0."""
     r = np.where(np.isfinite(rate), rate, 0.0)
@@ -149,7 +168,8 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics) -> 
 
     Heading: mean over ±:data:`HEADING_SMOOTHING_S` of IMU yaw with the gyro's turn removed (the 3° IMU yaw
     noise drops to ~0.3°); yaw rate: gyro − bias, 3-sample mean; surge through water: the GNSS velocity
-    stamped t + latency (it describes t), 3-sample mean, minus the current, along that heading; sway: the
+    stamped t + latency (it describes t) minus the current, along that heading, averaged over
+    ±:data:`SURGE_SMOOTHING_S` by a local quadratic; sway: the
     :func:`_sway_observer`. Every term is a measurement or driven by measurements, so initialization errors
     are noise with zero mean, never a bias that a catalogue effect could absorb.
     """
@@ -161,9 +181,9 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics) -> 
     yaw_rate = _centred_mean(trial.yaw_rate_radps, 1) - bias
     stamped = trial.t_s + float(config.gnss.latency_s)
     env = config.environment
-    we = np.interp(stamped, trial.t_s, _centred_mean(trial.vel_east_mps, 1)) - env.current_east_mps
-    wn = np.interp(stamped, trial.t_s, _centred_mean(trial.vel_north_mps, 1)) - env.current_north_mps
-    surge = we * np.cos(heading) + wn * np.sin(heading)
+    we = np.interp(stamped, trial.t_s, trial.vel_east_mps) - env.current_east_mps
+    wn = np.interp(stamped, trial.t_s, trial.vel_north_mps) - env.current_north_mps
+    surge = _local_quadratic(we * np.cos(heading) + wn * np.sin(heading), max(2, int(round(SURGE_SMOOTHING_S / dt))))
     start = windows.start_index
     states = np.zeros((start.size, 6))
     states[:, 2], states[:, 3], states[:, 5] = heading[start], surge[start], yaw_rate[start]
