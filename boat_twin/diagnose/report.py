@@ -38,7 +38,7 @@ def _candidate_dict(candidate: Candidate, round_index: int) -> dict[str, Any]:
     _, values, _ = candidate.fit.split()[-1]
     return {"effect": candidate.effect.name, "parameters": candidate.effect.named(values),
             "delta_bic": candidate.delta_bic, "heldout_gain": candidate.heldout_gain, "round": round_index + 1,
-            "named": candidate.named, "on_bound": candidate.at_bound}
+            "named": candidate.named, "on_bound": candidate.at_bound, "takes_over": candidate.takes_over}
 
 
 def verdict(selection: Selection) -> list[dict[str, Any]]:

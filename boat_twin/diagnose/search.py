@@ -16,7 +16,9 @@ Method (README "Diagnosis" states it with the numbers):
   null value of at least one parameter **and** its size reaches :data:`~boat_twin.diagnose.effects.MIN_SIZES`
   **and** no parameter ends on a bound of its physical range (:attr:`Effect.lower`/``upper``: a current of
   3 m/s or a resistance × 4 that the fit wants is a stand-in for another cause, e.g. a resistance change
-  taking up a towed body's drag).
+  taking up a towed body's drag) **and**, from the second round on, it leaves the size of every effect already
+  named within :data:`TAKEOVER_FRACTION` of what it was (a candidate that takes over an earlier one's part is
+  not separable from it on this trial).
   Forward selection: the named candidate with the lowest ΔBIC joins the model, its parameters stay free,
   and the remaining candidates are tried again against the extended model.
 """
@@ -48,6 +50,8 @@ INFEASIBLE_RESIDUAL = 1e3
 """Normalized residual of every sample for parameters the vessel loader refuses: steers the fit away."""
 BOUND_MARGIN = 0.01
 """A fitted parameter this close to a bound (fraction of its range) is on it."""
+TAKEOVER_FRACTION = 0.5
+"""A candidate that changes an already named effect's size by more than this fraction of it is refused."""
 MAX_EVALUATIONS = 40
 """Model evaluations per least-squares fit (each a replay of every window)."""
 
@@ -218,6 +222,15 @@ def on_bound(effect: Effect, values: np.ndarray) -> bool:
     return bool(np.any(low | high))
 
 
+def takes_over(new: Fit, old: Fit) -> bool:
+    """True when ``new`` (``old``'s effects plus one) changes the magnitude of one of ``old``'s effects by more
+    than :data:`TAKEOVER_FRACTION` of it: the two are not separable on this trial."""
+    for (effect, before, _), (_, after, _) in zip(old.split(), new.split(), strict=False):
+        if abs(effect.magnitude(after) - effect.magnitude(before)) > TAKEOVER_FRACTION * effect.magnitude(before):
+            return True
+    return False
+
+
 def excludes_null(effect: Effect, values: np.ndarray, stderr: np.ndarray) -> bool:
     """True when the 95 % interval of at least one parameter leaves out the effect's null value."""
     lo, hi = ci95(values, stderr)
@@ -237,12 +250,14 @@ class Candidate:
     """The effect's magnitude (:attr:`Effect.magnitude`)."""
     at_bound: bool
     """A parameter ended on a bound of its physical range: the effect stands in for something else."""
+    takes_over: bool
+    """Adding it changed the size of an effect already named by more than :data:`TAKEOVER_FRACTION`."""
 
     @property
     def named(self) -> bool:
         """The decision rule."""
         return (self.delta_bic < BIC_THRESHOLD and self.heldout_gain > MIN_HELDOUT_GAIN and self.significant
-                and self.size >= MIN_SIZES[self.effect.name] and not self.at_bound)
+                and self.size >= MIN_SIZES[self.effect.name] and not self.at_bound and not self.takes_over)
 
 
 @dataclass
@@ -272,7 +287,7 @@ def forward_select(diagnosis: Diagnosis, effects: dict[str, Effect]) -> Selectio
             _, values, stderr = fit.split()[-1]
             round_.append(Candidate(effect, fit, delta_bic(fit, current), heldout_gain(fit, current),
                                     excludes_null(effect, values, stderr), effect.magnitude(values),
-                                    on_bound(effect, values)))
+                                    on_bound(effect, values), takes_over(fit, current)))
         rounds.append(round_)
         named = [c for c in round_ if c.named]
         if not named:
