@@ -194,3 +194,20 @@ def test_unwritable_output_exits_2(tmp_path, capsys) -> None:
     blocker.write_text("")
     assert main(["simulate", "accel-stop", "--out", str(blocker / "bag")]) == 2
     assert "boat-twin simulate: error:" in capsys.readouterr().err
+
+
+def test_imu_fields_marked_not_provided_read_as_nan(sea_trial, tmp_path) -> None:
+    """REP-145: covariance[0] = −1 says the field is not provided; its zeros must not read as a measurement."""
+    def unmark(topic, stamp, msg):
+        if topic == "imu/data" and 20e9 <= stamp <= 25e9:
+            msg.orientation_covariance = np.array([-1.0] + [0.0] * 8)
+            msg.angular_velocity_covariance = np.array([-1.0] + [0.0] * 8)
+        return topic, stamp, msg
+
+    write_bag(tmp_path / "unmarked", (unmark(*m) for m in trial_messages(sea_trial)))
+    trial = read_trial(tmp_path / "unmarked")
+    t_abs = trial.t_s + trial.metadata.start_time_s
+    inside = (t_abs > 20.05) & (t_abs < 24.95)
+    assert np.all(np.isnan(trial.heading_rad[inside])) and np.all(np.isnan(trial.yaw_rate_radps[inside]))
+    assert np.all(np.isfinite(trial.accel_x_mps2[inside]))
+    assert np.all(np.isfinite(trial.heading_rad[(t_abs > 1.0) & ~((t_abs > 19.95) & (t_abs < 25.05))]))

@@ -4,6 +4,7 @@ The truth is the simulated boat: Fc(u) = the Table 1 curve (TableResistance), su
 GNSS velocity noise 0.05 m/s per axis at 10 Hz, 0.1 s latency. Bad input goes through ``boat_twin.cli.main``.
 """
 
+import dataclasses
 import json
 import math
 import re
@@ -240,3 +241,17 @@ def test_cli_commands_and_gnss_without_overlap_in_time(tmp_path, capsys, short_m
 
     err = identify_fails(capsys, edited_bag(short_messages, tmp_path, commands_later))
     assert "commands and GNSS do not overlap in time" in err
+
+
+def test_samples_inside_a_command_gap_are_skipped_not_refused(tmp_path) -> None:
+    """A MAVLink log's commands are NaN where the servo outputs fell silent (a reported gap): skip them there."""
+    trial, _ = record(SHORT, 7, tmp_path)
+    inside = (trial.t_s > 100.0) & (trial.t_s < 110.0)
+    thrust = np.where(inside, np.nan, trial.thrust_left_N)
+    metadata = dataclasses.replace(trial.metadata, gaps=[*trial.metadata.gaps, ("thrust_left", 100.0, 110.0)])
+    gapped = dataclasses.replace(trial, thrust_left_N=thrust, metadata=metadata)
+    t, _, _ = trial_samples(gapped)
+    assert t.size == np.sum(np.isfinite(trial.surge_thrust_N) & np.isfinite(trial.speed_mps)) - inside.sum()
+    unreported = dataclasses.replace(trial, thrust_left_N=thrust)
+    with pytest.raises(InputError, match="NaN outside the reported gaps"):
+        trial_samples(unreported)

@@ -31,8 +31,8 @@ from boat_twin.ident.paper import (
 from boat_twin.ident.resimulate import Resimulation, resimulate, resimulation_figure
 from boat_twin.ident.steady import MAX_ORDER, FitResult, fit_power_series, select_order
 from boat_twin.io.files import atomic_save_figure, atomic_write_text, ensure_out_dir, to_json
-from boat_twin.io.sources import add_trial_options
-from boat_twin.io.trial import Trial
+from boat_twin.io.sources import TRIAL_HELP, add_trial_options
+from boat_twin.io.trial import COMMAND_ROLES, Trial
 from boat_twin.units import KGF_N, KNOT_MPS
 
 TWO_WAY_WARNING = 0.3
@@ -62,11 +62,16 @@ def _nrms(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
 
 
+SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
+"""Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
+
+
 def trial_samples(trial: Trial) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Time (s), surge thrust Σ T·cos δ (N) and GNSS speed over ground (m/s) of a trial's known samples.
 
-    Samples before the first command or velocity fix and inside reported GNSS velocity gaps are unknown and
-    skipped; a NaN anywhere else is a non-finite value in the recording itself and refused (InputError).
+    Samples before the first command or velocity fix and inside the reported gaps of any stream it uses (GNSS
+    velocity, the outboards' thrust and angle commands) are unknown and skipped; a NaN anywhere else is a
+    non-finite value in the recording itself and refused (InputError).
     """
     source = trial.metadata.source
     for role, what in (("thrust_left", "left outboard's thrust"), ("thrust_right", "right outboard's thrust"),
@@ -81,7 +86,7 @@ def trial_samples(trial: Trial) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                          "(commands and GNSS do not overlap in time)")
     in_gap = np.zeros(t.size, dtype=bool)
     for role, start_s, end_s in trial.metadata.gaps:
-        if role == "gnss_vel":
+        if role in SURGE_ROLES:
             in_gap |= (t > start_s) & (t < end_s)
     bad = ~known & ~in_gap & (t >= t[np.argmax(known)])
     if np.any(bad):
@@ -440,7 +445,7 @@ def run(args: argparse.Namespace) -> int:
     if args.table is not None:
         return _run_table(args)
     if args.trial is None:
-        raise InputError("nothing to identify: give a TRIAL (bag) or --table dyda2021")
+        raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021")
     return _run_trial(args)
 
 
@@ -519,8 +524,7 @@ def register(subparsers: Any) -> None:
         description="Identify the longitudinal model m·dv/dt = F - Fc(v), Fc(v) = sum c_i·v^i "
         "(Dyda & Chumakova 2021). Internally SI; the built-in table is reported in its own units (kn, kgf).",
     )
-    p.add_argument("trial", nargs="?", type=Path,
-                   help="recorded trial: rosbag2 directory (MCAP or sqlite3) or a bare .mcap file")
+    p.add_argument("trial", nargs="?", type=Path, help=TRIAL_HELP)
     add_trial_options(p)
     p.add_argument(
         "--table",

@@ -92,10 +92,20 @@ def _vel(msg: Any, log_s: float) -> tuple[float, list[float]]:
     return _stamp_s(msg), [msg.twist.linear.x, msg.twist.linear.y]
 
 
+def _provided(covariance: Any) -> bool:
+    """REP-145 / sensor_msgs/Imu: a covariance whose first element is −1 marks the field as not provided."""
+    return float(covariance[0]) != -1.0
+
+
 def _imu(msg: Any, log_s: float) -> tuple[float, list[float]]:
     q = msg.orientation
     yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-    return _stamp_s(msg), [yaw, msg.angular_velocity.z, msg.linear_acceleration.x, msg.linear_acceleration.y]
+    if not _provided(msg.orientation_covariance):
+        yaw = math.nan
+    rate = msg.angular_velocity.z if _provided(msg.angular_velocity_covariance) else math.nan
+    accel = msg.linear_acceleration
+    ax, ay = (accel.x, accel.y) if _provided(msg.linear_acceleration_covariance) else (math.nan, math.nan)
+    return _stamp_s(msg), [yaw, rate, ax, ay]
 
 
 def _scalar(msg: Any, log_s: float) -> tuple[float, list[float]]:

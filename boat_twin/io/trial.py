@@ -203,7 +203,9 @@ def build_trial(
         max_gap = GAP_TOLERANCE_PERIODS / max(meta.rates_hz[role], 1e-9)
         if role == "imu":  # unwrap the heading before interpolating it
             stream = Stream(stream.stamps_s, stream.values.copy())
-            stream.values[:, 0] = np.unwrap(stream.values[:, 0])
+            yaw = stream.values[:, 0]
+            known = np.isfinite(yaw)  # a yaw not provided (NaN) must not poison the unwrap after it
+            yaw[known] = np.unwrap(yaw[known])
         columns[role] = _interpolate(stream.stamps_s, stream.values, grid_abs, max_gap)
         jumps = np.flatnonzero(np.diff(stream.stamps_s) > max_gap)
         meta.gaps += [(role, float(stream.stamps_s[j] - t0), float(stream.stamps_s[j + 1] - t0)) for j in jumps]
