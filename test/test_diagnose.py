@@ -39,7 +39,11 @@ def _diagnose(tmp_path: Path, config: TwinConfig, kind: str, seed: int, *extra: 
     buffer = io.StringIO()
     with contextlib.redirect_stdout(buffer):
         assert main(args) == 0
-    return json.loads(buffer.getvalue())
+    return json.loads(buffer.getvalue(), parse_constant=_not_strict_json)
+
+
+def _not_strict_json(constant: str) -> None:
+    pytest.fail(f"--json printed {constant}: not strict JSON")
 
 
 def _true_boat(effect: str, kind: str, seed: int) -> tuple[TwinConfig, dict]:

@@ -37,7 +37,9 @@ def _signal_gain(new: Fit, old: Fit) -> dict[str, float]:
 def _candidate_dict(candidate: Candidate, round_index: int) -> dict[str, Any]:
     _, values, _ = candidate.fit.split()[-1]
     return {"effect": candidate.effect.name, "parameters": candidate.effect.named(values),
-            "delta_bic": candidate.delta_bic, "heldout_gain": candidate.heldout_gain, "round": round_index + 1,
+            "delta_bic": candidate.delta_bic, "round": round_index + 1,
+            # null: it failed the in-sample conditions, so it was not judged on held-out time
+            "heldout_gain": candidate.heldout_gain if np.isfinite(candidate.heldout_gain) else None,
             "named": candidate.named, "on_bound": candidate.at_bound, "takes_over": candidate.takes_over}
 
 
@@ -96,7 +98,8 @@ def text_report(result: dict[str, Any]) -> str:
     first = [c for c in result["candidates"] if c["round"] == 1]
     lines.append("candidates (round 1)  ΔBIC      held-out gain")
     for c in sorted(first, key=lambda c: c["delta_bic"]):
-        lines.append(f"  {c['effect']:18s} {c['delta_bic']:10.1f}  {c['heldout_gain']:+8.1%}")
+        gain = "not judged" if c["heldout_gain"] is None else f"{c['heldout_gain']:+8.1%}"
+        lines.append(f"  {c['effect']:18s} {c['delta_bic']:10.1f}  {gain}")
     if result["unexplained"]:
         for sig in result["signature"]:
             lines.append(f"unexplained {sig['signal']}: held-out R² {sig['heldout_r2']:.2f}, correlated with "
@@ -149,8 +152,8 @@ def evidence_figure(result: dict[str, Any]) -> Figure:
     ax_bic.axvline(BIC_THRESHOLD, color="k", ls="--", lw=0.8)
     ax_bic.set_xscale("symlog")
     ax_bic.set_xlabel("ΔBIC against the baseline (named: red; threshold dashed)")
-    ax_gain.barh(names, [100 * c["heldout_gain"] for c in first])
+    ax_gain.barh(names, [np.nan if c["heldout_gain"] is None else 100 * c["heldout_gain"] for c in first])
     ax_gain.axvline(100 * MIN_HELDOUT_GAIN, color="k", ls="--", lw=0.8)
-    ax_gain.set_xlabel("held-out gain [%]")
+    ax_gain.set_xlabel("held-out gain [%] (no bar: not judged, the in-sample conditions failed)")
     ax_gain.set_yticklabels([])
     return fig

@@ -167,26 +167,31 @@ class Diagnosis:
         return null + scale * result.x
 
     def fit(self, effects: list[Effect], start: np.ndarray | None = None) -> Fit:
-        """Fit ``effects`` on all windows and on every leave-one-block-out split."""
+        """Fit ``effects`` on all windows (not yet judged on held-out time: see :meth:`judge`)."""
         null = np.concatenate([e.null for e in effects]) if effects else np.zeros(0)
         start = null if start is None else start
-        all_windows = np.ones(self.folds.size, dtype=bool)
         if not effects:
             res = self.residuals(self.base)
             sse = res.sse().sum(axis=1)
             return self._finish(Fit(effects, null, np.zeros(0), sse, sse, res))
-        values = self._fit_values(effects, start, all_windows)
+        values = self._fit_values(effects, start, np.ones(self.folds.size, dtype=bool))
         res = self.residuals(self.config(effects, values))
+        unjudged = np.full(len(SIGNALS), np.nan)
+        return self._finish(Fit(effects, values, np.full(values.size, np.nan), res.sse().sum(axis=1), unjudged, res))
+
+    def judge(self, fit: Fit) -> Fit:
+        """Refit ``fit``'s effects without each fold in turn: held-out SSE and jackknife standard errors."""
         heldout = np.zeros(len(SIGNALS))
         fold_values = []
         for k in range(FOLDS):
             held = self.folds == k
-            fold = self._fit_values(effects, values, ~held)
+            fold = self._fit_values(fit.effects, fit.values, ~held)
             fold_values.append(fold)
-            heldout += self.residuals(self.config(effects, fold)).sse()[:, held].sum(axis=1)
+            heldout += self.residuals(self.config(fit.effects, fold)).sse()[:, held].sum(axis=1)
         fold_values = np.array(fold_values)
-        stderr = np.sqrt((FOLDS - 1) / FOLDS * np.sum((fold_values - fold_values.mean(axis=0)) ** 2, axis=0))
-        return self._finish(Fit(effects, values, stderr, res.sse().sum(axis=1), heldout, res))
+        fit.stderr = np.sqrt((FOLDS - 1) / FOLDS * np.sum((fold_values - fold_values.mean(axis=0)) ** 2, axis=0))
+        fit.heldout_sse = heldout
+        return fit
 
     def _finish(self, fit: Fit) -> Fit:
         counts = fit.residuals.counts().sum(axis=1)
@@ -244,20 +249,26 @@ class Candidate:
     effect: Effect
     fit: Fit
     delta_bic: float
-    heldout_gain: float
-    significant: bool
     size: float
     """The effect's magnitude (:attr:`Effect.magnitude`)."""
     at_bound: bool
     """A parameter ended on a bound of its physical range: the effect stands in for something else."""
     takes_over: bool
     """Adding it changed the size of an effect already named by more than :data:`TAKEOVER_FRACTION`."""
+    heldout_gain: float = float("nan")
+    """NaN when the candidate failed the in-sample conditions and was not judged on held-out time."""
+    significant: bool = False
+
+    @property
+    def plausible(self) -> bool:
+        """The in-sample conditions of the decision rule, checked before the held-out judgement."""
+        return (self.delta_bic < BIC_THRESHOLD and self.size >= MIN_SIZES[self.effect.name] and not self.at_bound
+                and not self.takes_over)
 
     @property
     def named(self) -> bool:
         """The decision rule."""
-        return (self.delta_bic < BIC_THRESHOLD and self.heldout_gain > MIN_HELDOUT_GAIN and self.significant
-                and self.size >= MIN_SIZES[self.effect.name] and not self.at_bound and not self.takes_over)
+        return self.plausible and self.heldout_gain > MIN_HELDOUT_GAIN and self.significant
 
 
 @dataclass
@@ -284,10 +295,14 @@ def forward_select(diagnosis: Diagnosis, effects: dict[str, Effect]) -> Selectio
             diagnosis.progress(f"round {len(rounds) + 1}: {name}")
             start = np.concatenate([current.values, effect.null])
             fit = diagnosis.fit(current.effects + [effect], start)
-            _, values, stderr = fit.split()[-1]
-            round_.append(Candidate(effect, fit, delta_bic(fit, current), heldout_gain(fit, current),
-                                    excludes_null(effect, values, stderr), effect.magnitude(values),
-                                    on_bound(effect, values), takes_over(fit, current)))
+            _, values, _ = fit.split()[-1]
+            candidate = Candidate(effect, fit, delta_bic(fit, current), effect.magnitude(values),
+                                  on_bound(effect, values), takes_over(fit, current))
+            if candidate.plausible:  # the held-out judgement costs FOLDS more fits: only where it can matter
+                diagnosis.judge(fit)
+                candidate.heldout_gain = heldout_gain(fit, current)
+                candidate.significant = excludes_null(effect, values, fit.split()[-1][2])
+            round_.append(candidate)
         rounds.append(round_)
         named = [c for c in round_ if c.named]
         if not named:
