@@ -3,6 +3,7 @@
 import ast
 import importlib
 import importlib.util
+import re
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -72,3 +73,16 @@ def test_launch_description_builds() -> None:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     assert module.generate_launch_description().entities
+
+
+def test_launch_parameters_are_declared_by_their_nodes() -> None:
+    """Every parameter twin.launch.py passes to a node is one the node declares (a typo would be ignored)."""
+    tree = ast.parse((ROOT / "launch" / "twin.launch.py").read_text())
+    for call in (n for n in ast.walk(tree) if isinstance(n, ast.Call) and getattr(n.func, "id", "") == "Node"):
+        keywords = {k.arg: k.value for k in call.keywords}
+        if "parameters" not in keywords:
+            continue
+        passed = {key.value for d in ast.walk(keywords["parameters"]) if isinstance(d, ast.Dict) for key in d.keys}
+        source = (ROOT / "boat_twin" / "nodes" / f"{keywords['executable'].value}.py").read_text()
+        declared = set(re.findall(r'declare_parameter\(\s*"([a-z_]+)"', source))
+        assert passed and passed <= declared, (keywords["executable"].value, passed - declared)
