@@ -129,7 +129,7 @@ def draw(effect: str, base: TwinConfig, kind: str, seed: int, duration_s: float)
     """The true boat of a study trial (a resistance change inside the speeds the trial visits)."""
     if effect == "clean":
         return base, {}
-    speeds = hidden.visited_speeds_mps(base, kind, seed, duration_s) if effect == "resistance_shape" else (2.5, 7.5)
+    speeds = hidden.visited_speeds_mps(base, kind, seed, duration_s) if effect == "resistance_shape" else None
     return hidden.draw_effect(effect, base, np.random.default_rng(seed), speeds)
 
 

@@ -49,7 +49,7 @@ def _not_strict_json(constant: str) -> None:
 def _true_boat(effect: str, kind: str, seed: int) -> tuple[TwinConfig, dict]:
     """The boat with ``effect`` hidden in it (a resistance change inside the speeds the trial visits)."""
     base = TwinConfig()
-    speeds = hidden.visited_speeds_mps(base, kind, seed, TRIAL_S) if effect == "resistance_shape" else (2.5, 7.5)
+    speeds = hidden.visited_speeds_mps(base, kind, seed, TRIAL_S) if effect == "resistance_shape" else None
     return hidden.draw_effect(effect, base, np.random.default_rng(seed), speeds)
 
 

@@ -43,7 +43,13 @@ MIN_SIZES = {
 Zero-mean errors of the replay's initial states (sensor noise carried through the hull's yaw dynamics)
 leave spurious fits of up to ~0.02 m/s of current or ~3 % of mass on clean 10-minute trials: real, stable
 across the trial, but not a cause worth naming."""
+RESISTANCE_CHANGE_RANGE = (-0.5, 1.0)
+"""Physical range of a resistance change, fraction of Fc: the hull's resistance at most halves or doubles
+(fouling adds tens of percent, as does a heavier load or a planing regime reached earlier or later). A fit
+that wants more — a tripled resistance at 1-2 m/s — is taking up something else, e.g. a towed body's drag."""
 RESISTANCE_KNOTS = 5
+MIN_KNOT_SPACING_MPS = 0.1
+"""Smallest distance between two knots of the resistance correction, m/s."""
 """Knots of the resistance correction k(u), spread evenly over the speeds the trial visited."""
 
 
@@ -122,10 +128,14 @@ def _resistance(knots_mps: np.ndarray) -> Callable[[TwinConfig, np.ndarray], Twi
 
 
 def resistance_knots_mps(speed_mps: np.ndarray) -> np.ndarray:
-    """:data:`RESISTANCE_KNOTS` knots from the 2nd to the 98th percentile of the speeds visited, m/s."""
+    """:data:`RESISTANCE_KNOTS` knots at evenly spaced quantiles (2nd to 98th percentile) of the speeds visited,
+    so that each segment holds an equal share of the trial's time; at least :data:`MIN_KNOT_SPACING_MPS` apart."""
     speed = speed_mps[np.isfinite(speed_mps)]
-    lo, hi = np.percentile(speed, [2.0, 98.0])
-    return np.linspace(max(lo, 0.2), max(hi, lo + 0.5), RESISTANCE_KNOTS)
+    knots = np.percentile(speed, np.linspace(2.0, 98.0, RESISTANCE_KNOTS))
+    knots[0] = max(knots[0], 0.2)
+    for i in range(1, knots.size):
+        knots[i] = max(knots[i], knots[i - 1] + MIN_KNOT_SPACING_MPS)
+    return knots
 
 
 def catalogue(base: TwinConfig, speed_mps: np.ndarray) -> dict[str, Effect]:
@@ -149,7 +159,8 @@ def catalogue(base: TwinConfig, speed_mps: np.ndarray) -> dict[str, Effect]:
         Effect("mass_error", ("mass_factor",), _vec(1), _vec(0.05), _vec(0.3), _vec(3.0), _mass,
                lambda p: abs(float(p[0]) - 1.0)),
         Effect("resistance_shape", tuple(f"change_at_{k:.2f}_mps" for k in knots), np.zeros(n), np.full(n, 0.03),
-               np.full(n, -0.8), np.full(n, 3.0), _resistance(knots), lambda p: float(np.max(np.abs(p)))),
+               np.full(n, RESISTANCE_CHANGE_RANGE[0]), np.full(n, RESISTANCE_CHANGE_RANGE[1]), _resistance(knots),
+               lambda p: float(np.max(np.abs(p)))),
         Effect("tow_load", ("drag_scale",), _vec(0), _vec(0.1), _vec(0.0), _vec(50.0), _tow, lambda p: float(p[0])),
     ]
     return {e.name: e for e in effects}

@@ -35,6 +35,8 @@ THRESHOLDS = {
     "tow_load": 50.0,  # m of cable, towing at 1-2 m/s
 }
 """The smallest size of each effect the diagnosis must detect (issue 5), SI."""
+BAND_TIME_SHARE = 0.4
+"""A hidden resistance change covers the speeds where the trial spends this share of its time."""
 TRIAL_KINDS = ("thrust-steps", "zigzag", "random")
 """Kinds of trial the study draws from."""
 TOW_SPEEDS_MPS = (1.0, 1.5, 2.0, 1.25, 1.75)
@@ -61,22 +63,22 @@ def scenario(kind: str, params: VesselParams, rng: np.random.Generator, duration
     raise ValueError(f"unknown trial kind {kind!r}")
 
 
-def visited_speeds_mps(config: TwinConfig, kind: str, seed: int, duration_s: float) -> tuple[float, float]:
-    """10th and 90th percentile of the surge speed of the ``kind`` trial :func:`write_trial` runs with ``seed``,
-    m/s (simulated without noise): where a resistance change can be seen at all."""
+def visited_speeds_mps(config: TwinConfig, kind: str, seed: int, duration_s: float) -> np.ndarray:
+    """Surge speed at every sample of the ``kind`` trial :func:`write_trial` runs with ``seed``, m/s (simulated
+    without noise): where a resistance change can be seen at all."""
     rng = np.random.default_rng(seed)
     record = run_sea_trial(config, scenario(kind, config.vessel, rng, duration_s, config.tow), seed,
                            noise=False).record
-    low, high = np.percentile(record.states[:, 0, 3], [10.0, 90.0])
-    return float(low), float(high)
+    return record.states[:, 0, 3]
 
 
 def draw_effect(name: str, base: TwinConfig, rng: np.random.Generator,
-                speeds_mps: tuple[float, float] = (2.5, 7.5)) -> tuple[TwinConfig, dict[str, Any]]:
+                speeds_mps: np.ndarray | None = None) -> tuple[TwinConfig, dict[str, Any]]:
     """The true config with effect ``name`` at a random size 1.2-2× its threshold, and the truth to find.
 
-    A ``resistance_shape`` change covers half of the speed range ``speeds_mps`` (m/s; pass the trial's
-    :func:`visited_speeds_mps`), at a random place inside it, with ramps a fifth of its width at both ends.
+    A ``resistance_shape`` change covers the speeds where the trial spends 40 % of its time (between two
+    quantiles of ``speeds_mps``, the trial's :func:`visited_speeds_mps`, drawn at random), with ramps a fifth of
+    its width at both ends.
     """
     size = THRESHOLDS.get(name, 1.0) * rng.uniform(1.2, 2.0)
     sign = float(rng.choice([-1.0, 1.0]))
@@ -102,8 +104,11 @@ def draw_effect(name: str, base: TwinConfig, rng: np.random.Generator,
         factor = 1.0 + sign * size
         return replace(base, vessel=replace(vessel, mass_kg=vessel.mass_kg * factor)), {"mass_factor": factor}
     if name == "resistance_shape":
-        width = 0.5 * (speeds_mps[1] - speeds_mps[0])
-        low = rng.uniform(speeds_mps[0], speeds_mps[1] - width)
+        if speeds_mps is None:
+            raise ValueError("a resistance_shape change needs the speeds the trial visits")
+        quantile = rng.uniform(0.1, 0.5)
+        low, high = (float(v) for v in np.quantile(speeds_mps, [quantile, quantile + BAND_TIME_SHARE]))
+        width = max(high - low, 0.1)
         ramp = 0.2 * width
         knots = (max(low - ramp, 0.0), low, low + width, low + width + ramp)
         factors = (1.0, 1.0 + sign * size, 1.0 + sign * size, 1.0)

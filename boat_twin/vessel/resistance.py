@@ -146,8 +146,9 @@ class CorrectedResistance:
 
     @property
     def max_speed_mps(self) -> float:
-        """Speed up to which the base is valid, m/s."""
-        return self.base.max_speed_mps
+        """Speed up to which the curve is tabulated exactly, m/s: the base's range, extended to the last knot
+        (beyond the last knot k is constant, so the quadratic tail of Fc_base·k continues it)."""
+        return max(self.base.max_speed_mps, float(self.speeds_mps[-1]))
 
     def factor(self, speed_mps: np.ndarray | float) -> np.ndarray:
         """k(|u|), -."""
