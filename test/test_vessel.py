@@ -15,7 +15,12 @@ from boat_twin.vessel.params import (
     reference_turn_thrust_N,
     save_params,
 )
-from boat_twin.vessel.resistance import PowerSeriesResistance, TableResistance, dyda2021_resistance
+from boat_twin.vessel.resistance import (
+    CorrectedResistance,
+    PowerSeriesResistance,
+    TableResistance,
+    dyda2021_resistance,
+)
 from boat_twin.vessel.scenarios import CommandProfile, Zigzag, make_scenario, steady_speed_mps, thrust_steps
 from boat_twin.vessel.simulate import simulate
 
@@ -158,3 +163,14 @@ def test_bad_params_yaml_names_the_field(tmp_path, text, message) -> None:
     with pytest.raises(InputError, match=message) as err:
         load_params(path)
     assert str(path) in str(err.value)
+
+
+def test_a_resistance_correction_above_the_base_table_acts_in_the_dynamics() -> None:
+    """Table 1 ends at 9.26 m/s; a +30 % change at 11-13 m/s must still slow the boat where it applies."""
+    corrected = CorrectedResistance(PARAMS.resistance, (10.0, 11.0, 13.0, 14.0), (1.0, 1.3, 1.3, 1.0))
+    params = replace(PARAMS, resistance=corrected)
+    thrust_n = float(PARAMS.resistance.force_N(12.0))
+    base_u = simulate(PARAMS, constant(thrust_n / 2.0, duration_s=300.0)).states[-1, 0, 3]
+    corrected_u = simulate(params, constant(thrust_n / 2.0, duration_s=300.0)).states[-1, 0, 3]
+    assert base_u == pytest.approx(12.0, rel=2e-3)
+    assert float(corrected.force_N(corrected_u)) == pytest.approx(thrust_n, rel=5e-3)
