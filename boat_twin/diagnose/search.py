@@ -4,11 +4,15 @@ Method (README "Diagnosis" states it with the numbers):
 
 - Residuals are measured − predicted (:mod:`~boat_twin.diagnose.replay`) per signal, divided by the signal's
   white-noise level estimated from the data itself, so signals of different units weigh by their information.
-- The windows are grouped into :data:`FOLDS` contiguous blocks of time. A model's parameters are fitted
-  (``scipy.optimize.least_squares``) on all blocks but one and judged on the one left out, for every block:
-  the *held-out gain* of a candidate is 1 − SSE_held-out(candidate) / SSE_held-out(current model).
-  The same fold fits give jackknife standard errors of the parameters (so time-correlated residuals widen
-  them honestly) and 95 % intervals with the t quantile of FOLDS − 1 degrees of freedom.
+- A model's parameters are fitted (``scipy.optimize.least_squares``) on all windows. A candidate that passes
+  the in-sample conditions of the decision rule (:attr:`Candidate.plausible`) is then judged on held-out
+  windows: they are dealt to :data:`FOLDS` folds in turn (window k → fold k mod FOLDS) — each window starts
+  afresh from the measurements, so windows are nearly independent, and dealing them makes every fold hold
+  every speed and heading the trial visited (contiguous blocks of a thrust-steps trial would each hold one
+  speed, and a speed-dependent effect could never be judged out of its block). The parameters are refitted
+  without each fold and judged on it: the *held-out gain* is 1 − SSE_held-out(candidate) /
+  SSE_held-out(current model). The same fold fits give jackknife standard errors of the parameters and 95 %
+  intervals with the t quantile of FOLDS − 1 degrees of freedom.
 - BIC with an effective sample size: each signal's n divided by the integrated autocorrelation time of the
   candidate's residuals, ΔBIC = Σ_s n_eff,s·ln(SSE_s,new / SSE_s,old) + Δk·ln(Σ n_eff,s).
 - Decision rule: a candidate is *named* when ΔBIC < :data:`BIC_THRESHOLD` (very strong evidence, Kass &
@@ -39,7 +43,7 @@ from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
 
 FOLDS = 5
-"""Contiguous blocks of time for held-out judgement and jackknife uncertainty."""
+"""Folds of windows (dealt in turn) for held-out judgement and jackknife uncertainty."""
 BIC_THRESHOLD = -10.0
 """ΔBIC below this names a candidate (with the two other conditions): 'very strong' evidence."""
 MIN_HELDOUT_GAIN = 0.01
@@ -83,7 +87,7 @@ class Fit:
     sse: np.ndarray
     """(n_signals,) in-sample SSE with the full-data fit."""
     heldout_sse: np.ndarray
-    """(n_signals,) SSE of every block predicted by the fit without it."""
+    """(n_signals,) SSE of every fold predicted by the fit without it (NaN until :meth:`Diagnosis.judge`)."""
     residuals: Residuals
     n_eff: np.ndarray = field(default_factory=lambda: np.zeros(len(SIGNALS)))
     """(n_signals,) effective sample sizes of the residuals."""

@@ -4,7 +4,7 @@ After the best extensions, a residual that is only noise (and the replay's own s
 cannot be predicted from the boat's situation. A residual that an unmodelled effect leaves — a wind that
 depends on heading, a drag that depends on speed — can. Each signal's normalized residual is regressed on
 :data:`REGRESSOR_NAMES`, each also multiplied by the time since the window's start (an unmodelled force
-makes the error grow through the window), with the same leave-one-block-out folds as the diagnosis; the
+makes the error grow through the window), with the same leave-one-fold-out folds as the diagnosis; the
 held-out R² above :data:`R2_THRESHOLD` marks structure. The signature names the signal, the regressors that
 carry it and the time where the residual is largest.
 """
@@ -69,7 +69,7 @@ def _solve(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], prediction: Prediction,
                        folds: np.ndarray) -> list[Signature]:
-    """Signals whose residual the situation predicts on held-out blocks (held-out R² > R2_THRESHOLD)."""
+    """Signals whose residual the situation predicts on held-out folds (held-out R² > R2_THRESHOLD)."""
     x_all, names = regressors(windows, prediction)
     found = []
     for signal in SIGNALS:
