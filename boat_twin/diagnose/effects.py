@@ -40,7 +40,7 @@ MIN_SIZES = {
     "tow_load": 0.3,  # drag_scale
 }
 """The smallest size the diagnosis names: half the size it promises to detect (README "Diagnosis").
-Zero-mean errors of the replay's initial states (sensor noise carried through the hull's yaw dynamics)
+Zero-mean errors of the replay's initial states (sensor noise carried through the hull's dynamics)
 leave spurious fits of up to ~0.02 m/s of current or ~3 % of mass on clean 10-minute trials: real, stable
 across the trial, but not a cause worth naming."""
 RESISTANCE_CHANGE_RANGE = (-0.5, 1.0)
@@ -48,9 +48,9 @@ RESISTANCE_CHANGE_RANGE = (-0.5, 1.0)
 (fouling adds tens of percent, as does a heavier load or a planing regime reached earlier or later). A fit
 that wants more — a tripled resistance at 1-2 m/s — is taking up something else, e.g. a towed body's drag."""
 RESISTANCE_KNOTS = 5
+"""Knots of the resistance correction k(u), at evenly spaced quantiles of the speeds the trial visited."""
 MIN_KNOT_SPACING_MPS = 0.1
 """Smallest distance between two knots of the resistance correction, m/s."""
-"""Knots of the resistance correction k(u), spread evenly over the speeds the trial visited."""
 
 
 @dataclass(frozen=True)

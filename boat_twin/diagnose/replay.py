@@ -2,10 +2,10 @@
 
 An open-loop replay of a whole trial drifts (a 1° heading error turns into tens of metres), so the trial is
 cut into consecutive windows of ``window_s`` seconds. Each window starts from the state the sensors give at
-its first sample — heading from the IMU yaw smoothed with the gyro over the first seconds, yaw rate from the
-gyro, velocity over ground from GNSS turned into the body frame — and the model runs the recorded commands
-through it (all windows at once, as an ensemble of the dynamics kernel). What a window's prediction gets
-wrong is then the model's fault, not an accumulated drift: a multiple-shooting simulation error.
+its first sample — heading from the IMU yaw smoothed with the gyro, yaw rate from the gyro, surge from GNSS
+velocity along that heading, sway from a sway observer driven by those measurements — and the model runs the
+recorded commands through it (all windows at once, as an ensemble of the dynamics kernel). What a window's
+prediction gets wrong is then the model's fault, not an accumulated drift: a multiple-shooting simulation error.
 
 The model is a :class:`~boat_twin.config.TwinConfig`: the vessel, the current, a towed body, and the sensors'
 gyro bias (z) and GNSS latency, so every catalogue effect of the diagnosis is a change of that one config.

@@ -45,7 +45,7 @@ from boat_twin.signal_noise import white_noise_stdev
 FOLDS = 5
 """Folds of windows (dealt in turn) for held-out judgement and jackknife uncertainty."""
 BIC_THRESHOLD = -10.0
-"""ΔBIC below this names a candidate (with the two other conditions): 'very strong' evidence."""
+"""ΔBIC below this is one condition of naming a candidate: 'very strong' evidence."""
 MIN_HELDOUT_GAIN = 0.01
 """A named candidate must lower the held-out weighted SSE by more than this fraction."""
 MAX_EFFECTS = 3

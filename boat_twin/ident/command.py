@@ -35,6 +35,8 @@ from boat_twin.io.sources import TRIAL_HELP, add_trial_options
 from boat_twin.io.trial import COMMAND_ROLES, Trial
 from boat_twin.units import KGF_N, KNOT_MPS
 
+SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
+"""Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
 TWO_WAY_WARNING = 0.3
 """Below this share of the speed range crossed both ways, the report warns: the mass rests on Fc's form."""
 
@@ -60,10 +62,6 @@ def write_model_yaml(path: Path, model: dict[str, Any], comment: str = "") -> No
 def _nrms(a: np.ndarray, b: np.ndarray) -> float:
     """RMS of a − b relative to the RMS of b."""
     return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
-
-
-SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
-"""Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
 
 
 def trial_samples(trial: Trial) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
