@@ -1,4 +1,5 @@
-# boat_twin: every target sets up its own virtual environment (no ROS needed).
+# boat_twin: every target sets up its own virtual environment, ROS 2 Jazzy's core included (PyPI wheels, the
+# `ros` extra of setup.py: ros-jazzy-rclpy, ros-jazzy-rmw-fastrtps-cpp and the message packages).
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
@@ -14,7 +15,7 @@ setup: $(STAMP)
 $(STAMP): setup.py setup.cfg package.xml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test]'
+	$(PY) -m pip install -q -e '.[test,ros]'
 	touch $(STAMP)
 
 lint: $(STAMP)

@@ -32,6 +32,18 @@ setup(
         "numba>=0.59",
     ],
     extras_require={
+        # ROS 2 Jazzy's core as PyPI wheels (CPython 3.11), for a machine without a ROS install; on a Jazzy
+        # install the same packages come from the distribution (package.xml) and this extra is not used.
+        "ros": [
+            "ros-jazzy-rclpy",
+            "ros-jazzy-rmw-fastrtps-cpp",
+            "ros-jazzy-std-msgs",
+            "ros-jazzy-geometry-msgs",
+            "ros-jazzy-sensor-msgs",
+            "ros-jazzy-nav-msgs",
+            "ros-jazzy-diagnostic-msgs",
+            "ros-jazzy-std-srvs",
+        ],
         "test": [
             "pytest>=7",
             "mcap-ros2-support>=0.5",
@@ -49,9 +61,10 @@ setup(
     entry_points={
         "console_scripts": [
             "boat-twin = boat_twin.cli:main",
-            "simulator = boat_twin.nodes.simulator:main",
-            "identifier = boat_twin.nodes.identifier:main",
-            "cable = boat_twin.nodes.cable:main",
+            "simulator = boat_twin.nodes:simulator_main",
+            "identifier = boat_twin.nodes:identifier_main",
+            "cable = boat_twin.nodes:cable_main",
+            "player = boat_twin.nodes:player_main",
         ],
     },
 )

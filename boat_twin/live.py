@@ -2,7 +2,8 @@
 
 It runs the same dynamics kernel, sensor models and message builders as a batch sea trial. Sensors need a short
 history (GNSS latency), so each tick measures a sliding window of truth samples and publishes the samples stamped
-at the current tick. Correlated noise processes (Gauss-Markov position error, gyro bias random walk) restart
+at the current tick's nominal time; a live node restamps them with its clock (:func:`boat_twin.io.messages.restamped`).
+Correlated noise processes (Gauss-Markov position error, gyro bias random walk) restart
 with every window in live mode; white noise, constant biases and latency are as in batch.
 """
 

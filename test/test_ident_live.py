@@ -32,7 +32,7 @@ def test_live_identifier_matches_direct_replay_and_saves_a_loadable_model(tmp_pa
             live.set_command(index, msg.data)
             held[index] = msg.data
         elif topic == messages.TOPIC_GNSS_VEL:
-            live.on_velocity(stamp_ns * 1e-9, msg.twist.linear.x, msg.twist.linear.y)
+            live.on_velocity(stamp_ns, msg.twist.linear.x, msg.twist.linear.y)
             thrust = held[0] * math.cos(held[2]) + held[1] * math.cos(held[3])
             direct.update(stamp_ns * 1e-9, thrust, math.hypot(msg.twist.linear.x, msg.twist.linear.y))
     labels, values = live.coefficients()

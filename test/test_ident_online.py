@@ -148,3 +148,26 @@ def test_online_ignores_bad_samples_and_waits_for_data() -> None:
     assert snap["coefficients"] is None and snap["dynamic"] is None
     with pytest.raises(InputError, match="orders must be integers from 1 to 12"):
         OnlineThrustSpeedIdentifier(0)
+
+
+def test_seconds_one_ulp_apart_give_the_same_windows_and_the_same_model() -> None:
+    """A live node's stamps in seconds since the epoch, from sec + nanosec·1e-9 or from ns·1e-9, differ by an ulp
+    (0.24 µs at 1.8e9 s) on some samples; windows and segments must not move with it."""
+    t, f, v = linear_trial((300.0, 700.0, 1150.0, 500.0), 90.0, 0.02, seed=4)
+    stamps_ns = 1_795_000_000_000_000_000 + np.rint(t * 1e9).astype(np.int64)
+    as_ns = stamps_ns * 1e-9
+    as_sec = (stamps_ns // 1_000_000_000) + (stamps_ns % 1_000_000_000) * 1e-9
+    assert np.any(as_ns != as_sec)  # the two conversions really differ somewhere
+    fits = []
+    up = np.random.default_rng(1).random(t.size) < 0.5
+    jittered = np.where(up, np.nextafter(as_ns, np.inf), np.nextafter(as_ns, -np.inf))  # ±1 ulp at random
+    for seconds in (as_ns, as_sec, jittered):
+        ident = OnlineThrustSpeedIdentifier(2)
+        for row in zip(seconds.tolist(), f.tolist(), v.tolist(), strict=True):
+            ident.update(*row)
+        ident.finish()
+        fits.append((len(ident.steady_points), ident.resistance()[0], ident.dynamic()["mass_kg"]))
+    for count, coef, mass in fits[1:]:
+        assert count == fits[0][0]
+        np.testing.assert_allclose(coef, fits[0][1], rtol=1e-6)
+        assert mass == pytest.approx(fits[0][2], rel=1e-6)

@@ -205,3 +205,28 @@ def test_navsatfix_decodes_with_the_definition_written_out_by_hand() -> None:
     decoded = DecoderFactory().decoder_for("cdr", mcap_schema("sensor_msgs/msg/NavSatFix", NAVSATFIX_MSG))(
         m.serialize(ours, "sensor_msgs/msg/NavSatFix"))
     assert_same(ours, decoded)
+
+
+def test_restamped_replaces_every_header_and_tf_stamp_and_keeps_the_content() -> None:
+    from boat_twin.config import TwinConfig
+    from boat_twin.live import LiveTwin
+
+    twin = LiveTwin(TwinConfig(), noise=False)
+    for _ in range(5):
+        tick = twin.tick()
+    stamp_ns = 1_795_000_000_123_456_789
+    again = m.restamped(tick, stamp_ns)
+    assert [t for t, _, _ in again] == [t for t, _, _ in tick]
+    for (topic, old_ns, before), (_, new_ns, after) in zip(tick, again, strict=True):
+        assert new_ns == stamp_ns and old_ns != stamp_ns
+        headers = [t.header for t in getattr(after, "transforms", [])]
+        headers += [after.header] if hasattr(after, "header") else []
+        for h in headers:
+            assert (h.stamp.sec, h.stamp.nanosec) == divmod(stamp_ns, 1_000_000_000)
+        restored = m.deserialize(m.serialize(after, m.TOPICS[topic]), m.TOPICS[topic])
+        if hasattr(before, "header"):
+            assert restored.header.frame_id == before.header.frame_id
+            restored.header = before.header
+        elif hasattr(before, "transforms"):
+            restored.transforms[0].header = before.transforms[0].header
+        assert m.serialize(restored, m.TOPICS[topic]) == m.serialize(before, m.TOPICS[topic])

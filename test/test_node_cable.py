@@ -1,111 +1,106 @@
-"""The ``cable`` node with real rclpy: services answer like the library, topics carry the shape."""
+"""The ``cable`` node as a process: services answer like the library, topics carry the shape, parameters are
+checked, and the tow speed follows gnss/vel from reliable and best-effort publishers alike."""
 
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
+import rosnodes
+from geometry_msgs.msg import TwistStamped
+from nav_msgs.msg import Path as PathMsg
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
+from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
 
-rclpy = pytest.importorskip("rclpy")
-pytest.importorskip("std_srvs.srv")
-pytest.importorskip("nav_msgs.msg")
+from boat_twin.cable import load_case, solve_depth, solve_length, with_overrides
 
-from geometry_msgs.msg import TwistStamped  # noqa: E402
-from nav_msgs.msg import Path as PathMsg  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
-from rclpy.qos import DurabilityPolicy, QoSProfile  # noqa: E402
-from std_msgs.msg import Float64  # noqa: E402
-from std_srvs.srv import Trigger  # noqa: E402
-
-from boat_twin.cable import load_case, solve_depth, solve_length, with_overrides  # noqa: E402
-from boat_twin.nodes.cable import CableNode  # noqa: E402
-
-CASE = Path(__file__).resolve().parents[1] / "config" / "cable" / "default.yaml"
+CASE = rosnodes.ROOT / "config" / "cable" / "default.yaml"
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
-@pytest.fixture()
-def ros():
-    rclpy.init()
-    node = CableNode(parameter_overrides=[Parameter("case_file", value=str(CASE)),
-                                          Parameter("update_period_s", value=0.05)])
-    client = rclpy.create_node("cable_test_client")
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    executor.add_node(client)
-    yield node, client, executor
-    executor.shutdown()
-    client.destroy_node()
-    node.destroy_node()
-    rclpy.try_shutdown()
+@pytest.fixture(scope="module")
+def cable(tmp_path_factory):
+    """One cable node (integer parameters given where doubles go) and a probe, for the whole module."""
+    log_dir = tmp_path_factory.mktemp("cable")
+    params = {"case_file": str(CASE), "update_period_s": 0.2, "cable.length_m": 120}
+    with rosnodes.nodes(("cable", params), log_dir=log_dir) as (proc,), rosnodes.probe() as probe:
+        yield proc, probe
 
 
-def call(client, executor, name: str) -> Trigger.Response:
-    cli = client.create_client(Trigger, name)
-    assert cli.wait_for_service(timeout_sec=5.0)
-    future = cli.call_async(Trigger.Request())
-    executor.spin_until_future_complete(future, timeout_sec=10.0)
+def call(probe, srv_type, name: str, request):
+    client = probe.node.create_client(srv_type, name)
+    assert client.wait_for_service(timeout_sec=rosnodes.START_TIMEOUT_S)
+    future = client.call_async(request)
+    probe.executor.spin_until_future_complete(future, timeout_sec=30.0)
     assert future.done()
     return future.result()
 
 
-def spin_until(executor, predicate, timeout_s: float = 5.0) -> None:
-    for _ in range(int(timeout_s / 0.05)):
-        if predicate():
-            return
-        executor.spin_once(timeout_sec=0.05)
-    assert predicate()
+def set_parameter(probe, name: str, value: ParameterValue):
+    request = SetParameters.Request(parameters=[Parameter(name=name, value=value)])
+    return call(probe, SetParameters, "/cable/set_parameters", request).results[0]
 
 
-def test_services_answer_like_the_library(ros) -> None:
-    node, client, executor = ros
+def test_services_answer_like_the_library(cable) -> None:
+    _proc, probe = cable
     case = load_case(CASE)
-    reply = call(client, executor, "/cable/solve_depth")
-    assert reply.success, reply.message
-    assert json.loads(reply.message)["vehicle_depth_m"] == pytest.approx(solve_depth(case).vehicle_depth_m)
-    reply = call(client, executor, "/cable/solve_length")
+    reply = call(probe, Trigger, "/cable/solve_length", Trigger.Request())
     assert reply.success, reply.message
     assert json.loads(reply.message)["length_m"] == pytest.approx(solve_length(case).length_m)
+    reply = call(probe, Trigger, "/cable/solve_depth", Trigger.Request())
+    assert reply.success, reply.message
+    answer = json.loads(reply.message)
+    assert answer["length_m"] == pytest.approx(120.0)
+    assert answer["vehicle_depth_m"] > 0.0
 
 
-def test_topics_carry_shape_depth_and_tension(ros) -> None:
-    node, client, executor = ros
+def test_topics_carry_shape_depth_and_tension(cable) -> None:
+    _proc, probe = cable
     got: dict[str, object] = {}
-    client.create_subscription(PathMsg, "cable/path", lambda m: got.__setitem__("path", m), LATCHED)
-    client.create_subscription(Float64, "cable/vehicle_depth", lambda m: got.__setitem__("depth", m), LATCHED)
-    client.create_subscription(Float64, "cable/top_tension", lambda m: got.__setitem__("tension", m), LATCHED)
-    spin_until(executor, lambda: len(got) == 3)
-    expected = solve_depth(load_case(CASE))
+    probe.node.create_subscription(PathMsg, "cable/path", lambda m: got.__setitem__("path", m), LATCHED)
+    probe.node.create_subscription(Float64, "cable/vehicle_depth", lambda m: got.__setitem__("depth", m), LATCHED)
+    probe.node.create_subscription(Float64, "cable/top_tension", lambda m: got.__setitem__("tension", m), LATCHED)
+    assert probe.spin_until(lambda: len(got) == 3, rosnodes.START_TIMEOUT_S)
     path = got["path"]
     assert path.header.frame_id == "tow_point"
-    assert len(path.poses) == expected.link_length_m.size + 1
-    assert path.poses[-1].pose.position.z == pytest.approx(-expected.vehicle_depth_m)
-    assert got["depth"].data == pytest.approx(expected.vehicle_depth_m)
-    assert got["tension"].data == pytest.approx(expected.top_tension_N)
+    assert path.poses[-1].pose.position.z == pytest.approx(-got["depth"].data)
+    assert got["depth"].data > 0.0 and got["tension"].data > 0.0
 
 
-def test_bad_parameter_is_refused_with_the_reason(ros) -> None:
-    node, _client, _executor = ros
-    result = node.set_parameters([Parameter("cable.diameter_m", value=-0.02)])[0]
-    assert not result.successful and "cable.diameter_m" in result.reason
-    assert node.get_parameter("cable.diameter_m").value == pytest.approx(0.02)
-    assert node.set_parameters([Parameter("cable.length_m", value=250.0)])[0].successful
+def test_bad_parameter_is_refused_with_the_reason_and_integers_are_accepted(cable) -> None:
+    _proc, probe = cable
+    bad = set_parameter(probe, "cable.diameter_m", ParameterValue(type=ParameterType.PARAMETER_DOUBLE,
+                                                                  double_value=-0.02))
+    assert not bad.successful and "cable.diameter_m" in bad.reason
+    good = set_parameter(probe, "cable.length_m", ParameterValue(type=ParameterType.PARAMETER_INTEGER,
+                                                                 integer_value=250))
+    assert good.successful, good.reason
+    reply = call(probe, Trigger, "/cable/solve_depth", Trigger.Request())
+    assert json.loads(reply.message)["length_m"] == pytest.approx(250.0)
 
 
-def test_follows_live_tow_speed(ros) -> None:
-    node, client, executor = ros
-    node.set_parameters([Parameter("follow_gnss_vel", value=True)])
+@pytest.mark.parametrize("qos", [qos_profile_sensor_data, QoSProfile(depth=10)], ids=["best_effort", "reliable"])
+def test_follows_live_tow_speed(cable, qos) -> None:
+    _proc, probe = cable
+    assert set_parameter(probe, "follow_gnss_vel", ParameterValue(type=ParameterType.PARAMETER_BOOL,
+                                                                  bool_value=True)).successful
     depths: list[float] = []
-    client.create_subscription(Float64, "cable/vehicle_depth", lambda m: depths.append(m.data), LATCHED)
-    pub = client.create_publisher(TwistStamped, "gnss/vel", 10)
+    probe.node.create_subscription(Float64, "cable/vehicle_depth", lambda m: depths.append(m.data), LATCHED)
+    publisher = probe.node.create_publisher(TwistStamped, "gnss/vel", qos)
     msg = TwistStamped()
-    msg.twist.linear.x, msg.twist.linear.y = 1.2, 1.6  # 2.0 m/s over ground, ENU
-    expected = solve_depth(with_overrides(load_case(CASE), tow_speed_mps=2.0)).vehicle_depth_m
+    speed = 2.0 if qos.reliability == qos_profile_sensor_data.reliability else 1.5
+    msg.twist.linear.x, msg.twist.linear.y = 0.6 * speed, 0.8 * speed  # ENU over ground
+    length = json.loads(call(probe, Trigger, "/cable/solve_depth", Trigger.Request()).message)["length_m"]
+    expected = solve_depth(with_overrides(load_case(CASE), tow_speed_mps=speed, length_m=length)).vehicle_depth_m
+    assert probe.spin_until(lambda: bool(depths) and depths[-1] == pytest.approx(expected), 30.0,
+                            lambda: publisher.publish(msg)), (depths[-3:], expected)
 
-    def reached() -> bool:
-        pub.publish(msg)
-        return bool(depths) and depths[-1] == pytest.approx(expected)
 
-    spin_until(executor, reached)
+def test_default_case_file_without_a_sourced_workspace(monkeypatch) -> None:
+    from boat_twin.nodes.cable import default_case_file
+
+    monkeypatch.delenv("AMENT_PREFIX_PATH", raising=False)
+    assert default_case_file() == str(CASE)

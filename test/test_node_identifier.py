@@ -1,5 +1,7 @@
-"""The identifier node with real rclpy: a simulated trial's thrust and GNSS velocity in, the identified
-coefficients (labelled Float64MultiArray) and /diagnostics out at 1 Hz, ~/save and ~/reset services."""
+"""The identifier node as a process: a simulated trial's thrust and GNSS velocity in, the identified
+coefficients (labelled Float64MultiArray) and /diagnostics out every second, ~/save and ~/reset services."""
+
+from __future__ import annotations
 
 import json
 import math
@@ -7,28 +9,26 @@ import time
 
 import numpy as np
 import pytest
+import rosnodes
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import TwistStamped
+from rclpy.qos import qos_profile_sensor_data
+from std_msgs.msg import Float64, Float64MultiArray
+from std_srvs.srv import Trigger
 
-rclpy = pytest.importorskip("rclpy")
-
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
-from geometry_msgs.msg import TwistStamped  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.qos import qos_profile_sensor_data  # noqa: E402
-from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
-from std_srvs.srv import Trigger  # noqa: E402
-
-from boat_twin.config import TwinConfig  # noqa: E402
-from boat_twin.ident.live import LiveIdentifier  # noqa: E402
-from boat_twin.io import messages  # noqa: E402
-from boat_twin.nodes.identifier import IdentifierNode  # noqa: E402
-from boat_twin.sea_trial import run_sea_trial, trial_messages  # noqa: E402
-from boat_twin.vessel.params import load_params  # noqa: E402
-from boat_twin.vessel.scenarios import CommandProfile  # noqa: E402
+from boat_twin.config import TwinConfig
+from boat_twin.ident.live import LiveIdentifier
+from boat_twin.io import messages
+from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.vessel.params import load_params
+from boat_twin.vessel.scenarios import CommandProfile
 
 ORDER = 2
 LEVELS_N, HOLDS_S = (300, 700, 1150, 500, 0), (80, 70, 60, 120, 5)
 """Four settled thrust levels (N + 2 for N = 2), up and down; the short idle closes the last segment."""
 THRUST_TOPICS = (messages.TOPIC_THRUST_LEFT, messages.TOPIC_THRUST_RIGHT)
+EPOCH_NS = 1_795_000_000_000_000_000
+"""Stamps as a live driver gives them (wall-clock epoch): seconds from sec + nanosec must not move windows."""
 
 
 def trial_inputs() -> list[tuple[str, object]]:
@@ -42,7 +42,7 @@ def trial_inputs() -> list[tuple[str, object]]:
             held[topic] = msg.data
             inputs.append((topic, msg.data))
         elif topic == messages.TOPIC_GNSS_VEL:
-            inputs.append((topic, (stamp_ns, msg.twist.linear.x, msg.twist.linear.y)))
+            inputs.append((topic, (EPOCH_NS + stamp_ns, msg.twist.linear.x, msg.twist.linear.y)))
     return inputs
 
 
@@ -55,50 +55,44 @@ def velocity_msg(stamp_ns: int, east: float, north: float) -> TwistStamped:
 
 
 def test_identifier_node_publishes_coefficients_and_diagnostics_and_serves_save_and_reset(tmp_path) -> None:
-    model_path = tmp_path / "identified.yaml"
-    rclpy.init(args=["test_identifier", "--ros-args", "-p", f"order:={ORDER}", "-p", f"model_path:={model_path}"])
-    try:
-        node = IdentifierNode()
-        probe = rclpy.create_node("probe")
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        executor.add_node(probe)
-
-        def spin_until(done, timeout_s: float) -> bool:
-            end = time.monotonic() + timeout_s
-            while not done() and time.monotonic() < end:
-                executor.spin_once(timeout_sec=0.01)
-            return bool(done())
-
+    model_path = tmp_path / "models" / "identified.yaml"
+    params = {"order": ORDER, "memory_s": 3600, "model_path": str(model_path)}  # an integer where a double goes
+    with rosnodes.nodes(("identifier", params), log_dir=tmp_path) as (ident,), rosnodes.probe() as probe:
+        node = probe.node
         coefficients: list = []
         diagnostics: list = []
-        probe.create_subscription(Float64MultiArray, "identification/coefficients", coefficients.append, 10)
-        probe.create_subscription(DiagnosticArray, "/diagnostics", diagnostics.append, 10)
-        thrust = {t: probe.create_publisher(Float64, t, 10) for t in THRUST_TOPICS}
-        velocity = probe.create_publisher(TwistStamped, messages.TOPIC_GNSS_VEL, qos_profile_sensor_data)
+        node.create_subscription(Float64MultiArray, "identification/coefficients", coefficients.append, 10)
+        node.create_subscription(DiagnosticArray, "/diagnostics", diagnostics.append, 10)
+        thrust = {t: node.create_publisher(Float64, t, 10) for t in THRUST_TOPICS}
+        velocity = node.create_publisher(TwistStamped, messages.TOPIC_GNSS_VEL, qos_profile_sensor_data)
         publishers = [*thrust.values(), velocity]
-        assert spin_until(lambda: all(p.get_subscription_count() > 0 for p in publishers), 10.0)
+        assert probe.spin_until(lambda: all(p.get_subscription_count() > 0 for p in publishers) and diagnostics,
+                                rosnodes.START_TIMEOUT_S)
+        assert diagnostics[-1].status[0].message == f"waiting for steady points (0 of {ORDER + 2})"
 
-        # Feed the trial in stamp order, each message handled before the next (the velocity QoS keeps only 5).
+        # Feed the trial in stamp order at a pace the node keeps up with; a thrust change settles first.
         direct = LiveIdentifier(order=ORDER)
+        sent = 0
         for topic, payload in trial_inputs():
             if topic in thrust:
-                index = messages.COMMAND_TOPICS.index(topic)
                 thrust[topic].publish(Float64(data=payload))
-                direct.set_command(index, payload)
-                assert spin_until(lambda i=index, v=payload: node.ident.commands[i] == v, 2.0)
+                direct.set_command(messages.COMMAND_TOPICS.index(topic), payload)
+                probe.spin_for(0.1)
             else:
-                before = node.ident.core.n_samples
                 velocity.publish(velocity_msg(*payload))
-                direct.on_velocity(payload[0] * 1e-9, payload[1], payload[2])
-                assert spin_until(lambda n=before: node.ident.core.n_samples > n, 2.0)
-        assert node.ident.core.n_samples == direct.core.n_samples
+                direct.on_velocity(*payload)
+                sent += 1
+                time.sleep(0.001)
+                probe.executor.spin_once(timeout_sec=0.0)
 
-        # Publications after the feed (2.5 s: at least two 1 Hz ticks, the last one surely after the last sample)
-        # carry the identified model: the same numbers as the direct replay.
+        def received() -> int:
+            values = {kv.key: kv.value for kv in diagnostics[-1].status[0].values}
+            return int(values["n_samples"])
+
+        assert probe.spin_until(lambda: received() == sent, 10.0), (received(), sent)
         published = len(coefficients)
-        spin_until(lambda: False, 2.5)
-        assert len(coefficients) >= published + 2 and diagnostics
+        probe.spin_for(2.5)  # at least two more 1 Hz publications, the last surely after the last sample
+        assert len(coefficients) >= published + 2
         labels, expected = direct.coefficients()
         out = coefficients[-1]
         assert out.layout.dim[0].label.split(",") == labels == [
@@ -114,26 +108,43 @@ def test_identifier_node_publishes_coefficients_and_diagnostics_and_serves_save_
         np.testing.assert_allclose(values["coefficients"], out.data[:-1], rtol=1e-9, atol=1e-9)
 
         def call(service: str) -> Trigger.Response:
-            client = probe.create_client(Trigger, f"/identifier/{service}")
-            assert client.wait_for_service(timeout_sec=5.0)
+            client = node.create_client(Trigger, f"/identifier/{service}")
+            assert client.wait_for_service(timeout_sec=10.0)
             future = client.call_async(Trigger.Request())
-            executor.spin_until_future_complete(future, timeout_sec=5.0)
+            probe.executor.spin_until_future_complete(future, timeout_sec=10.0)
             assert future.done()
             return future.result()
 
         saved = call("save")
         assert saved.success and saved.message == str(model_path)
-        params = load_params(model_path)
-        np.testing.assert_allclose(params.resistance.coefficients, out.data[:-1], rtol=1e-9, atol=1e-9)
-        assert params.mass_kg * (1.0 + params.surge_added_mass_ratio) == pytest.approx(out.data[-1])
+        model = load_params(model_path)
+        np.testing.assert_allclose(model.resistance.coefficients, out.data[:-1], rtol=1e-9, atol=1e-9)
+        assert model.mass_kg * (1.0 + model.surge_added_mass_ratio) == pytest.approx(out.data[-1])
 
         assert call("reset").success
-        assert spin_until(lambda: all(math.isnan(x) for x in coefficients[-1].data), 3.0)
-        assert spin_until(lambda: diagnostics[-1].status[0].level == DiagnosticStatus.WARN, 3.0)
-        assert diagnostics[-1].status[0].message == "waiting for steady points"
+        assert probe.spin_until(lambda: all(math.isnan(x) for x in coefficients[-1].data), 5.0)
+        assert probe.spin_until(lambda: diagnostics[-1].status[0].level == DiagnosticStatus.WARN, 5.0)
         model_path.unlink()
         refused = call("save")
         assert not refused.success and refused.message == "not enough steady points yet"
         assert not model_path.exists()
-    finally:
-        rclpy.try_shutdown()
+        assert "Traceback" not in ident.stderr
+
+
+def test_the_model_path_defaults_under_ros_home(tmp_path, monkeypatch) -> None:
+    from boat_twin.nodes.identifier import default_model_path
+
+    monkeypatch.setenv("ROS_HOME", str(tmp_path))
+    assert default_model_path() == tmp_path / "boat_twin" / "identified_model.yaml"
+
+
+@pytest.mark.parametrize(("params", "message"), [
+    ({"order": 0}, "parameter order: must be from 1 to"),
+    ({"memory_s": -5}, "parameter memory_s: must be > 0"),
+    ({"memory_s": "long"}, "parameter memory_s: expected a number"),
+])
+def test_bad_parameters_end_with_one_line_and_exit_2(tmp_path, params, message) -> None:
+    proc = rosnodes.NodeProcess("identifier", params, tmp_path)
+    assert proc.wait(rosnodes.START_TIMEOUT_S) == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("identifier: error: ") and message in lines[0], lines

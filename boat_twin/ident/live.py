@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from boat_twin.ident.online import OnlineThrustSpeedIdentifier
+from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadySegment
 from boat_twin.vessel.resistance import PowerSeriesResistance
 
 
@@ -29,18 +29,24 @@ class LiveIdentifier:
         self.core = OnlineThrustSpeedIdentifier(self.order, memory_s=self.memory_s)
         self.commands = np.array([math.nan, math.nan, 0.0, 0.0])
         self.max_speed_mps = 0.0
+        self.first_stamp_ns: int | None = None
 
     def set_command(self, index: int, value: float) -> None:
         """Command 0 thrust_left_N, 1 thrust_right_N, 2 angle_left_rad, 3 angle_right_rad (held)."""
         self.commands[index] = value
 
-    def on_velocity(self, stamp_s: float, vel_east_mps: float, vel_north_mps: float) -> None:
-        """One GNSS velocity sample: surge thrust Σ T·cos δ of the held commands against speed over ground."""
+    def on_velocity(self, stamp_ns: int, vel_east_mps: float, vel_north_mps: float) -> SteadySegment | None:
+        """One GNSS velocity sample (header stamp in integer ns): surge thrust Σ T·cos δ of the held commands
+        against speed over ground. Time runs from the first sample, so seconds are exact to the ns.
+        Returns the constant-thrust segment this sample closed, if any (accepted or not)."""
+        if self.first_stamp_ns is None:
+            self.first_stamp_ns = stamp_ns
+        stamp_s = (stamp_ns - self.first_stamp_ns) * 1e-9
         left, right, angle_left, angle_right = self.commands
         thrust = float(left * math.cos(angle_left) + right * math.cos(angle_right))
         speed = math.hypot(vel_east_mps, vel_north_mps)
         self.max_speed_mps = max(self.max_speed_mps, speed)
-        self.core.update(stamp_s, thrust, speed)
+        return self.core.update(stamp_s, thrust, speed)
 
     def coefficients(self) -> tuple[list[str], list[float]]:
         """Labels and values to publish: c_0..c_N of Fc in N/(m/s)^i, then the effective mass, kg (NaN: not yet)."""
@@ -51,8 +57,8 @@ class LiveIdentifier:
         return [f"c{i}_N_per_mps{i}" for i in range(self.order + 1)] + ["effective_mass_kg"], coef + [mass]
 
     def status(self) -> dict[str, Any]:
-        """Fit quality and counters, for diagnostics."""
-        return self.core.snapshot()
+        """Fit quality and counters, for diagnostics (``steady_points_needed``: N + 2 for a curve of order N)."""
+        return {**self.core.snapshot(), "steady_points_needed": self.order + 2}
 
     def model(self) -> dict[str, Any] | None:
         """The identified model as the simulator loads it (``--model``); None before N + 2 steady points."""
@@ -67,11 +73,12 @@ class LiveIdentifier:
         return model
 
     def save(self, path: Path) -> bool:
-        """Write the model YAML to ``path`` (atomically); False if there is nothing to save yet."""
+        """Write the model YAML to ``path`` (atomically, its directory created); False if nothing to save yet."""
         from boat_twin.io.files import atomic_write_yaml
 
         model = self.model()
         if model is None:
             return False
+        path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_yaml(path, {"vessel": model})
         return True

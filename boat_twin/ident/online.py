@@ -32,6 +32,11 @@ from boat_twin.errors import InputError
 from boat_twin.ident.dynamic import DynamicWindow, check_samples, window_row
 from boat_twin.ident.steady import MAX_ORDER, legendre_design, power_matrix
 
+EDGE_TOLERANCE_S = 1e-4
+"""Samples within 0.1 ms of a window edge count as on it: far below any sampling period (1 ms at 1 kHz), far
+above the rounding of stamps (1 ulp of 1.7e9 s is 0.24 µs), so seconds from ``sec + nanosec·1e-9`` or from
+``ns·1e-9`` give the same windows."""
+
 
 class RecursiveLeastSquares:
     """θ̂ minimising Σ_j λ^(k−j)·(y_j − x_jᵀθ)², one sample at a time (Ljung & Söderström 1983, §2.2).
@@ -159,8 +164,8 @@ class SteadySegment:
 def _tail_starts(t: np.ndarray, first: int, window_s: float) -> np.ndarray:
     """Start indices of tails of length window_s, 1.5·window_s, ... and of the whole part after ``first``."""
     held = t[-1] - t[first]
-    lengths = np.r_[np.arange(window_s, held, window_s / 2.0), held]
-    return np.searchsorted(t, t[-1] - lengths, side="right") - 1
+    lengths = np.r_[np.arange(window_s, held - EDGE_TOLERANCE_S, window_s / 2.0), held]
+    return np.searchsorted(t, t[-1] - lengths + EDGE_TOLERANCE_S, side="right") - 1
 
 
 def analyse_segment(
@@ -188,7 +193,7 @@ def analyse_segment(
         )
 
     held = float(t[-1] - t[first])
-    if held < criteria.window_s or t.size - first < 4:
+    if held < criteria.window_s - EDGE_TOLERANCE_S or t.size - first < 4:
         after = " after a sampling gap" if gaps.size else ""
         return rejected(
             f"held {held:.1f} s{after}, shorter than the {criteria.window_s:g} s test window",
@@ -405,9 +410,9 @@ class OnlineThrustSpeedIdentifier:
         if math.isnan(self._next_end):
             self._next_end = t_s + self.window.length_s
         self._buf.append((t_s, thrust_N, speed_mps))
-        while self._buf[0][0] < t_s - self.window.length_s:
+        while self._buf[0][0] < t_s - self.window.length_s - EDGE_TOLERANCE_S:
             self._buf.popleft()
-        if t_s >= self._next_end:
+        if t_s >= self._next_end - EDGE_TOLERANCE_S:
             self._add_window(t_s)
             self._next_end = t_s + self.window.stride_s
         return seg

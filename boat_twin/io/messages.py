@@ -15,6 +15,7 @@ them), ``imu_link`` the UM7 (coincides with ``base_link``).
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -220,6 +221,29 @@ def tf_message(header_msg: Message, east_m: float, north_m: float, orientation_x
         transform=_Transform(translation=_Vector3(x=east_m, y=north_m, z=0.0),
                              rotation=_Quaternion(x=q[0], y=q[1], z=q[2], w=q[3])),
     )])
+
+
+def restamped(items: Sequence[tuple[str, int, Message]], stamp_ns: int) -> list[tuple[str, int, Message]]:
+    """The same messages stamped ``stamp_ns`` (headers and tf transforms replaced, the rest shared).
+
+    A live node stamps what a tick publishes with its clock at that tick, while the sensor models run on the
+    tick's nominal time; messages without a header (Float32/64) keep only the new log stamp.
+    """
+    stamps: dict[int, Message] = {}
+
+    def new_header(old: Message) -> Message:
+        if id(old) not in stamps:
+            stamps[id(old)] = header(stamp_ns, old.frame_id)
+        return stamps[id(old)]
+
+    out = []
+    for topic, _old_ns, msg in items:
+        if hasattr(msg, "header"):
+            msg = replace(msg, header=new_header(msg.header))
+        elif hasattr(msg, "transforms"):
+            msg = replace(msg, transforms=[replace(t, header=new_header(t.header)) for t in msg.transforms])
+        out.append((topic, stamp_ns, msg))
+    return out
 
 
 def serialize(message: Message, msgtype: str) -> bytes:

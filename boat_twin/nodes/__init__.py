@@ -1,1 +1,37 @@
-"""rclpy adapters: the only modules that import rclpy."""
+"""rclpy adapters: the only modules that import rclpy. Console-script entry points live here so that a machine
+without ROS gets one clear line instead of an ImportError traceback (named ``*_main``: a function named like a
+submodule would be replaced by that submodule once it is imported)."""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import sys
+
+
+def _run(name: str) -> int:
+    if importlib.util.find_spec("rclpy") is None:
+        sys.stderr.write(f"{name}: error: rclpy is not installed: source a ROS 2 Jazzy install, or "
+                         "pip install 'boat_twin[ros]' for its PyPI wheels\n")
+        return 2
+    return int(importlib.import_module(f"boat_twin.nodes.{name}").main())
+
+
+def simulator_main() -> int:
+    """``ros2 run boat_twin simulator``."""
+    return _run("simulator")
+
+
+def identifier_main() -> int:
+    """``ros2 run boat_twin identifier``."""
+    return _run("identifier")
+
+
+def cable_main() -> int:
+    """``ros2 run boat_twin cable``."""
+    return _run("cable")
+
+
+def player_main() -> int:
+    """``ros2 run boat_twin player``."""
+    return _run("player")

@@ -3,7 +3,7 @@
 Wiring only; every number comes from the library.
 
 Parameters
-  case_file (string)         case YAML, read once at start-up (default: config/cable/default.yaml)
+  case_file (string, "")     case YAML, read once at start-up ("": the installed config/cable/default.yaml)
   <case fields> (double, double[], string)   every field of the case, dotted: tow_speed_mps, cable.length_m,
                              cable.drag.cx, current.depth_m, vehicle.weight_in_water_N, target_depth_m, ...
                              initialised from the file, settable at run time (a bad value is refused with the
@@ -15,7 +15,8 @@ Services (std_srvs/srv/Trigger; response.message is the JSON result, or the erro
   ~/solve_depth    problem 1 for cable.length_m      ~/solve_length   problem 2 for target_depth_m
 Topics (transient local, so late subscribers get the last answer)
   cable/path (nav_msgs/Path), cable/vehicle_depth (std_msgs/Float64, m), cable/top_tension (Float64, N),
-  cable/length (Float64, m);  subscribes to gnss/vel (geometry_msgs/TwistStamped, ENU) when following it.
+  cable/length (Float64, m);  subscribes to gnss/vel (geometry_msgs/TwistStamped, ENU, SensorDataQoS) and
+  uses it when follow_gnss_vel is true. Integers are accepted wherever a double is expected.
 """
 
 from __future__ import annotations
@@ -28,31 +29,31 @@ from typing import Any
 
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from nav_msgs.msg import Path as PathMsg
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, QoSProfile
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
 from boat_twin.cable.case import CableCase, case_from_parameters, case_parameters, load_case, with_overrides
 from boat_twin.cable.problems import CableSolution, solve_depth, solve_length
 from boat_twin.errors import InputError
+from boat_twin.nodes import parameters
 from boat_twin.nodes.spin import run_node
 
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def default_case_file() -> str:
-    """The installed config/cable/default.yaml (the source tree's when the package is not installed)."""
+    """The installed config/cable/default.yaml; the source tree's outside a sourced ROS workspace."""
+    source_tree = Path(__file__).resolve().parents[2] / "config" / "cable" / "default.yaml"
     try:
-        from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
-    except ImportError:
-        return str(Path(__file__).resolve().parents[2] / "config" / "cable" / "default.yaml")
-    try:
+        from ament_index_python.packages import get_package_share_directory
+
         return str(Path(get_package_share_directory("boat_twin")) / "config" / "cable" / "default.yaml")
-    except PackageNotFoundError:
-        return str(Path(__file__).resolve().parents[2] / "config" / "cable" / "default.yaml")
+    except (ImportError, LookupError, OSError):  # not installed / not in the index / AMENT_PREFIX_PATH unset
+        return str(source_tree)
 
 
 class CableNode(Node):
@@ -60,16 +61,16 @@ class CableNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("cable", **kwargs)
-        case_file = self.declare_parameter("case_file", default_case_file(), ParameterDescriptor(
-            description="case YAML, read once at start-up", read_only=True)).value
+        case_file = parameters.string(self, "case_file", "", "case YAML (empty: config/cable/default.yaml)")
+        case_file = case_file or default_case_file()
         case = load_case(case_file)
         self._case_names = []
         for name, value in case_parameters(case).items():
-            self.declare_parameter(name, value)
+            parameters.declare(self, name, value, "case field (see boat_twin.cable.case)", read_only=False)
             self._case_names.append(name)
-        self.declare_parameter("follow_gnss_vel", False)
-        self.declare_parameter("frame_id", "tow_point")
-        period = self.declare_parameter("update_period_s", 1.0, ParameterDescriptor(read_only=True)).value
+        parameters.boolean(self, "follow_gnss_vel", False, "tow speed from gnss/vel", read_only=False)
+        parameters.string(self, "frame_id", "tow_point", "frame of cable/path")
+        period = parameters.double(self, "update_period_s", 1.0, "re-solve period, s", above=0.0)
         self._live_speed_mps: float | None = None
         self._dirty = True
         self.add_on_set_parameters_callback(self._check_parameters)
@@ -79,7 +80,7 @@ class CableNode(Node):
         self._length_pub = self.create_publisher(Float64, "cable/length", LATCHED)
         self.create_service(Trigger, "~/solve_depth", self._solve_depth)
         self.create_service(Trigger, "~/solve_length", self._solve_length)
-        self.create_subscription(TwistStamped, "gnss/vel", self._on_velocity, 10)
+        self.create_subscription(TwistStamped, "gnss/vel", self._on_velocity, qos_profile_sensor_data)
         self.create_timer(period, self._refresh)
         self.get_logger().info(f"cable case {case_file}: services ~/solve_depth, ~/solve_length")
 
@@ -92,6 +93,9 @@ class CableNode(Node):
         return case
 
     def _check_parameters(self, params: list[Parameter]) -> SetParametersResult:
+        for p in params:
+            if p.name == "follow_gnss_vel" and not isinstance(p.value, bool):
+                return SetParametersResult(successful=False, reason="follow_gnss_vel: expected true or false")
         changes = {p.name: p.value for p in params if p.name in self._case_names}
         try:
             self._case(changes)

@@ -6,7 +6,8 @@ import sys
 from collections.abc import Callable
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from boat_twin.errors import InputError
@@ -17,15 +18,22 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
     rclpy.init(args=args)
     try:
         node = factory()
-    except InputError as err:
-        sys.stderr.write(f"{name}: error: {err}\n")
+    except (InputError, ParameterException) as err:
+        sys.stderr.write(f"{name}: error: {' '.join(str(err).split())}\n")
         rclpy.try_shutdown()
         return 2
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
     try:
-        rclpy.spin(node)
+        while not getattr(node, "done", False):  # a node that ends by itself (the player) sets ``done``
+            executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception:  # noqa: BLE001 - a callback racing the shutdown (Ctrl-C, SIGTERM) is no failure
+        if rclpy.ok():
+            raise
     finally:
+        executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
     return 0

@@ -1,0 +1,74 @@
+"""Node parameters declared up front, typed as a ROS user writes them on the command line.
+
+``ros2 run ... -p memory_s:=600`` hands rclpy an INTEGER; a parameter declared with a float default would then
+raise InvalidParameterTypeException and kill the node with a traceback. Parameters are therefore declared with
+dynamic typing and converted here, once: an integer is accepted for a double, anything else unusable raises
+:class:`~boat_twin.errors.InputError` naming the parameter (the node runner turns it into one line, exit 2).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.node import Node
+
+from boat_twin.errors import InputError
+
+
+def declare(node: Node, name: str, default: Any, description: str, *, read_only: bool = True) -> Any:
+    """Declare ``name`` (any type accepted: converted by the typed helpers below) and return its value."""
+    descriptor = ParameterDescriptor(description=description, read_only=read_only, dynamic_typing=True)
+    return node.declare_parameter(name, default, descriptor).value
+
+
+def as_double(node: Node, name: str, value: Any, *, above: float | None = None,
+              maximum: float | None = None) -> float:
+    """A finite float from an integer or a double parameter value, within bounds; else InputError."""
+    where = f"parameter {name}"
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{where}: expected a number, got {value!r}")
+    result = float(value)
+    if not math.isfinite(result):
+        raise InputError(f"{where}: must be finite, got {value!r}")
+    if above is not None and result <= above:
+        raise InputError(f"{where}: must be > {above:g}, got {result:g}")
+    if maximum is not None and result > maximum:
+        raise InputError(f"{where}: must be <= {maximum:g}, got {result:g}")
+    return result
+
+
+def double(node: Node, name: str, default: float, description: str, *, above: float | None = None,
+           maximum: float | None = None) -> float:
+    """Declare a read-only double parameter (integers accepted) and return it checked."""
+    return as_double(node, name, declare(node, name, default, description), above=above, maximum=maximum)
+
+
+def integer(node: Node, name: str, default: int, description: str, *, minimum: int | None = None,
+            maximum: int | None = None) -> int:
+    """Declare a read-only integer parameter and return it checked (a whole double such as 3.0 is accepted)."""
+    value = declare(node, name, default, description)
+    where = f"parameter {name}"
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not float(value).is_integer():
+        raise InputError(f"{where}: expected an integer, got {value!r}")
+    result = int(value)
+    if (minimum is not None and result < minimum) or (maximum is not None and result > maximum):
+        raise InputError(f"{where}: must be from {minimum} to {maximum}, got {result}")
+    return result
+
+
+def boolean(node: Node, name: str, default: bool, description: str, *, read_only: bool = True) -> bool:
+    """Declare a boolean parameter and return it checked."""
+    value = declare(node, name, default, description, read_only=read_only)
+    if not isinstance(value, bool):
+        raise InputError(f"parameter {name}: expected true or false, got {value!r}")
+    return value
+
+
+def string(node: Node, name: str, default: str, description: str) -> str:
+    """Declare a read-only string parameter and return it checked."""
+    value = declare(node, name, default, description)
+    if not isinstance(value, str):
+        raise InputError(f"parameter {name}: expected a string, got {value!r}")
+    return value

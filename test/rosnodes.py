@@ -1,0 +1,123 @@
+"""Helpers of the node tests: boat_twin nodes as separate processes, an in-process probe, wall-clock deadlines.
+
+Every process of a test session shares one private ROS_DOMAIN_ID with localhost-only discovery, so parallel
+sessions on one machine (or a developer's own ROS graph) never see each other's topics.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+os.environ["ROS_DOMAIN_ID"] = str(101 + os.getpid() % 100)
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+os.environ["RMW_IMPLEMENTATION"] = "rmw_fastrtps_cpp"
+os.environ.setdefault("ROS_HOME", str(Path(os.environ.get("TMPDIR", "/tmp")) / f"boat_twin_ros_{os.getpid()}"))
+
+import rclpy  # noqa: E402  (the environment above must be set first)
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+START_TIMEOUT_S = 90.0
+"""Wall-clock time a node gets to come up (imports and the first JIT compile on a loaded 2-core machine)."""
+
+
+def executable(name: str) -> str:
+    """The console script ``name`` installed next to this Python (the venv's bin/)."""
+    path = Path(sys.executable).parent / name
+    return str(path) if path.exists() else (shutil.which(name) or name)
+
+
+class NodeProcess:
+    """A node started as its console script with ``--ros-args``; stdout and stderr kept in files."""
+
+    def __init__(self, name: str, params: dict[str, Any] | None = None, log_dir: Path | None = None) -> None:
+        args = [executable(name), "--ros-args"]
+        for key, value in (params or {}).items():
+            text = str(value).lower() if isinstance(value, bool) else str(value)
+            args += ["-p", f"{key}:={text}"]
+        self.log_dir = Path(log_dir or os.environ["ROS_HOME"])
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        self.stderr_path = self.log_dir / f"{name}.{os.getpid()}.{time.monotonic_ns()}.err"
+        with self.stderr_path.open("w") as stderr:
+            self.process = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=stderr)
+
+    def stop(self, timeout_s: float = 20.0) -> int:
+        """SIGINT (Ctrl-C), then wait; killed if it does not end. Returns the exit code."""
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+            try:
+                self.process.wait(timeout_s)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+        return self.process.returncode
+
+    def wait(self, timeout_s: float) -> int:
+        """Wait for the process to end by itself; returns its exit code."""
+        return self.process.wait(timeout_s)
+
+    @property
+    def stderr(self) -> str:
+        """What the node wrote on stderr so far."""
+        return self.stderr_path.read_text()
+
+
+@contextmanager
+def nodes(*specs: tuple[str, dict[str, Any]], log_dir: Path | None = None) -> Iterator[list[NodeProcess]]:
+    """Start each ``(executable, parameters)``; stop them all however the test ends."""
+    started: list[NodeProcess] = []
+    try:
+        for name, params in specs:
+            started.append(NodeProcess(name, params, log_dir))
+        yield started
+    finally:
+        for proc in started:
+            proc.stop()
+
+
+class Probe:
+    """An in-process rclpy node that subscribes, publishes and waits on wall-clock deadlines."""
+
+    def __init__(self, name: str = "probe", **node_kwargs: Any) -> None:
+        rclpy.init()
+        self.node = rclpy.create_node(name, **node_kwargs)
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+
+    def spin_until(self, done: Callable[[], bool], timeout_s: float, step: Callable[[], None] | None = None) -> bool:
+        """Spin until ``done()`` or the deadline (wall clock); ``step()`` runs between spins. Returns done()."""
+        deadline = time.monotonic() + timeout_s
+        while not done() and time.monotonic() < deadline:
+            if step is not None:
+                step()
+            self.executor.spin_once(timeout_sec=0.02)
+        return bool(done())
+
+    def spin_for(self, duration_s: float, step: Callable[[], None] | None = None) -> None:
+        """Spin for ``duration_s`` of wall time."""
+        self.spin_until(lambda: False, duration_s, step)
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.try_shutdown()
+
+
+@contextmanager
+def probe(name: str = "probe", **node_kwargs: Any) -> Iterator[Probe]:
+    """A :class:`Probe` shut down however the test ends."""
+    p = Probe(name, **node_kwargs)
+    try:
+        yield p
+    finally:
+        p.close()
+
