@@ -4,8 +4,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
-RUFF := $(PY) -m ruff check --line-length 120 --target-version py310 --select E,F,W,I,B,UP,N,SIM \
-	--config "lint.isort.known-third-party = ['launch']"
+RUFF := $(PY) -m ruff check  # configured in .ruff.toml
 OUT ?= out
 
 .PHONY: setup test lint demo bench sample clean

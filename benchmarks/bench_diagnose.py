@@ -73,8 +73,8 @@ import numpy as np
 
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose import hidden
-from boat_twin.diagnose.command import WINDOW_S, diagnose_trial
 from boat_twin.diagnose.effects import EFFECT_NAMES
+from boat_twin.diagnose.pipeline import WINDOW_S, diagnose_trial
 from boat_twin.diagnose.replay import Windows, cut_windows, predict
 from boat_twin.io.bags import read_trial
 from boat_twin.vessel.params import derive_coefficients

@@ -15,12 +15,12 @@ from pathlib import Path
 import numpy as np
 
 from boat_twin.config import TwinConfig
-from boat_twin.ident.command import identify_arrays, replay_online, trial_samples
 from boat_twin.ident.online import OnlineThrustSpeedIdentifier, RecursiveLeastSquares
+from boat_twin.ident.pipeline import identify_arrays, replay_online, trial_samples
 from boat_twin.ident.resimulate import resimulate
 from boat_twin.ident.steady import fit_power_series
 from boat_twin.io.bags import read_trial, write_bag
-from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.scenarios import thrust_steps
 
 P = np.polynomial.polynomial

@@ -15,7 +15,7 @@ from rosbags.highlevel import AnyReader
 from boat_twin.config import TwinConfig
 from boat_twin.io.bags import ROLE_TOPICS, read_trial, write_bag
 from boat_twin.io.messages import TS
-from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.scenarios import make_scenario
 
 

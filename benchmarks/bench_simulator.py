@@ -13,7 +13,7 @@ import numpy as np
 
 from boat_twin.config import TwinConfig
 from boat_twin.io.bags import write_bag
-from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.scenarios import make_scenario
 from boat_twin.vessel.simulate import simulate
 

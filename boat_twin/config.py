@@ -2,18 +2,18 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from boat_twin.errors import InputError
-from boat_twin.io.files import atomic_write_text, load_yaml
+from boat_twin.files import atomic_write_text, load_yaml
 from boat_twin.sensors.gnss import GnssConfig
 from boat_twin.sensors.um7 import Um7Config
 from boat_twin.vessel.environment import Environment
-from boat_twin.vessel.params import VesselParams, params_from_dict, params_to_dict
+from boat_twin.vessel.params import VesselParams, load_params, params_from_dict, params_to_dict
 from boat_twin.vessel.tow import TowConfig
 
 SECTIONS = ("vessel", "environment", "gnss", "um7", "tow")
@@ -95,3 +95,16 @@ def save_config(config: TwinConfig, path: Path, comment: str = "") -> None:
     """Write ``config`` as a twin configuration YAML (atomically); ``comment`` lines go on top."""
     header = "".join(f"# {line}\n" for line in comment.splitlines())
     atomic_write_text(path, header + yaml.safe_dump(config_to_dict(config), sort_keys=False))
+
+
+def load_twin_config(config_path: Path | str | None = None, model_path: Path | str | None = None,
+                     current_mps: tuple[float, float] | None = None) -> TwinConfig:
+    """The twin from a config YAML (default: the built-in boat), then an identified model YAML over its vessel,
+    then a water current (east, north; m/s) — later sources win."""
+    config = load_config(Path(config_path)) if config_path else TwinConfig()
+    if model_path:
+        config = replace(config, vessel=load_params(Path(model_path), config.vessel))
+    if current_mps is not None:
+        config = replace(config, environment=replace(config.environment, current_east_mps=current_mps[0],
+                                                     current_north_mps=current_mps[1]))
+    return config

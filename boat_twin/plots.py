@@ -9,7 +9,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from boat_twin.io.files import atomic_save_figure  # noqa: E402
+from boat_twin.files import atomic_save_figure  # noqa: E402
 from boat_twin.io.trial import Trial  # noqa: E402
 
 

@@ -11,7 +11,7 @@ from boat_twin.cli import main
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.io.bags import read_trial, write_bag
-from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.scenarios import make_scenario
 
 

@@ -18,7 +18,7 @@ import yaml
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.diagnose import hidden
-from boat_twin.diagnose.command import diagnose_trial
+from boat_twin.diagnose.pipeline import diagnose_trial
 from boat_twin.diagnose.replay import cut_windows, predict
 from boat_twin.diagnose.table import runs_test_p
 from boat_twin.io.bags import read_trial

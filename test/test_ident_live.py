@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 from boat_twin.config import TwinConfig
-from boat_twin.ident.command import identify_arrays, trial_samples
 from boat_twin.ident.live import LiveIdentifier
 from boat_twin.ident.online import OnlineThrustSpeedIdentifier
+from boat_twin.ident.pipeline import identify_arrays, trial_samples
 from boat_twin.ident.resimulate import resimulate
 from boat_twin.io import messages
 from boat_twin.io.bags import read_trial, write_bag
-from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.params import load_params
 from boat_twin.vessel.scenarios import make_scenario, thrust_steps
 

@@ -15,18 +15,13 @@ import pytest
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
-from boat_twin.ident.command import (
-    identify_arrays,
-    model_dict,
-    trial_samples,
-    write_model_yaml,
-    write_trial_report,
-)
 from boat_twin.ident.dynamic import identify_dynamic
+from boat_twin.ident.pipeline import identify_arrays, model_dict, trial_samples, write_model_yaml
+from boat_twin.ident.report import write_trial_report
 from boat_twin.ident.steady import fit_power_series
 from boat_twin.io import messages
 from boat_twin.io.bags import read_trial, write_bag
-from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.params import VesselParams, load_params
 from boat_twin.vessel.resistance import PowerSeriesResistance
 from boat_twin.vessel.scenarios import CommandProfile, thrust_steps

@@ -4,8 +4,8 @@ import numpy as np
 
 from boat_twin.config import TwinConfig
 from boat_twin.io import messages
-from boat_twin.live import LiveTwin
-from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.twin.live import LiveTwin
+from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.scenarios import make_scenario
 
 

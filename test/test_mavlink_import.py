@@ -20,7 +20,7 @@ from boat_twin.errors import InputError
 from boat_twin.io.bags import read_trial, write_bag
 from boat_twin.io.mavlink import MavlinkTrialMetadata, calibration_from_dict, load_calibration
 from boat_twin.io.sources import read_trial_file
-from boat_twin.sea_trial import command_log_ticks, run_sea_trial, trial_messages
+from boat_twin.twin.sea_trial import command_log_ticks, run_sea_trial, trial_messages
 from boat_twin.vessel.scenarios import make_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
-from boat_twin.io.mavlink_link import (
+from boat_twin.link.mavlink_boat import (
     OVERRIDE_TIMEOUT_S,
     ROVER_DEFAULT_RATES_HZ,
     MavlinkBoat,
@@ -25,8 +25,8 @@ from boat_twin.io.mavlink_link import (
     parse_url,
     pwm_from_fraction,
 )
-from boat_twin.live import LiveTwin
-from boat_twin.sea_trial import run_sea_trial
+from boat_twin.twin.live import LiveTwin
+from boat_twin.twin.sea_trial import run_sea_trial
 from boat_twin.units import enu_yaw_to_nautical_deg
 from boat_twin.vessel.scenarios import make_scenario
 
@@ -314,10 +314,10 @@ def test_a_tlog_the_twin_wrote_identifies_as_the_bag_of_the_same_trial(tmp_path)
     """
     import yaml
 
-    from boat_twin.ident.command import identify_arrays
+    from boat_twin.ident.pipeline import identify_arrays
     from boat_twin.io.bags import write_bag
-    from boat_twin.io.mavlink_link import servo_calibration
     from boat_twin.io.sources import read_trial_file
+    from boat_twin.link.mavlink_boat import servo_calibration
     from boat_twin.units import KGF_N
     from boat_twin.vessel.scenarios import thrust_steps
 

@@ -209,7 +209,7 @@ def test_navsatfix_decodes_with_the_definition_written_out_by_hand() -> None:
 
 def test_restamped_replaces_every_header_and_tf_stamp_and_keeps_the_content() -> None:
     from boat_twin.config import TwinConfig
-    from boat_twin.live import LiveTwin
+    from boat_twin.twin.live import LiveTwin
 
     twin = LiveTwin(TwinConfig(), noise=False)
     for _ in range(5):

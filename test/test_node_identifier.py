@@ -19,7 +19,7 @@ from std_srvs.srv import Trigger
 from boat_twin.config import TwinConfig
 from boat_twin.ident.live import LiveIdentifier
 from boat_twin.io import messages
-from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.params import load_params
 from boat_twin.vessel.scenarios import CommandProfile
 

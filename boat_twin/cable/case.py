@@ -15,7 +15,7 @@ from boat_twin.cable.body import Vehicle, coefficient_from_spec
 from boat_twin.cable.current import CurrentProfile, current_from_spec
 from boat_twin.cable.drag import CableLoading, DragModel, drag_from_spec
 from boat_twin.errors import InputError
-from boat_twin.io.files import load_yaml
+from boat_twin.files import load_yaml
 
 SEAWATER_DENSITY_KGPM3 = 1025.0
 """Default water density, kg/m³: typical surface seawater (35 PSU, ~15 °C; UNESCO EOS-80 gives 1025.9)."""

@@ -65,7 +65,7 @@ def integrate(case: CableCase, vehicle_depth_m: float, length_m: float | None) -
 
     def rhs(_s: float, y: np.ndarray) -> list[float]:
         angle = math.atan2(y[3], y[2])
-        aft, down = loading.per_length(y[1], angle)
+        aft, down = loading.per_length(np.asarray(y[1]), np.asarray(angle))
         return [math.cos(angle), -math.sin(angle), float(aft), float(down)]
 
     def surface(_s: float, y: np.ndarray) -> float:

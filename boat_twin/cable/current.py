@@ -27,7 +27,7 @@ class CurrentProfile:
 
     def speed_at(self, depth_m: np.ndarray | float) -> np.ndarray:
         """V_T(Y) in m/s at depth(s) ``depth_m``; linear inside the table, constant outside it."""
-        return np.interp(depth_m, self.depth_m, self.speed_mps)
+        return np.asarray(np.interp(depth_m, self.depth_m, self.speed_mps))
 
     @property
     def min_speed_mps(self) -> float:
@@ -59,6 +59,7 @@ def current_from_spec(spec: Any, where: str = "current") -> CurrentProfile:
     for key, values in (("depth_m", depths), ("speed_mps", speeds)):
         if not isinstance(values, Sequence) or isinstance(values, str) or len(values) == 0:
             raise InputError(f"{where}.{key}: expected a non-empty list of numbers")
+    assert isinstance(speeds, Sequence)  # checked just above (for the type checker)
     if len(depths) != len(speeds):
         raise InputError(f"{where}: depth_m has {len(depths)} values but speed_mps has {len(speeds)}")
     d = tuple(_number(v, f"{where}.depth_m") for v in depths)

@@ -17,7 +17,7 @@ import numpy as np
 
 from boat_twin.config import TwinConfig
 from boat_twin.io.bags import write_bag
-from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import VesselParams
 from boat_twin.vessel.resistance import CorrectedResistance

@@ -10,6 +10,7 @@ from matplotlib.figure import Figure
 from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows
 from boat_twin.diagnose.search import BIC_THRESHOLD, MIN_HELDOUT_GAIN, Candidate, Fit, Selection, ci95
 from boat_twin.diagnose.structure import Signature
+from boat_twin.diagnose.table import TableDiagnosis
 
 UNITS = {"vel_east_mps": "m/s", "vel_north_mps": "m/s", "yaw_rate_radps": "rad/s", "heading_rad": "rad",
          "speed_mps": "m/s", "position_m": "m"}
@@ -156,4 +157,54 @@ def evidence_figure(result: dict[str, Any]) -> Figure:
     ax_gain.axvline(100 * MIN_HELDOUT_GAIN, color="k", ls="--", lw=0.8)
     ax_gain.set_xlabel("held-out gain [%] (no bar: not judged, the in-sample conditions failed)")
     ax_gain.set_yticklabels([])
+    return fig
+
+
+def concerned_signals(result: dict[str, Any]) -> list[str]:
+    """Signals the named effects improved by ≥ 5 % (all when none did)."""
+    gains = [v["gain"] for v in result["verdict"]]
+    concerned = [s for s in SIGNALS if any(g.get(s, 0.0) >= 0.05 for g in gains)]
+    return concerned or list(SIGNALS)
+
+
+def table_text(result: dict[str, Any], diag: TableDiagnosis) -> str:
+    """The text report of a table diagnosis."""
+    base = result["baseline"]["rmse"]["thrust_kgf"]
+    ext = result["extended"]["rmse"]["thrust_kgf"]
+    lines = [f"table       Dyda & Chumakova (2021) Table 1, 37 rows (kn, kgf); baseline: the paper's N = "
+             f"{result['baseline']['model_order']} fit",
+             f"RMSE        baseline {base:.2f} kgf, extended {ext:.2f} kgf",
+             f"candidate   resistance_shape: {diag.knots.size} knots, ΔBIC {diag.delta_bic:.1f}, "
+             f"leave-one-out gain {diag.cv_gain:+.1%}"]
+    if result["verdict"]:
+        params = result["verdict"][0]["parameters"]
+        lines.append(f"verdict     resistance_shape; regime change (plateau between displacement and planing): "
+                     f"{params.get('plateau_kn', ['?', '?'])[0]}–{params.get('plateau_kn', ['?', '?'])[1]} kn; "
+                     f"model differs significantly over {params.get('band_kn')} kn")
+    else:
+        lines.append("verdict     no significant discrepancy")
+    lines.append(f"residuals   runs test p = {result['residual_runs_p']:.2f}"
+                 + (" (structure left: unexplained)" if result["unexplained"] else " (no structure left)"))
+    if result["extended_model"]:
+        lines.append(f"model       {result['extended_model']}")
+    return "\n".join(lines)
+
+
+def table_figure(diag: TableDiagnosis) -> Figure:
+    """Table 1 with the paper's fit and the extended one; residuals of both."""
+    fig = Figure(figsize=(8, 6), layout="constrained")
+    ax, ax_r = fig.subplots(2, 1, sharex=True, height_ratios=(2, 1))
+    ax.plot(diag.speed, diag.force, "o", ms=4, label="Table 1")
+    ax.plot(diag.speed, diag.baseline, label="paper's fit")
+    ax.plot(diag.speed, diag.extended, label="extended (resistance_shape)")
+    if diag.plateau:
+        ax.axvspan(*diag.plateau, color="0.9", label="plateau (regime change)")
+    ax.set_ylabel("thrust [kgf]")
+    ax.legend()
+    ax_r.plot(diag.speed, diag.force - diag.baseline, "o-", ms=3, label="baseline")
+    ax_r.plot(diag.speed, diag.force - diag.extended, "o-", ms=3, label="extended")
+    ax_r.axhline(0.0, color="k", lw=0.5)
+    ax_r.set_xlabel("speed [kn]")
+    ax_r.set_ylabel("residual [kgf]")
+    ax_r.legend()
     return fig

@@ -186,13 +186,13 @@ class Diagnosis:
     def judge(self, fit: Fit) -> Fit:
         """Refit ``fit``'s effects without each fold in turn: held-out SSE and jackknife standard errors."""
         heldout = np.zeros(len(SIGNALS))
-        fold_values = []
+        folds = []
         for k in range(FOLDS):
             held = self.folds == k
             fold = self._fit_values(fit.effects, fit.values, ~held)
-            fold_values.append(fold)
+            folds.append(fold)
             heldout += self.residuals(self.config(fit.effects, fold)).sse()[:, held].sum(axis=1)
-        fold_values = np.array(fold_values)
+        fold_values = np.array(folds)
         fit.stderr = np.sqrt((FOLDS - 1) / FOLDS * np.sum((fold_values - fold_values.mean(axis=0)) ** 2, axis=0))
         fit.heldout_sse = heldout
         return fit

@@ -132,8 +132,8 @@ def table_result(diag: TableDiagnosis, order: int, units: tuple[str, str]) -> di
     v_unit, f_unit = units
     rmse_base = float(np.sqrt(np.mean((diag.force - diag.baseline) ** 2)))
     rmse_ext = float(np.sqrt(np.mean((diag.force - diag.extended) ** 2)))
-    parameters = {f"change_at_{k:.2f}_{v_unit}_{f_unit}": float(c) for k, c in zip(diag.knots, diag.correction,
-                                                                                   strict=True)}
+    parameters: dict[str, float | list[float]] = {
+        f"change_at_{k:.2f}_{v_unit}_{f_unit}": float(c) for k, c in zip(diag.knots, diag.correction, strict=True)}
     ci95 = {f"change_at_{k:.2f}_{v_unit}_{f_unit}": [float(lo), float(hi)]
             for k, (lo, hi) in zip(diag.knots, diag.correction_ci95, strict=True)}
     if diag.plateau:

@@ -268,13 +268,13 @@ def identify_dynamic(
         weight.append(w)
         spans.append((seg.min(), seg.max()))
     x = np.asarray(rows)
-    y = np.asarray(rhs)
-    w = np.asarray(weight)
+    y_all = np.asarray(rhs)
+    w_all = np.asarray(weight)
     if np.max(np.abs(x[:, 0])) <= 0.0:
         raise InputError(
             "dynamic identification: the speed never changes within a window; the mass is unidentifiable"
         )
-    fits = {n: _solve(x[:, : n + 2], y, w) for n in orders}
+    fits = {n: _solve(x[:, : n + 2], y_all, w_all) for n in orders}
     if order is None:
         chosen, reason = choose_order([(n, fits[n]["cv"], fits[n]["bic"]) for n in orders], "N")
     else:

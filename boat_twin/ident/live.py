@@ -74,7 +74,7 @@ class LiveIdentifier:
 
     def save(self, path: Path) -> bool:
         """Write the model YAML to ``path`` (atomically, its directory created); False if nothing to save yet."""
-        from boat_twin.io.files import atomic_write_yaml
+        from boat_twin.files import atomic_write_yaml
 
         model = self.model()
         if model is None:

@@ -20,7 +20,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 
 from boat_twin.errors import InputError
-from boat_twin.io.files import prepare_output
+from boat_twin.files import prepare_output
 from boat_twin.io.messages import TOPICS, TS
 from boat_twin.io.trial import Stream, Trial, build_trial
 

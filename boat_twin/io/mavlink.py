@@ -75,7 +75,7 @@ from typing import Any
 import numpy as np
 
 from boat_twin.errors import InputError
-from boat_twin.io.files import load_yaml
+from boat_twin.files import load_yaml
 from boat_twin.io.trial import (
     COMMAND_ROLES,
     GAP_TOLERANCE_PERIODS,
@@ -369,7 +369,7 @@ def _quiet(chatter: _Chatter) -> Iterator[None]:
             for fd in (1, 2) if sink is not None else ():
                 try:
                     saved.append((fd, os.dup(fd)))
-                    os.dup2(sink.fileno(), fd)
+                    os.dup2(sink.fileno(), fd)  # type: ignore[union-attr]  # not None: see the loop's range
                 except OSError:
                     pass
             with contextlib.redirect_stdout(chatter), contextlib.redirect_stderr(chatter):  # type: ignore[type-var]
@@ -440,8 +440,16 @@ class _Plan:
             for cmap in self.calibration.commands.values():
                 if cmap.source is not None:
                     needed.setdefault(cmap.kind, set()).add(cmap.channel)
-        self.channels = {kind: sorted(chans, key=str) if kind == "MANUAL_CONTROL" else sorted(chans)
+        self.channels = {kind: sorted(chans, key=str) if kind == "MANUAL_CONTROL" else sorted(chans)  # type: ignore[type-var]
                          for kind, chans in needed.items()}
+
+    def numbered(self, kind: str) -> list[int]:
+        """The channel numbers of SERVO or RC commands, ascending."""
+        return [int(c) for c in self.channels.get(kind, [])]
+
+    def axes(self) -> list[str]:
+        """The MANUAL_CONTROL axes needed (x, y, z, r), sorted."""
+        return [str(a) for a in self.channels.get("MANUAL_CONTROL", [])]
 
 
 _TLOG_COMMAND_MESSAGES = {"SERVO": "SERVO_OUTPUT_RAW", "RC": "RC_CHANNELS", "MANUAL_CONTROL": "MANUAL_CONTROL"}
@@ -474,9 +482,9 @@ def _read_tlog(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[str, 
         info["notes"].append("no vehicle HEARTBEAT: messages of every system read")
     clock = _BootClock()
     info["clock"] = clock
-    servo_channels = plan.channels.get("SERVO", [])
-    rc_channels = plan.channels.get("RC", [])
-    axes = plan.channels.get("MANUAL_CONTROL", [])
+    servo_channels = plan.numbered("SERVO")
+    rc_channels = plan.numbered("RC")
+    axes = plan.axes()
     mg = GRAVITY_MPS2 * 1e-3
     servo_state = {"last": -1.0, "wraps": 0}
 
@@ -612,8 +620,8 @@ def _read_dataflash(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[
     reader = DFReader.DFReader_binary(str(path))
     base = float(getattr(reader.clock, "timebase", 0.0) or 0.0) \
         if isinstance(reader.clock, DFReader.DFReaderClock_usec) else 0.0
-    servo_channels = plan.channels.get("SERVO", [])
-    rc_channels = plan.channels.get("RC", [])
+    servo_channels = plan.numbered("SERVO")
+    rc_channels = plan.numbered("RC")
     if plan.channels.get("MANUAL_CONTROL"):
         info["notes"].append("MANUAL_CONTROL is not in DataFlash logs")
 
@@ -804,16 +812,16 @@ def read_mavlink_log(
                      notes=info["notes"])
     # GNSS: fix (lat, lon, alt) and velocity (east, north) from the chosen message.
     for role, columns in (("gnss_fix", slice(2, 5)), ("gnss_vel", slice(5, 7))):
-        name = _choose(role, GNSS_SOURCES[log_format], remap, tables)
-        if name is None:
+        chosen = _choose(role, GNSS_SOURCES[log_format], remap, tables)
+        if chosen is None:
             continue
-        values = tables[name][:, columns]
+        values = tables[chosen][:, columns]
         ok = np.all(np.isfinite(values), axis=1)
         if np.count_nonzero(ok) < 2:
-            log.notes.append(f"{role}: fewer than 2 valid {name} samples")
+            log.notes.append(f"{role}: fewer than 2 valid {chosen} samples")
             continue
-        log.streams[role] = Stream(absolute[name][ok], values[ok])
-        log.topics[role] = name
+        log.streams[role] = Stream(absolute[chosen][ok], values[ok])
+        log.topics[role] = chosen
     _imu_stream(log, tables, absolute)
     _command_streams(log, plan, tables, absolute)
     if calibration is None:

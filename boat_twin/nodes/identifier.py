@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import os
+from functools import partial
 from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -60,13 +61,16 @@ class IdentifierNode(Node):
         self.model_path = Path(model_path).expanduser() if model_path else default_model_path()
         self.ident = LiveIdentifier(order, memory_s)
         for index, topic in enumerate(COMMAND_TOPICS):
-            self.create_subscription(Float64, topic, lambda m, i=index: self.ident.set_command(i, m.data), 10)
+            self.create_subscription(Float64, topic, partial(self.on_command, index), 10)
         self.create_subscription(TwistStamped, TOPIC_GNSS_VEL, self.on_velocity, SENSOR_QOS)
         self.coefficients_pub = self.create_publisher(Float64MultiArray, "identification/coefficients", 10)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_service(Trigger, "~/reset", self.on_reset)
         self.create_service(Trigger, "~/save", self.on_save)
         self.create_timer(1.0, self.on_publish)
+
+    def on_command(self, index: int, msg: Float64) -> None:
+        self.ident.set_command(index, msg.data)
 
     def on_velocity(self, msg: TwistStamped) -> None:
         stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec

@@ -1,4 +1,4 @@
-"""ROS 2 node ``simulator``: the live twin at 10 Hz. Thin wiring only — all physics is in boat_twin.live.
+"""ROS 2 node ``simulator``: the live twin at 10 Hz. Thin wiring only — all physics is in boat_twin.twin.live.
 
 Subscribes: thrusters/{left,right}/thrust (std_msgs/Float64, N), thrusters/{left,right}/pos (rad).
 Publishes every topic of boat_twin.io.messages.TOPICS that the twin produces (GNSS, UM7 IMU, odom/truth, and tf
@@ -12,13 +12,14 @@ Parameters (read at start-up)
                                 then run with use_sim_time:=true, as with Gazebo
   real_time_factor (double, 1.0)   simulated seconds per wall-clock second with publish_clock (at most 100; the
                                 clock slows down rather than skip ticks when the machine cannot keep up)
-  mavlink_url (string, "")      also run the twin as a MAVLink boat (boat_twin.io.mavlink_link), e.g.
+  mavlink_url (string, "")      also run the twin as a MAVLink boat (boat_twin.link.mavlink_boat), e.g.
                                 udpout:127.0.0.1:14550; mavlink_allow_remote (bool, false) for a non-loopback address
 """
 
 from __future__ import annotations
 
 import importlib
+from functools import partial
 from pathlib import Path
 
 from builtin_interfaces.msg import Time
@@ -32,10 +33,10 @@ from std_msgs.msg import Float64
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.errors import InputError
 from boat_twin.io import messages
-from boat_twin.io.mavlink_link import MavlinkBoat
-from boat_twin.live import LiveTwin
+from boat_twin.link.mavlink_boat import MavlinkBoat
 from boat_twin.nodes import parameters
 from boat_twin.nodes.spin import run_node
+from boat_twin.twin.live import LiveTwin
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 
 MAX_REAL_TIME_FACTOR = 100.0
@@ -75,7 +76,7 @@ class SimulatorNode(Node):
         self.publishers_by_topic = self._sensor_publishers()
         commands = self.link if self.link is not None else self.twin
         for index, topic in enumerate(messages.COMMAND_TOPICS):
-            self.create_subscription(Float64, topic, lambda msg, i=index: commands.set_command(i, msg.data), 10)
+            self.create_subscription(Float64, topic, partial(self.on_command, commands, index), 10)
         self.clock_pub: Publisher | None = None
         period_s = 1.0 / OUTPUT_RATE_HZ
         if self.publish_clock:
@@ -83,6 +84,11 @@ class SimulatorNode(Node):
             self.create_timer(period_s / factor, self.on_tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
         else:
             self.create_timer(period_s, self.on_tick)
+
+    @staticmethod
+    def on_command(commands: LiveTwin | MavlinkBoat, index: int, msg: Float64) -> None:
+        """A thruster command (N or rad) into the twin, or into the MAVLink link that arbitrates it."""
+        commands.set_command(index, msg.data)
 
     def _sensor_publishers(self) -> dict[str, Publisher]:
         """One reliable publisher per twin output topic; tf only where tf2_msgs is installed (one warning)."""

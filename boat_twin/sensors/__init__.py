@@ -16,6 +16,8 @@ import numpy as np
 
 from boat_twin.errors import InputError
 
+__all__ = ["RATE_TOLERANCE", "config_from_mapping", "decimation_step", "gauss_markov", "number", "vector3"]
+
 C = TypeVar("C")
 
 RATE_TOLERANCE = 1e-6

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from boat_twin.errors import InputError
-from boat_twin.io.files import atomic_write_yaml, load_yaml
+from boat_twin.files import atomic_write_yaml, load_yaml
 from boat_twin.vessel.resistance import ResistanceModel, dyda2021_resistance, resistance_from_dict
 
 WATER_DENSITY_KGPM3 = 1025.0

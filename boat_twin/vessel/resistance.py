@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
@@ -28,7 +28,9 @@ from boat_twin.errors import InputError
 class ResistanceModel(Protocol):
     """Fc(u): surge resistance in N at speed through water u in m/s."""
 
-    max_speed_mps: float
+    @property
+    def max_speed_mps(self) -> float:
+        """Highest speed the model was built from, m/s (a quadratic law beyond)."""
 
     def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:  # noqa: N802 (unit suffix)
         """Resistance in N, same shape as ``speed_mps``."""
@@ -59,6 +61,7 @@ class TableResistance:
 
     speeds_mps: tuple[float, ...]
     forces_N: tuple[float, ...]  # noqa: N815 (unit suffix)
+    _pchip: PchipInterpolator = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         u = np.asarray(self.speeds_mps, dtype=float)
@@ -174,7 +177,7 @@ def _float_list(spec: Mapping[str, Any], key: str, where: str) -> tuple[float, .
         raise InputError(f"{where}: '{key}' must contain numbers only") from None
 
 
-def resistance_from_dict(spec: Mapping[str, Any], where: str = "resistance") -> ResistanceModel:
+def resistance_from_dict(spec: Any, where: str = "resistance") -> ResistanceModel:
     """Build a resistance model from its plain-data description; ``where`` names it in error messages."""
     if not isinstance(spec, Mapping):
         raise InputError(f"{where}: expected a mapping with a 'model' key")

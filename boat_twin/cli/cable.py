@@ -10,7 +10,7 @@ from pathlib import Path
 from boat_twin.cable.case import CableCase, load_case, with_overrides
 from boat_twin.cable.convergence import PAPER_SEGMENTS_M, convergence_study
 from boat_twin.cable.problems import CableSolution, solve_depth, solve_length, tow_speed_for_depth
-from boat_twin.io.files import atomic_save_figure, ensure_out_dir, prepare_output, to_json
+from boat_twin.files import atomic_save_figure, ensure_out_dir, prepare_output, to_json
 
 DEFAULT_OUT = Path("out/cable")
 
@@ -89,6 +89,7 @@ def _convergence(args: argparse.Namespace) -> int:
     if study.segment_for_tolerance_m is None:
         print("observed order undefined (errors vanish or change sign): no estimate of l for the tolerance")
     else:
+        assert study.check_depth_error_m is not None  # set whenever the order is defined
         print(f"observed order {study.depth_order:.3f}; l for {study.tolerance:.2%} depth accuracy: "
               f"{study.segment_for_tolerance_m:.4g} m (checked: error {study.check_depth_error_m:.4f} m = "
               f"{abs(study.check_depth_error_m) / study.reference_depth_m:.4%})")

@@ -1,6 +1,6 @@
 """The twin as a MAVLink surface boat: telemetry out, manual control in, over UDP with pymavlink's dialect.
 
-:class:`MavlinkBoat` wraps a :class:`~boat_twin.live.LiveTwin` and speaks to a ground station (QGroundControl,
+:class:`MavlinkBoat` wraps a :class:`~boat_twin.twin.live.LiveTwin` and speaks to a ground station (QGroundControl,
 MAVProxy) the way an ArduPilot Rover boat does, so the same ground station and joystick set-up drives either.
 
 **Streams.** HEARTBEAT (MAV_TYPE_SURFACE_BOAT, MAV_AUTOPILOT_ARDUPILOTMEGA, Rover mode MANUAL, armed) at 1 Hz,
@@ -58,9 +58,9 @@ from typing import Any, BinaryIO
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from boat_twin.errors import InputError
+from boat_twin.files import prepare_output
 from boat_twin.io import messages
-from boat_twin.io.files import prepare_output
-from boat_twin.live import LiveTwin
+from boat_twin.twin.live import LiveTwin
 from boat_twin.vessel.scenarios import Scenario
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 
@@ -208,7 +208,7 @@ def parse_url(url: str, allow_remote: bool = False) -> Endpoint:
     except (socket.gaierror, UnicodeError) as err:
         raise InputError(f"MAVLink URL {url!r}: cannot resolve host {host!r} ({err})") from None
     family, _, _, _, sockaddr = infos[0]
-    loopback = all(ipaddress.ip_address(info[4][0].split("%")[0]).is_loopback for info in infos)
+    loopback = all(ipaddress.ip_address(str(info[4][0]).split("%")[0]).is_loopback for info in infos)
     if not loopback and not allow_remote:
         raise InputError(
             f"MAVLink URL {url!r}: {host} is not a loopback address; pass --allow-remote "

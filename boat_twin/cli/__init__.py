@@ -1,4 +1,6 @@
-"""``boat-twin``: the command line. Each verb lives in its own module and registers itself here.
+"""``boat-twin``: the command line. Each verb lives in its own module of this package and registers itself here.
+
+The verbs are front ends: they parse flags, call the library's public API and print or write what it returns.
 
 A verb module provides ``register(subparsers)``, which adds its parser and sets ``handler`` (a function
 ``(args) -> int``) with ``set_defaults``. Bad input raises :class:`boat_twin.errors.InputError`; ``main``
@@ -15,12 +17,12 @@ from boat_twin import __version__
 from boat_twin.errors import InputError
 
 VERB_MODULES = (
-    "boat_twin.vessel.command",
-    "boat_twin.ident.command",
-    "boat_twin.diagnose.command",
-    "boat_twin.convert",
-    "boat_twin.cable.command",
-    "boat_twin.demo",
+    "boat_twin.cli.simulate",
+    "boat_twin.cli.identify",
+    "boat_twin.cli.diagnose",
+    "boat_twin.cli.convert",
+    "boat_twin.cli.cable",
+    "boat_twin.cli.demo",
 )
 """Modules that register verbs, in the order ``--help`` lists them."""
 
@@ -54,7 +56,3 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write("boat-twin: interrupted\n")
         return 130
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -4,16 +4,16 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from boat_twin.config import TwinConfig, load_config
+from boat_twin.cli.options import twin_config_from_args
+from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
-from boat_twin.io.files import to_json
-from boat_twin.sea_trial import run_sea_trial, trial_messages
-from boat_twin.vessel.params import describe, load_params
+from boat_twin.files import to_json
+from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.vessel.params import describe
 from boat_twin.vessel.scenarios import SCENARIO_NAMES, CommandProfile, make_scenario, read_command_csv
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 
@@ -57,18 +57,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--allow-remote", action="store_true",
                    help="allow a --mavlink address that is not loopback (exposes the twin to the network)")
     p.set_defaults(handler=run)
-
-
-def load_twin_config(args: argparse.Namespace) -> TwinConfig:
-    """The configuration from --config, --model and --current (where the verb has it), last wins."""
-    config = load_config(args.config) if args.config else TwinConfig()
-    if args.model:
-        config = replace(config, vessel=load_params(args.model, config.vessel))
-    current = getattr(args, "current", None)
-    if current:
-        config = replace(config, environment=replace(config.environment, current_east_mps=current[0],
-                                                     current_north_mps=current[1]))
-    return config
 
 
 def _scenario(args: argparse.Namespace, config: TwinConfig):
@@ -116,7 +104,7 @@ def summarize(t_s: np.ndarray, states: np.ndarray) -> dict[str, float | None]:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``simulate``."""
-    config = load_twin_config(args)
+    config = twin_config_from_args(args)
     if args.mavlink is not None or args.tlog is not None:
         return _run_mavlink(args, config)
     scenario = _scenario(args, config)
@@ -146,9 +134,9 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
     import signal
     import time
 
-    from boat_twin.io.files import prepare_output
-    from boat_twin.io.mavlink_link import MavlinkBoat, parse_stream_rates, progress_to_stderr
-    from boat_twin.live import LiveTwin
+    from boat_twin.files import prepare_output
+    from boat_twin.link.mavlink_boat import MavlinkBoat, parse_stream_rates, progress_to_stderr
+    from boat_twin.twin.live import LiveTwin
 
     if math.isnan(args.mavlink_speed) or args.mavlink_speed < 0.0:
         raise InputError(f"--mavlink-speed must be a non-negative factor, got {args.mavlink_speed!r}")

@@ -10,11 +10,11 @@ import numpy as np
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
+from boat_twin.files import ensure_out_dir, to_json
 from boat_twin.io.bags import read_trial, write_bag
-from boat_twin.io.files import ensure_out_dir, to_json
 from boat_twin.io.trial import Trial
 from boat_twin.plots import plot_trial
-from boat_twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.units import KGF_N, KNOT_MPS
 from boat_twin.vessel.scenarios import make_scenario
 
@@ -92,8 +92,9 @@ def run(args: argparse.Namespace) -> int:
 
 def identification_summary(sample: Trial, out: Path) -> str:
     """Identify the sample trial (report + plots into ``out/identify``) and reproduce Dyda & Chumakova (2021)."""
-    from boat_twin.ident.command import identify_arrays, write_trial_report
     from boat_twin.ident.paper import reproduce
+    from boat_twin.ident.pipeline import identify_arrays
+    from boat_twin.ident.report import write_trial_report
 
     keep = np.isfinite(sample.surge_thrust_N) & np.isfinite(sample.speed_mps)
     t_s, thrust, speed = sample.t_s[keep], sample.surge_thrust_N[keep], sample.speed_mps[keep]

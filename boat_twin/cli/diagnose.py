@@ -1,0 +1,117 @@
+"""``boat-twin diagnose``: what the model gets wrong on measured data, its cause, the extended model and the gain.
+
+Front end over :mod:`~boat_twin.diagnose.replay` (windowed replay of the commands), :mod:`.effects` (the
+catalogue), :mod:`.search` (fits, held-out judgement, decision rule, forward selection), :mod:`.structure`
+(what is left) and :mod:`.table` (a steady-state table).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from boat_twin.cli.options import TRIAL_HELP, add_trial_options, trial_from_args, twin_config_from_args
+from boat_twin.config import save_config
+from boat_twin.diagnose.pipeline import WINDOW_S, diagnose_paper_table, diagnose_trial
+from boat_twin.diagnose.report import (
+    concerned_signals,
+    evidence_figure,
+    residual_figure,
+    signal_figure,
+    table_figure,
+    table_text,
+    text_report,
+)
+from boat_twin.errors import InputError
+from boat_twin.files import atomic_save_figure, atomic_write_text, atomic_write_yaml, ensure_out_dir, to_json
+
+EXTENDED_MODEL_NAME = "extended_model.yaml"
+"""File name of the extended model in --out."""
+
+
+def _out_dir(args: argparse.Namespace, names: tuple[str, ...]) -> Path | None:
+    """--out, checked before any work: existing outputs are refused without --force (replaced atomically)."""
+    if args.out is None:
+        return None
+    for name in names:
+        if (args.out / name).exists() and not args.force:
+            raise InputError(f"{args.out / name} exists; use --force to overwrite it")
+    return ensure_out_dir(args.out)
+
+
+def _progress(message: str) -> None:
+    sys.stderr.write(f"\rdiagnose: {message:60s}")
+    sys.stderr.flush()
+
+
+def _run_trial(args: argparse.Namespace) -> int:
+    out = _out_dir(args, (EXTENDED_MODEL_NAME, "diagnosis_signals.png", "diagnosis_residuals.png",
+                          "diagnosis_evidence.png", "diagnosis.json"))
+    trial = trial_from_args(args.trial, args)
+    done = diagnose_trial(trial, twin_config_from_args(args), args.window, None if args.json else _progress)
+    if not args.json:
+        sys.stderr.write("\r" + " " * 72 + "\r")
+    result = done.result
+    if out is not None:
+        names = ", ".join(v["effect"] for v in result["verdict"]) or "none"
+        save_config(done.extended, out / EXTENDED_MODEL_NAME,
+                    f"boat_twin extended model: diagnose {args.trial} (named: {names})\n"
+                    f"load with: boat-twin simulate ... --config {out / EXTENDED_MODEL_NAME}")
+        result["extended_model"] = str(out / EXTENDED_MODEL_NAME)
+        concerned = concerned_signals(result)
+        before, after = done.baseline_prediction, done.extended_prediction
+        atomic_save_figure(out / "diagnosis_signals.png", signal_figure(done.windows, before, after, concerned))
+        atomic_save_figure(out / "diagnosis_residuals.png", residual_figure(done.windows, before, after))
+        atomic_save_figure(out / "diagnosis_evidence.png", evidence_figure(result))
+        atomic_write_text(out / "diagnosis.json", to_json(result) + "\n")
+    print(to_json(result) if args.json else text_report(result))
+    return 0
+
+
+def _run_table(args: argparse.Namespace) -> int:
+    if args.table != "dyda2021":
+        raise InputError(f"--table {args.table!r}: the built-in table is 'dyda2021'")
+    result, diag, resistance = diagnose_paper_table(args.model_order)
+    out = _out_dir(args, (EXTENDED_MODEL_NAME, "diagnosis_table.png"))
+    result["extended_model"] = None
+    if out is not None and resistance is not None:
+        atomic_write_yaml(out / EXTENDED_MODEL_NAME, {"vessel": {"resistance": resistance.to_dict()}})
+        result["extended_model"] = str(out / EXTENDED_MODEL_NAME)
+    if out is not None:
+        atomic_save_figure(out / "diagnosis_table.png", table_figure(diag))
+    print(to_json(result) if args.json else table_text(result, diag))
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    """Dispatch: a table or a trial."""
+    if args.table is not None:
+        if args.trial is not None:
+            raise InputError("give either a TRIAL or --table, not both")
+        return _run_table(args)
+    if args.trial is None:
+        raise InputError("give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021")
+    if args.window <= 0:
+        raise InputError(f"--window must be a positive number of seconds, got {args.window}")
+    return _run_trial(args)
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``diagnose`` verb."""
+    p = subparsers.add_parser(
+        "diagnose", help="find what the model gets wrong on a trial (or a steady-state table)",
+        description=__doc__.splitlines()[0])
+    p.add_argument("trial", nargs="?", type=Path, help=TRIAL_HELP)
+    add_trial_options(p)
+    p.add_argument("--table", help="diagnose a built-in steady-state table instead: dyda2021")
+    p.add_argument("--model-order", type=int, default=1, help="with --table: the paper's fit to start from (1, 3, 5)")
+    p.add_argument("--config", type=Path,
+                   help="twin configuration YAML of the model to diagnose (default: the seed boat)")
+    p.add_argument("--model", type=Path, help="identified model YAML overriding the vessel (resistance, mass)")
+    p.add_argument("--window", type=float, default=WINDOW_S, help=f"replay window, s (default {WINDOW_S:g})")
+    p.add_argument("--out", type=Path, help="directory for the extended model YAML, JSON and PNG plots")
+    p.add_argument("--force", action="store_true", help="overwrite existing outputs in --out")
+    p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
+    p.set_defaults(handler=run)

@@ -1,0 +1,125 @@
+"""``boat-twin identify``: the thrust–speed model m·dv/dt = F − Fc(v) from the paper's table or a trial.
+
+A front end over :mod:`boat_twin.ident.pipeline` (the computation) and :mod:`boat_twin.ident.report` (text,
+files, figures).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from boat_twin.cli.options import TRIAL_HELP, add_trial_options, trial_from_args
+from boat_twin.errors import InputError
+from boat_twin.files import atomic_save_figure, atomic_write_text, ensure_out_dir, to_json
+from boat_twin.ident.pipeline import identify_table, identify_trial, model_dict, trial_samples, write_model_yaml
+from boat_twin.ident.report import resimulation_line, table_figures, table_report, write_trial_report
+from boat_twin.ident.steady import MAX_ORDER
+
+
+def _run_table(args: argparse.Namespace) -> int:
+    result, si_fit = identify_table(args.monotone, args.order, args.max_order, args.through_origin)
+    report = table_report(result, si_fit)
+    if args.out is not None:
+        out = ensure_out_dir(args.out)
+        atomic_write_text(out / "identify.json", to_json(result) + "\n")
+        atomic_write_text(out / "report.txt", report)
+        write_model_yaml(
+            out / "model.yaml",
+            model_dict(si_fit),
+            f"Dyda & Chumakova (2021) Table 1 read as kn/kgf, least squares N = {si_fit.order}, SI units",
+        )
+        fits_fig, resid_fig = table_figures(result)
+        atomic_save_figure(out / "fits.png", fits_fig)
+        atomic_save_figure(out / "residuals.png", resid_fig)
+    sys.stdout.write(to_json(result) + "\n" if args.json else report)
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``boat-twin identify``."""
+    if args.order is not None and not 1 <= args.order <= MAX_ORDER:
+        raise InputError(f"--order must be from 1 to {MAX_ORDER}, got {args.order}")
+    if not 1 <= args.max_order <= MAX_ORDER:
+        raise InputError(f"--max-order must be from 1 to {MAX_ORDER}, got {args.max_order}")
+    if args.table is not None and args.trial is not None:
+        raise InputError("give a TRIAL or --table, not both")
+    if args.table is not None:
+        return _run_table(args)
+    if args.trial is None:
+        raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021")
+    return _run_trial(args)
+
+
+def _run_trial(args: argparse.Namespace) -> int:
+    """A recorded trial: replay it through the online identifier, batch fits, dynamic mass, re-simulation with
+    the identified model (closing the loop), report."""
+    sys.stderr.write(f"reading {args.trial} ...\n")
+    trial = trial_from_args(args.trial, args)
+    sys.stderr.write(trial.metadata.summary_line() + "\n")
+    sys.stderr.write("identifying, then re-simulating the trial's commands with the identified model ...\n")
+    result, resim = identify_trial(trial, order=args.order, max_order=min(args.max_order, 6),
+                                   monotone=args.monotone)
+    if args.out is not None:
+        write_trial_report(args.out, result, *trial_samples(trial), resim)
+    if args.json:
+        sys.stdout.write(to_json(result) + "\n")
+        return 0
+    fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
+    dyn = result.get("dynamic", {})
+    lines = [
+        f"trial {args.trial}: {len(result['steady_points'])} steady points, "
+        f"{len(result.get('rejected_segments', []))} segments rejected",
+        f"selected order N = {result['selected_order']} ({result.get('selection_reason', '')})",
+        "Fc(v) coefficients c0..cN, N/(m/s)^i: " + ", ".join(f"{c:.4g}" for c in fit["coefficients"]),
+        f"RMSE {fit['rmse']:.2f} N",
+        f"effective mass {dyn['mass_kg']:.0f} kg, 95% CI [{dyn['mass_ci95_kg'][0]:.0f}, {dyn['mass_ci95_kg'][1]:.0f}]"
+        if "mass_kg" in dyn else f"effective mass: {dyn.get('error', 'not identified')}",
+    ]
+    for seg in result.get("rejected_segments", []):
+        lines.append(f"rejected {seg['start_s']:.1f}-{seg['end_s']:.1f} s at {seg['thrust_N']:.0f} N: {seg['reason']}")
+    lines.append(resimulation_line(result["resimulation"]))
+    lines += [f"warning: {w}" for w in result.get("warnings", [])]
+    sys.stdout.write("\n".join(lines) + "\n")
+    return 0
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``identify`` verb."""
+    p = subparsers.add_parser(
+        "identify",
+        help="identify m·dv/dt = F - Fc(v): resistance curve and effective mass",
+        description="Identify the longitudinal model m·dv/dt = F - Fc(v), Fc(v) = sum c_i·v^i "
+        "(Dyda & Chumakova 2021). Internally SI; the built-in table is reported in its own units (kn, kgf).",
+    )
+    p.add_argument("trial", nargs="?", type=Path, help=TRIAL_HELP)
+    add_trial_options(p)
+    p.add_argument(
+        "--table",
+        choices=["dyda2021"],
+        help="built-in steady-state table: dyda2021 = Dyda & Chumakova (2021) Table 1, v in kn, F in kgf",
+    )
+    p.add_argument(
+        "--order", type=int, help="power-series order N (default: chosen by leave-one-out CV and BIC)"
+    )
+    p.add_argument(
+        "--max-order", type=int, default=8, help="highest order N tried by the selection (default 8)"
+    )
+    p.add_argument(
+        "--monotone",
+        action="store_true",
+        help="constrain Fc to be non-decreasing from 0 to the top speed and Fc(0) >= 0",
+    )
+    p.add_argument(
+        "--through-origin", action="store_true", help="impose Fc(0) = c0 = 0 (no resistance at rest)"
+    )
+    p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
+    p.add_argument(
+        "--out",
+        type=Path,
+        metavar="DIR",
+        help="write report.txt, identify.json, model.yaml (SI) and PNG plots here",
+    )
+    p.set_defaults(handler=run)

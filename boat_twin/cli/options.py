@@ -1,0 +1,60 @@
+"""Command-line options shared by the verbs: reading a trial (--topic, --namespace, --calibration) and building the
+twin configuration (--config, --model, --current)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from boat_twin.config import TwinConfig, load_twin_config
+from boat_twin.errors import InputError
+from boat_twin.io.sources import TRIAL_ROLES, read_trial_file
+from boat_twin.io.trial import Trial
+
+TRIAL_HELP = ("recorded trial: rosbag2 directory (MCAP or sqlite3), bare .mcap file, MAVLink telemetry log (.tlog) "
+              "or DataFlash log (.BIN)")
+"""Help text for a verb's TRIAL argument."""
+
+
+def parse_remap(items: list[str] | None) -> dict[str, str]:
+    """``["gnss_vel=/gps/vel", ...]`` (repeated --topic values) → ``{"gnss_vel": "/gps/vel"}``."""
+    remap: dict[str, str] = {}
+    for item in items or []:
+        role, sep, topic = item.partition("=")
+        role, topic = role.strip(), topic.strip()
+        if not sep or not role or not topic:
+            raise InputError(f"--topic {item!r}: expected ROLE=TOPIC, e.g. gnss_vel=/gps/vel")
+        if role not in TRIAL_ROLES:
+            raise InputError(f"--topic {item!r}: unknown role '{role}' (roles: {', '.join(TRIAL_ROLES)})")
+        remap[role] = topic
+    return remap
+
+
+def add_trial_options(parser: argparse.ArgumentParser, *, bags: bool = True) -> None:
+    """Add --topic ROLE=TOPIC (repeatable), --namespace and --calibration FILE to a verb that reads trials
+    (``bags=False``: a verb that reads MAVLink logs only, without --namespace)."""
+    mavlink = "GLOBAL_POSITION_INT (default) or GPS_RAW_INT in a .tlog"
+    parser.add_argument(
+        "--topic", action="append", default=[], metavar="ROLE=TOPIC",
+        help=f"where a role comes from: a bag topic (e.g. gnss_vel=/gps/vel; roles: {', '.join(TRIAL_ROLES)}) or, "
+        f"for a MAVLink log, the message of gnss_fix or gnss_vel: {mavlink}" if bags
+        else f"the message gnss_fix or gnss_vel comes from (e.g. gnss_vel=GPS_RAW_INT): {mavlink}")
+    if bags:
+        parser.add_argument("--namespace", default="", help="namespace the bag's topics were recorded under")
+    parser.add_argument(
+        "--calibration", type=Path, metavar="FILE",
+        help="MAVLink logs: YAML map from logged PWM (SERVO/RC channels) or MANUAL_CONTROL axes to thrust (N) and "
+        "steering angle (rad) per engine; examples in config/mavlink/. Without it, commands are missing.")
+
+
+def trial_from_args(path: Path | str, args: argparse.Namespace) -> Trial:
+    """:func:`read_trial_file` with the options :func:`add_trial_options` added."""
+    return read_trial_file(path, remap=parse_remap(getattr(args, "topic", None)),
+                           namespace=getattr(args, "namespace", "") or "",
+                           calibration=getattr(args, "calibration", None))
+
+
+def twin_config_from_args(args: argparse.Namespace) -> TwinConfig:
+    """:func:`~boat_twin.config.load_twin_config` from --config, --model and --current (where the verb has them)."""
+    current = getattr(args, "current", None)
+    return load_twin_config(args.config, args.model, tuple(current) if current else None)

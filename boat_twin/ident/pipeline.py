@@ -1,0 +1,255 @@
+"""The identification pipelines: a recorded trial, or a table of steady points, to the model m·dv/dt = F − Fc(v).
+
+:func:`identify_trial` is what ``boat-twin identify TRIAL`` runs; :func:`identify_arrays` runs every identifier
+on a trial's arrays (steady points, batch fits with order selection, mass from transients, the online identifier
+replayed over the same samples); :func:`identify_table` reproduces the paper's table. Results are the
+``--json`` contract (SI; JSON-ready dicts); :func:`model_dict` / :func:`write_model_yaml` give the identified
+model that the vessel loader accepts as an override.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from boat_twin.data import dyda2021_table1_si
+from boat_twin.errors import InputError
+from boat_twin.files import atomic_write_text
+from boat_twin.ident.dynamic import DynamicWindow, check_samples, identify_dynamic
+from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadyCriteria, detect_steady_segments
+from boat_twin.ident.paper import reproduce
+from boat_twin.ident.resimulate import Resimulation, resimulate
+from boat_twin.ident.steady import FitResult, fit_power_series, select_order
+from boat_twin.io.trial import COMMAND_ROLES, Trial
+from boat_twin.units import KGF_N, KNOT_MPS
+
+SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
+"""Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
+TWO_WAY_WARNING = 0.3
+"""Below this share of the speed range crossed both ways, the report warns: the mass rests on Fc's form."""
+
+
+def model_dict(fit: FitResult, effective_mass_kg: float | None = None) -> dict[str, Any]:
+    """The identified model as plain data: ``{"resistance": {...}, "effective_mass_kg": m}`` (SI fit).
+
+    ``resistance`` is :meth:`PowerSeriesResistance.to_dict` (valid to the fit's top speed, quadratic law
+    beyond); ``effective_mass_kg`` (hull + surge added mass) only when known.
+    """
+    model: dict[str, Any] = {"resistance": fit.resistance_model().to_dict()}
+    if effective_mass_kg is not None:
+        model["effective_mass_kg"] = float(effective_mass_kg)
+    return model
+
+
+def write_model_yaml(path: Path, model: dict[str, Any], comment: str = "") -> None:
+    """Write ``model`` (:func:`model_dict`) as YAML to ``path`` atomically; ``comment`` lines go on top."""
+    header = "".join(f"# {line}\n" for line in comment.splitlines())
+    atomic_write_text(path, header + yaml.safe_dump(model, sort_keys=False))
+
+
+def _nrms(a: np.ndarray, b: np.ndarray) -> float:
+    """RMS of a − b relative to the RMS of b."""
+    return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
+
+
+def trial_samples(trial: Trial) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Time (s), surge thrust Σ T·cos δ (N) and GNSS speed over ground (m/s) of a trial's known samples.
+
+    Samples before the first command or velocity fix and inside the reported gaps of any stream it uses (GNSS
+    velocity, the outboards' thrust and angle commands) are unknown and skipped; a NaN anywhere else is a
+    non-finite value in the recording itself and refused (InputError).
+    """
+    source = trial.metadata.source
+    for role, what in (("thrust_left", "left outboard's thrust"), ("thrust_right", "right outboard's thrust"),
+                       ("gnss_vel", "GNSS velocity")):
+        if role in trial.metadata.missing:
+            raise InputError(f"{source}: no {what} ({role}) in the trial: the identifier needs the surge thrust of "
+                             "both outboards and the speed over ground")
+    t, thrust, speed = trial.t_s, trial.surge_thrust_N, trial.speed_mps
+    known = np.isfinite(thrust) & np.isfinite(speed)
+    if not np.any(known):
+        raise InputError(f"{source}: no sample has both a thrust command and a GNSS velocity "
+                         "(commands and GNSS do not overlap in time)")
+    in_gap = np.zeros(t.size, dtype=bool)
+    for role, start_s, end_s in trial.metadata.gaps:
+        if role in SURGE_ROLES:
+            in_gap |= (t > start_s) & (t < end_s)
+    bad = ~known & ~in_gap & (t >= t[np.argmax(known)])
+    if np.any(bad):
+        first = int(np.argmax(bad))
+        name = "surge thrust" if not np.isfinite(thrust[first]) else "speed over ground"
+        raise InputError(f"{source}: {int(bad.sum())} sample(s) are NaN outside the reported gaps (first: "
+                         f"{name} at t = {t[first]:.1f} s): the recording holds non-finite values")
+    return t[known], thrust[known], speed[known]
+
+
+def replay_online(
+    t_s: np.ndarray,
+    thrust_N: np.ndarray,  # noqa: N803 (unit suffix)
+    speed_mps: np.ndarray,
+    identifier: OnlineThrustSpeedIdentifier,
+) -> OnlineThrustSpeedIdentifier:
+    """Feed a trial's samples to ``identifier`` one by one in timestamp order, then close its last segment.
+
+    The replay of ``boat-twin identify TRIAL``: the same :meth:`~OnlineThrustSpeedIdentifier.update` calls the
+    identifier node makes live. Returns ``identifier``.
+    """
+    for sample in zip(np.asarray(t_s).tolist(), np.asarray(thrust_N).tolist(), np.asarray(speed_mps).tolist(),
+                      strict=True):
+        identifier.update(*sample)
+    identifier.finish()
+    return identifier
+
+
+def identify_arrays(
+    t_s: Any,
+    thrust_N: Any,  # noqa: N803 (unit suffix)
+    speed_mps: Any,
+    *,
+    order: int | None = None,
+    max_order: int = 6,
+    monotone: bool = False,
+    through_origin: bool = True,
+    criteria: SteadyCriteria | None = None,
+    window: DynamicWindow | None = None,
+    memory_s: float = 3600.0,
+) -> dict[str, Any]:
+    """Identify a trial from its arrays: time (s), total thrust (N), speed through water or over ground (m/s).
+
+    Steady points (detector), steady fits of N = 1..``max_order`` with CV/BIC selection (or ``order``),
+    mass + Fc from transients (own order selection), and the online identifier replayed over the same
+    samples with its agreement with batch. Steady fits impose Fc(0) = 0 unless ``through_origin`` is False
+    (trial steady points start above rest: a free c_0 would be an extrapolation). Returns the ``--json``
+    contract (SI): ``steady_points``, ``rejected_segments``, ``fits``, ``selected_order``,
+    ``selection_reason``, ``dynamic``, ``online``, ``model`` (for :func:`write_model_yaml`) and ``warnings``.
+    A trial whose transients cannot give the mass still yields the steady model; ``dynamic`` then holds
+    ``{"error": why}``.
+    """
+    t, f, v = check_samples(t_s, thrust_N, speed_mps)
+    criteria = criteria or SteadyCriteria()
+    if np.ptp(f) <= max(
+        criteria.thrust_tolerance_N, criteria.thrust_tolerance_rel * float(np.max(np.abs(f)))
+    ):
+        raise InputError(
+            f"thrust is constant ({np.mean(f):.1f} N) over the whole trial: Fc(v) and the mass are "
+            "unidentifiable from one thrust level; record thrust steps"
+        )
+    segments = detect_steady_segments(t, f, v, criteria)
+    points = [s for s in segments if s.accepted]
+    rejected = [s for s in segments if not s.accepted]
+    needed = (order or 1) + 2
+    if len(points) < needed:
+        why = "; ".join(f"{s.thrust_N:.0f} N at {s.start_s:.0f} s: {s.reason}" for s in rejected[:3])
+        raise InputError(
+            f"{len(points)} steady point(s) found, order {order or 1} needs at least {needed} (N + 2): "
+            f"hold more thrust levels until the speed settles ({criteria.window_s:g} s without a trend)"
+            + (f"; rejected: {why}" if why else "")
+        )
+    speed = np.array([s.speed_mps for s in points])
+    thrust = np.array([s.thrust_N for s in points])
+    if order is None:
+        selection = select_order(speed, thrust, max_order, monotone, through_origin=through_origin)
+        fits: tuple[FitResult, ...] = selection.fits
+        chosen, reason = selection.selected_order, selection.reason
+    else:
+        fits = (fit_power_series(speed, thrust, order, monotone, through_origin),)
+        chosen, reason = order, f"N = {order}: given"
+    fit = next(fr for fr in fits if fr.order == chosen)
+    warnings = []
+    if not fit.monotone:
+        bands = ", ".join(f"{lo:.2f}-{hi:.2f}" for lo, hi in fit.nonmonotone_bands)
+        warnings.append(
+            f"the selected fit decreases at {bands} m/s: steady speed not unique there (use --monotone)"
+        )
+    if fit.coefficients[0] < 0.0:
+        warnings.append(
+            f"Fc(0) = {fit.coefficients[0]:.3g} N < 0: the model creeps at zero thrust (use --monotone)"
+        )
+    try:
+        dyn = identify_dynamic(t, f, v, None, window)
+        dynamic: dict[str, Any] = dyn.to_dict()
+        if dyn.two_way_fraction < TWO_WAY_WARNING:
+            warnings.append(
+                f"only {dyn.two_way_fraction:.0%} of the speed range was crossed both accelerating and "
+                "decelerating: the mass rests on the polynomial form of Fc; add thrust steps down as well"
+            )
+    except InputError as err:
+        dyn = None
+        dynamic = {"error": str(err)}
+    online = OnlineThrustSpeedIdentifier(
+        chosen,
+        dyn.order if dyn else chosen,
+        memory_s=memory_s,
+        through_origin=through_origin,
+        criteria=criteria,
+        window=window,
+    )
+    snap = replay_online(t, f, v, online).snapshot()
+    grid = np.linspace(speed.min(), speed.max(), 200)
+    agreement: dict[str, Any] = {}
+    if snap["coefficients"] is not None:
+        agreement["curve_nrms"] = _nrms(
+            np.polynomial.polynomial.polyval(grid, snap["coefficients"]), fit.predict(grid)
+        )
+    if dyn is not None and snap["dynamic"] is not None:
+        agreement["mass_rel"] = snap["dynamic"]["mass_kg"] / dyn.mass_kg - 1.0
+    snap["agreement_with_batch"] = agreement
+    return {
+        "steady_points": [
+            {
+                "speed_mps": s.speed_mps,
+                "thrust_N": s.thrust_N,
+                "duration_s": s.duration_s,
+                "start_s": s.start_s,
+                "end_s": s.end_s,
+                "speed_stderr_mps": s.speed_stderr_mps,
+            }
+            for s in points
+        ],
+        "rejected_segments": [s.to_dict() for s in rejected],
+        "fits": [fr.to_dict() for fr in fits],
+        "selected_order": chosen,
+        "selection_reason": reason,
+        "dynamic": dynamic,
+        "online": snap,
+        "model": model_dict(fit, dyn.mass_kg if dyn else None),
+        "warnings": warnings,
+    }
+
+
+def identify_trial(trial: Trial, *, order: int | None = None, max_order: int = 6,
+                   monotone: bool = False) -> tuple[dict[str, Any], Resimulation | None]:
+    """A recorded trial: :func:`identify_arrays` on its known samples, then the trial re-simulated with the
+    identified model (closing the loop). Returns the result (``trial`` and ``resimulation`` added; the latter
+    ``{"error": why}`` when the loop cannot be closed) and the re-simulation, if any."""
+    t_s, thrust, speed = trial_samples(trial)
+    result = identify_arrays(t_s, thrust, speed, order=order, max_order=max_order, monotone=monotone)
+    result["trial"] = {"source": str(trial.metadata.source), "metadata": trial.metadata.summary_line(),
+                       "gaps": trial.metadata.gaps, "missing": trial.metadata.missing}
+    try:
+        resim = resimulate(trial, result["model"])
+    except InputError as err:  # the identification stands; say why the loop could not be closed
+        result["resimulation"] = {"error": str(err)}
+        return result, None
+    result["resimulation"] = resim.to_dict()
+    return result, resim
+
+
+def identify_table(monotone: bool = False, order: int | None = None, max_order: int = 8,
+                   through_origin: bool = False) -> tuple[dict[str, Any], FitResult]:
+    """Dyda & Chumakova (2021) Table 1: the paper's reproduction (kn, kgf) with the selected fit, plus that fit
+    in SI (``result["si"]``) and as a :class:`FitResult` (the model a simulator loads)."""
+    result = reproduce(monotone, order, max_order, through_origin)
+    speed_si, thrust_si = dyda2021_table1_si()
+    si_fit = fit_power_series(speed_si, thrust_si, result["selected_order"], monotone, through_origin)
+    result["si"] = {
+        "order": si_fit.order,
+        "coefficients": si_fit.coefficients.tolist(),
+        "stderr": si_fit.stderr.tolist(),
+        "max_speed_mps": si_fit.domain[1],
+        "units": {"speed": "m/s", "force": "N", "coefficients": "N/(m/s)^i", "knot_mps": KNOT_MPS, "kgf_N": KGF_N},
+    }
+    return result, si_fit
