@@ -141,7 +141,7 @@ def test_the_model_path_defaults_under_ros_home(tmp_path, monkeypatch) -> None:
 @pytest.mark.parametrize(("params", "message"), [
     ({"order": 0}, "parameter order: must be from 1 to"),
     ({"memory_s": -5}, "parameter memory_s: must be > 0"),
-    ({"memory_s": "long"}, "parameter memory_s: expected a number"),
+    ({"memory_s": "long"}, "parameter memory_s: expected a finite number"),
 ])
 def test_bad_parameters_end_with_one_line_and_exit_2(tmp_path, params, message) -> None:
     proc = rosnodes.NodeProcess("identifier", params, tmp_path)

@@ -5,7 +5,6 @@ Every bad value is an :class:`InputError` naming the file and the field. See REA
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -16,6 +15,7 @@ from boat_twin.cable.current import CurrentProfile, current_from_spec
 from boat_twin.cable.drag import CableLoading, DragModel, drag_from_spec
 from boat_twin.errors import InputError
 from boat_twin.files import load_yaml
+from boat_twin.validation import number
 
 SEAWATER_DENSITY_KGPM3 = 1025.0
 """Default water density, kg/m³: typical surface seawater (35 PSU, ~15 °C; UNESCO EOS-80 gives 1025.9)."""
@@ -81,11 +81,7 @@ class CableCase:
 
 
 def _positive(value: Any, where: str, allow_zero: bool = False) -> float:
-    ok_type = isinstance(value, (int, float)) and not isinstance(value, bool)
-    if not ok_type or not math.isfinite(value) or value < 0.0 or (value == 0.0 and not allow_zero):
-        bound = ">= 0" if allow_zero else "> 0"
-        raise InputError(f"{where}: must be a number {bound} (got {value!r})")
-    return float(value)
+    return number(where, value, minimum=0.0) if allow_zero else number(where, value, above=0.0)
 
 
 def _section(data: Mapping[str, Any], key: str, allowed: set[str], where: str) -> Mapping[str, Any]:

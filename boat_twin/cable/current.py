@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from boat_twin.errors import InputError
+from boat_twin.validation import number
 
 
 @dataclass(frozen=True)
@@ -39,22 +40,16 @@ class CurrentProfile:
         return {"depth_m": list(self.depth_m), "speed_mps": list(self.speed_mps)}
 
 
-def _number(value: Any, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
-        raise InputError(f"{where}: expected a finite number, got {value!r}")
-    return float(value)
-
-
 def current_from_spec(spec: Any, where: str = "current") -> CurrentProfile:
     """Read a current: a number (m/s, uniform), ``{speed_mps: v}`` or ``{depth_m: [..], speed_mps: [..]}``."""
     if not isinstance(spec, Mapping):
-        return CurrentProfile((0.0,), (_number(spec, where),))
+        return CurrentProfile((0.0,), (number(where, spec),))
     unknown = set(spec) - {"depth_m", "speed_mps"}
     if unknown:
         raise InputError(f"{where}: unknown field(s) {sorted(unknown)} (expected depth_m, speed_mps)")
     speeds = spec.get("speed_mps")
     if "depth_m" not in spec:
-        return CurrentProfile((0.0,), (_number(speeds, f"{where}.speed_mps"),))
+        return CurrentProfile((0.0,), (number(f"{where}.speed_mps", speeds),))
     depths = spec["depth_m"]
     for key, values in (("depth_m", depths), ("speed_mps", speeds)):
         if not isinstance(values, Sequence) or isinstance(values, str) or len(values) == 0:
@@ -62,8 +57,8 @@ def current_from_spec(spec: Any, where: str = "current") -> CurrentProfile:
     assert isinstance(speeds, Sequence)  # checked just above (for the type checker)
     if len(depths) != len(speeds):
         raise InputError(f"{where}: depth_m has {len(depths)} values but speed_mps has {len(speeds)}")
-    d = tuple(_number(v, f"{where}.depth_m") for v in depths)
-    v = tuple(_number(s, f"{where}.speed_mps") for s in speeds)
+    d = tuple(number(f"{where}.depth_m", v) for v in depths)
+    v = tuple(number(f"{where}.speed_mps", s) for s in speeds)
     if d[0] < 0.0:
         raise InputError(f"{where}.depth_m: depths must be >= 0 m (got {d[0]})")
     if any(b <= a for a, b in pairwise(d)):

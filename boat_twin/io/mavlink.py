@@ -85,6 +85,7 @@ from boat_twin.io.trial import (
     TrialMetadata,
     build_trial,
 )
+from boat_twin.validation import number
 
 LOG_SUFFIXES = (".tlog", ".bin")
 """File name endings (case-insensitive) read as MAVLink logs: telemetry logs and DataFlash logs."""
@@ -182,12 +183,6 @@ class Calibration:
         return self.commands[role].to_raw(value)
 
 
-def _number(value: Any, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(f"{where}: expected a finite number, got {value!r}")
-    return float(value)
-
-
 def calibration_from_dict(data: Any, source: str = "<calibration>") -> Calibration:
     """Validate a calibration map (the YAML's content); every error names ``source`` and the field."""
     if not isinstance(data, dict):
@@ -211,7 +206,7 @@ def calibration_from_dict(data: Any, source: str = "<calibration>") -> Calibrati
         if "value" in entry:
             if "source" in entry or "table" in entry:
                 raise InputError(f"{where}: give either 'value' or 'source' with 'table', not both")
-            constant = _number(entry["value"], f"{where}.value")
+            constant = number(f"{where}.value", entry["value"])
             maps[role] = CommandMap(role, None, np.zeros(0), np.zeros(0), constant)
             continue
         for key in ("source", "table"):
@@ -230,7 +225,7 @@ def calibration_from_dict(data: Any, source: str = "<calibration>") -> Calibrati
         for i, point in enumerate(table):
             if not isinstance(point, (list, tuple)) or len(point) != 2:
                 raise InputError(f"{where}.table[{i}]: expected [input, {_ROLE_UNITS[role]}], got {point!r}")
-            points.append((_number(point[0], f"{where}.table[{i}]"), _number(point[1], f"{where}.table[{i}]")))
+            points.append((number(f"{where}.table[{i}]", point[0]), number(f"{where}.table[{i}]", point[1])))
         raw = np.array([p[0] for p in points])
         value = np.array([p[1] for p in points])
         if np.any(np.diff(raw) <= 0):
@@ -372,7 +367,7 @@ def _quiet(chatter: _Chatter) -> Iterator[None]:
                     os.dup2(sink.fileno(), fd)  # type: ignore[union-attr]  # not None: see the loop's range
                 except OSError:
                     pass
-            with contextlib.redirect_stdout(chatter), contextlib.redirect_stderr(chatter):  # type: ignore[type-var]
+            with contextlib.redirect_stdout(chatter), contextlib.redirect_stderr(chatter):
                 yield
         finally:
             for fd, copy in saved:
@@ -440,7 +435,7 @@ class _Plan:
             for cmap in self.calibration.commands.values():
                 if cmap.source is not None:
                     needed.setdefault(cmap.kind, set()).add(cmap.channel)
-        self.channels = {kind: sorted(chans, key=str) if kind == "MANUAL_CONTROL" else sorted(chans)  # type: ignore[type-var]
+        self.channels = {kind: sorted(chans, key=str) if kind == "MANUAL_CONTROL" else sorted(chans)
                          for kind, chans in needed.items()}
 
     def numbered(self, kind: str) -> list[int]:

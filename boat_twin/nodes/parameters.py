@@ -8,13 +8,13 @@ dynamic typing and converted here, once: an integer is accepted for a double, an
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 
 from boat_twin.errors import InputError
+from boat_twin.validation import number
 
 
 def declare(node: Node, name: str, default: Any, description: str, *, read_only: bool = True) -> Any:
@@ -23,26 +23,10 @@ def declare(node: Node, name: str, default: Any, description: str, *, read_only:
     return node.declare_parameter(name, default, descriptor).value
 
 
-def as_double(node: Node, name: str, value: Any, *, above: float | None = None,
-              maximum: float | None = None) -> float:
-    """A finite float from an integer or a double parameter value, within bounds; else InputError."""
-    where = f"parameter {name}"
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{where}: expected a number, got {value!r}")
-    result = float(value)
-    if not math.isfinite(result):
-        raise InputError(f"{where}: must be finite, got {value!r}")
-    if above is not None and result <= above:
-        raise InputError(f"{where}: must be > {above:g}, got {result:g}")
-    if maximum is not None and result > maximum:
-        raise InputError(f"{where}: must be <= {maximum:g}, got {result:g}")
-    return result
-
-
 def double(node: Node, name: str, default: float, description: str, *, above: float | None = None,
            maximum: float | None = None) -> float:
     """Declare a read-only double parameter (integers accepted) and return it checked."""
-    return as_double(node, name, declare(node, name, default, description), above=above, maximum=maximum)
+    return number(f"parameter {name}", declare(node, name, default, description), above=above, maximum=maximum)
 
 
 def integer(node: Node, name: str, default: int, description: str, *, minimum: int | None = None,
