@@ -1,10 +1,10 @@
-"""``boat-twin``: the command line. Each verb lives in its own module of this package and registers itself here.
+"""``boat-twin``: simulate, identify and diagnose a small planing boat; towed-cable configuration.
 
-The verbs are front ends: they parse flags, call the library's public API and print or write what it returns.
-
-A verb module provides ``register(subparsers)``, which adds its parser and sets ``handler`` (a function
-``(args) -> int``) with ``set_defaults``. Bad input raises :class:`boat_twin.errors.InputError`; ``main``
-turns it into one line on stderr and exit code 2, without a traceback.
+Each verb lives in its own module of this package: a front end that parses flags, calls the library's public
+API and prints or writes what it returns. A verb module (listed in :data:`VERBS`) provides
+``register(subparsers)``, which adds its parser and sets ``handler`` (a function ``(args) -> int``) with
+``set_defaults``. Bad input raises :class:`boat_twin.errors.InputError`; ``main`` turns it into one line on
+stderr and exit code 2, without a traceback.
 """
 
 from __future__ import annotations
@@ -16,15 +16,23 @@ import sys
 from boat_twin import __version__
 from boat_twin.errors import InputError
 
-VERB_MODULES = (
-    "boat_twin.cli.simulate",
-    "boat_twin.cli.identify",
-    "boat_twin.cli.diagnose",
-    "boat_twin.cli.convert",
-    "boat_twin.cli.cable",
-    "boat_twin.cli.demo",
-)
-"""Modules that register verbs, in the order ``--help`` lists them."""
+VERBS: dict[str, tuple[str, str]] = {
+    "simulate": ("boat_twin.cli.simulate", "simulate a sea trial and write it as a ROS 2 bag"),
+    "identify": ("boat_twin.cli.identify", "identify m·dv/dt = F - Fc(v): resistance curve and effective mass"),
+    "diagnose": ("boat_twin.cli.diagnose", "find what the model gets wrong on a trial (or a steady-state table)"),
+    "convert": ("boat_twin.cli.convert",
+                "convert a MAVLink log (.tlog, .BIN) into a rosbag2 with the package's topics"),
+    "cable": ("boat_twin.cli.cable",
+              "towed cable: vehicle depth, cable length, convergence (Babanin & Melkonyan 2025)"),
+    "demo": ("boat_twin.cli.demo", "the main job on the shipped sample trial"),
+}
+"""Verb → (module that registers it, one-line help), in the order ``--help`` lists them. Only the verb being run
+is imported (with its library): ``--help`` and ``--version`` answer at once."""
+
+
+def verb_help(verb: str) -> str:
+    """The one-line help of ``verb`` (what its module's ``register`` passes to ``add_parser``)."""
+    return VERBS[verb][1]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -35,19 +43,24 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The full parser with every available verb."""
+def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
+    """The parser: ``verb`` fully registered (its module imported), the other verbs listed with their help."""
     parser = _Parser(prog="boat-twin", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"boat-twin {__version__}")
     subparsers = parser.add_subparsers(dest="verb", required=True, parser_class=_Parser)
-    for name in VERB_MODULES:
-        importlib.import_module(name).register(subparsers)
+    for name, (module, help_text) in VERBS.items():
+        if name == verb:
+            importlib.import_module(module).register(subparsers)
+        else:
+            subparsers.add_parser(name, help=help_text)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``boat-twin`` console script."""
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else argv
+    verb = next((a for a in argv if not a.startswith("-")), None)
+    args = build_parser(verb).parse_args(argv)
     try:
         return int(args.handler(args))
     except InputError as err:

@@ -10,6 +10,7 @@ from pathlib import Path
 from boat_twin.cable.case import CableCase, load_case, with_overrides
 from boat_twin.cable.convergence import PAPER_SEGMENTS_M, convergence_study
 from boat_twin.cable.problems import CableSolution, solve_depth, solve_length, tow_speed_for_depth
+from boat_twin.cli import verb_help
 from boat_twin.files import atomic_save_figure, ensure_out_dir, prepare_output, to_json
 
 DEFAULT_OUT = Path("out/cable")
@@ -125,7 +126,7 @@ def _common(parser: argparse.ArgumentParser, outputs: bool = True) -> None:
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``cable`` and its sub-verbs to the ``boat-twin`` parser."""
     cable = subparsers.add_parser(
-        "cable", help="towed cable: vehicle depth, cable length, convergence (Babanin & Melkonyan 2025)",
+        "cable", help=verb_help("cable"),
         description="Towed underwater vehicle on a flexible cable in a depth-varying current. SI units: "
                     "lengths and depths in m, speeds in m/s, forces in N, angles printed in degrees.")
     verbs = cable.add_subparsers(dest="cable_verb", required=True)

@@ -15,6 +15,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from boat_twin.cli import verb_help
 from boat_twin.cli.options import add_trial_options, parse_remap
 from boat_twin.errors import InputError
 from boat_twin.files import to_json
@@ -66,7 +67,7 @@ def register(subparsers: Any) -> None:
     """Add the ``convert`` verb."""
     p = subparsers.add_parser(
         "convert",
-        help="convert a MAVLink log (.tlog, .BIN) into a rosbag2 with the package's topics",
+        help=verb_help("convert"),
         description="Read an ArduPilot/MAVLink log (telemetry .tlog or DataFlash .BIN) and write its trial as a "
         "rosbag2 (MCAP by default): gnss/fix, gnss/vel, imu/data (ENU/FLU, SI) and, with --calibration, the "
         "thruster topics (N, rad). Samples keep the log's own time stamps.",

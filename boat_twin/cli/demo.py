@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from boat_twin.cli import verb_help
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.files import ensure_out_dir, to_json
@@ -26,7 +27,7 @@ SAMPLE_SEED = 1
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``demo`` verb."""
-    p = subparsers.add_parser("demo", help="the main job on the shipped sample trial",
+    p = subparsers.add_parser("demo", help=verb_help("demo"),
                               description="Regenerate the shipped thrust-steps sample, check it matches, read it "
                               "back as a Trial, print speeds per thrust level and sensor rates, plot, identify.")
     p.add_argument("--sample", type=Path, default=SAMPLE_BAG, help=f"sample bag (default {SAMPLE_BAG})")

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from boat_twin.cli import verb_help
 from boat_twin.cli.options import TRIAL_HELP, add_trial_options, trial_from_args, twin_config_from_args
 from boat_twin.config import save_config
 from boat_twin.diagnose.pipeline import WINDOW_S, diagnose_paper_table, diagnose_trial
@@ -101,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
 def register(subparsers: Any) -> None:
     """Add the ``diagnose`` verb."""
     p = subparsers.add_parser(
-        "diagnose", help="find what the model gets wrong on a trial (or a steady-state table)",
+        "diagnose", help=verb_help("diagnose"),
         description=__doc__.splitlines()[0])
     p.add_argument("trial", nargs="?", type=Path, help=TRIAL_HELP)
     add_trial_options(p)

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from boat_twin.cli import verb_help
 from boat_twin.cli.options import TRIAL_HELP, add_trial_options, trial_from_args
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_save_figure, atomic_write_text, ensure_out_dir, to_json
@@ -90,7 +91,7 @@ def register(subparsers: Any) -> None:
     """Add the ``identify`` verb."""
     p = subparsers.add_parser(
         "identify",
-        help="identify m·dv/dt = F - Fc(v): resistance curve and effective mass",
+        help=verb_help("identify"),
         description="Identify the longitudinal model m·dv/dt = F - Fc(v), Fc(v) = sum c_i·v^i "
         "(Dyda & Chumakova 2021). Internally SI; the built-in table is reported in its own units (kn, kgf).",
     )

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from boat_twin.cli import verb_help
 from boat_twin.cli.options import twin_config_from_args
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
@@ -22,7 +23,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``simulate`` verb."""
     p = subparsers.add_parser(
         "simulate",
-        help="simulate a sea trial and write it as a ROS 2 bag",
+        help=verb_help("simulate"),
         description="Simulate the boat through a scenario; write commands, GNSS, UM7 IMU and ground truth "
         "as a rosbag2 (MCAP by default). Units: SI (N, rad, m/s, s).",
     )
