@@ -73,7 +73,7 @@ def coefficient_from_spec(spec: Any, where: str) -> AngleCoefficient:
 class Vehicle:
     """The towed body. Arms a, b follow eq. (3) (see the module note); the reference area is d²."""
 
-    weight_in_water_N: float  # noqa: N815 (unit suffix) — p0, weight minus buoyancy, N
+    weight_in_water_N: float  # p0, weight minus buoyancy, N
     a_m: float
     b_m: float
     d_m: float
@@ -88,7 +88,7 @@ class Vehicle:
                 lo, hi = max(lo, coef.alpha_rad[0]), min(hi, coef.alpha_rad[-1])
         return lo, hi
 
-    def moment_Nm(self, density_kgpm3: float, flow_mps: float, alpha_rad: float) -> float:  # noqa: N802
+    def moment_Nm(self, density_kgpm3: float, flow_mps: float, alpha_rad: float) -> float:
         """M(α) of eq. (3) about O, N·m (positive: the weight's moment wins)."""
         q = 0.5 * density_kgpm3 * flow_mps * flow_mps * self.d_m**2
         rx, ry = self.cx.at(alpha_rad) * q, self.cy.at(alpha_rad) * q
@@ -102,10 +102,10 @@ class BodyEquilibrium:
 
     alpha_rad: float
     flow_mps: float
-    drag_N: float  # noqa: N815 (unit suffix) — R_x0, aft
-    lift_N: float  # noqa: N815 (unit suffix) — R_y0, up
-    pull_aft_N: float  # noqa: N815 (unit suffix) — T1·cos β1, eq. (1)
-    pull_down_N: float  # noqa: N815 (unit suffix) — T1·sin β1 = p0 − R_y0, eq. (2)
+    drag_N: float  # R_x0, aft
+    lift_N: float  # R_y0, up
+    pull_aft_N: float  # T1·cos β1, eq. (1)
+    pull_down_N: float  # T1·sin β1 = p0 − R_y0, eq. (2)
 
 
 def _scan(f: Any, start: float, stop: float) -> float | None:

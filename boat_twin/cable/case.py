@@ -30,7 +30,7 @@ class Cable:
     """The cable: diameter d* (m), weight in water p* (N/m), link length l (m), drag law, optional lengths."""
 
     diameter_m: float
-    weight_in_water_Npm: float  # noqa: N815 (unit suffix)
+    weight_in_water_Npm: float
     segment_length_m: float
     drag: DragModel
     length_m: float | None = None

@@ -34,8 +34,8 @@ class ContinuousSolution:
     arc_m: np.ndarray
     forward_m: np.ndarray
     depth_m: np.ndarray
-    pull_aft_N: np.ndarray  # noqa: N815 (unit suffix)
-    pull_down_N: np.ndarray  # noqa: N815 (unit suffix)
+    pull_aft_N: np.ndarray
+    pull_down_N: np.ndarray
 
     @property
     def length_m(self) -> float:
@@ -53,7 +53,7 @@ class ContinuousSolution:
         return float(self.forward_m[-1])
 
     @property
-    def top_tension_N(self) -> float:  # noqa: N802 (unit suffix)
+    def top_tension_N(self) -> float:
         """Tension at the top end, N."""
         return math.hypot(self.pull_aft_N[-1], self.pull_down_N[-1])
 

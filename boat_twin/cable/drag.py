@@ -103,7 +103,7 @@ class CableLoading:
 
     density_kgpm3: float
     diameter_m: float
-    weight_Npm: float  # noqa: N815 (unit suffix) — weight in water per metre, N/m (the paper's p*)
+    weight_Npm: float  # weight in water per metre, N/m (the paper's p*)
     drag: DragModel
     tow_speed_mps: float
     current: CurrentProfile

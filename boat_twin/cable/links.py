@@ -32,11 +32,11 @@ class Marched:
     """Links 1..n above a start node; arrays have one entry per link / per upper node, in metres, N, rad."""
 
     angle_rad: np.ndarray
-    tension_N: np.ndarray  # noqa: N815 (unit suffix)
+    tension_N: np.ndarray
     node_depth_m: np.ndarray
     node_forward_m: np.ndarray
-    next_pull_aft_N: float  # noqa: N815 (unit suffix) — h_n + F_n: what holds the top node
-    next_pull_down_N: float  # noqa: N815 (unit suffix)
+    next_pull_aft_N: float  # h_n + F_n: what holds the top node
+    next_pull_down_N: float
     sweeps: int
 
 
@@ -44,7 +44,7 @@ CHUNK_LINKS = 1024
 """Links swept together; a longer cable is marched chunk by chunk (fewer sweeps where coupling is strong)."""
 
 
-def march(loading: CableLoading, pull_aft_N: float, pull_down_N: float, start_depth_m: float,  # noqa: N803
+def march(loading: CableLoading, pull_aft_N: float, pull_down_N: float, start_depth_m: float,
           lengths_m: np.ndarray, guess_angle_rad: np.ndarray | None = None) -> Marched:
     """March links of ``lengths_m`` up from a node at ``start_depth_m`` pulled by (aft, down) = ``pull_*_N``.
 

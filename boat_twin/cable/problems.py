@@ -41,10 +41,10 @@ class CableSolution:
     node_x_m: np.ndarray
     node_depth_m: np.ndarray
     link_length_m: np.ndarray
-    link_tension_N: np.ndarray  # noqa: N815 (unit suffix)
+    link_tension_N: np.ndarray
     link_angle_rad: np.ndarray
-    top_aft_N: float  # noqa: N815 (unit suffix)
-    top_down_N: float  # noqa: N815 (unit suffix)
+    top_aft_N: float
+    top_down_N: float
 
     @property
     def length_m(self) -> float:
@@ -62,7 +62,7 @@ class CableSolution:
         return float(self.node_x_m[0])
 
     @property
-    def top_tension_N(self) -> float:  # noqa: N802 (unit suffix)
+    def top_tension_N(self) -> float:
         """Tension at the tow point, N."""
         return math.hypot(self.top_aft_N, self.top_down_N)
 
@@ -105,9 +105,9 @@ class CableSolution:
 class TowLoad:
     """Force of the cable on the boat at the tow point, N: magnitude, aft (horizontal) and down (vertical)."""
 
-    tension_N: float  # noqa: N815 (unit suffix)
-    horizontal_N: float  # noqa: N815 (unit suffix) — positive pulls the boat astern
-    vertical_N: float  # noqa: N815 (unit suffix) — positive pulls the boat down
+    tension_N: float
+    horizontal_N: float  # positive pulls the boat astern
+    vertical_N: float  # positive pulls the boat down
 
 
 def _solution(case: CableCase, problem: str, body: BodyEquilibrium, vehicle_depth_m: float,

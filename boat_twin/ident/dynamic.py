@@ -57,7 +57,7 @@ class DynamicWindow:
 
 def window_row(
     t_s: np.ndarray,
-    thrust_N: np.ndarray,  # noqa: N803 (unit suffix)
+    thrust_N: np.ndarray,
     speed_mps: np.ndarray,
     ramp_s: float,
     basis: Callable[[np.ndarray], np.ndarray],
@@ -94,7 +94,7 @@ def window_bounds(t_s: np.ndarray, window: DynamicWindow) -> tuple[list[tuple[in
         next_end = t_s[k] + window.stride_s
 
 
-def check_samples(t_s: Any, thrust_N: Any, speed_mps: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # noqa: N803
+def check_samples(t_s: Any, thrust_N: Any, speed_mps: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Validate a trial's sample arrays: 1-D, same length, finite, time strictly increasing."""
     try:
         arrays = [np.asarray(a, dtype=float) for a in (t_s, thrust_N, speed_mps)]
@@ -144,9 +144,9 @@ class DynamicResult:
     """Standard errors of c_0..c_N."""
     ci95: np.ndarray
     """95 % intervals of c_0..c_N, shape (N + 1, 2)."""
-    rmse_N: float  # noqa: N815 (unit suffix)
+    rmse_N: float
     """RMS of the window residuals, each divided by its window's Σψ·dt: a mean force misfit, N."""
-    cv_rmse_N: float  # noqa: N815
+    cv_rmse_N: float
     """The same, leave-one-window-out (hat matrix), N."""
     bic: float
     """n·ln(SSE/n) + k·ln n over the windows."""
@@ -227,7 +227,7 @@ def _solve(x: np.ndarray, y: np.ndarray, weight: np.ndarray) -> dict[str, Any]:
 
 def identify_dynamic(
     t_s: Any,
-    thrust_N: Any,  # noqa: N803 (unit suffix)
+    thrust_N: Any,
     speed_mps: Any,
     order: int | None = None,
     window: DynamicWindow | None = None,

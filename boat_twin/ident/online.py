@@ -113,7 +113,7 @@ class SteadyCriteria:
     """Relative drift bound, -: the bound is max(``max_drift_mps``, this × mean speed of the tail)."""
     max_spread_mps: float = 0.2
     """Bound on the residual standard deviation of speed about its trend, m/s."""
-    thrust_tolerance_N: float = 5.0  # noqa: N815 (unit suffix)
+    thrust_tolerance_N: float = 5.0
     """Thrust counts as constant within max(this, ``thrust_tolerance_rel``·|F|) of the segment start, N."""
     thrust_tolerance_rel: float = 0.01
     """Relative thrust tolerance, -."""
@@ -137,7 +137,7 @@ class SteadySegment:
     """First sample of the segment, s."""
     end_s: float
     """Last sample of the segment, s."""
-    thrust_N: float  # noqa: N815 (unit suffix)
+    thrust_N: float
     """Mean thrust over the segment's analysed part, N."""
     accepted: bool
     """True when the speed settled."""
@@ -257,7 +257,7 @@ class SteadyStateDetector:
         self._ref = 0.0
         self._start = 0.0
 
-    def update(self, t_s: float, thrust_N: float, speed_mps: float) -> SteadySegment | None:  # noqa: N803
+    def update(self, t_s: float, thrust_N: float, speed_mps: float) -> SteadySegment | None:
         """Add one sample (time increasing); returns the segment that this sample closed, if any."""
         closed = None
         c = self.criteria
@@ -294,7 +294,7 @@ class SteadyStateDetector:
 
 def detect_steady_segments(
     t_s: Any,
-    thrust_N: Any,  # noqa: N803 (unit suffix)
+    thrust_N: Any,
     speed_mps: Any,
     criteria: SteadyCriteria | None = None,
 ) -> list[SteadySegment]:
@@ -329,7 +329,7 @@ class OnlineThrustSpeedIdentifier:
         criteria: SteadyCriteria | None = None,
         window: DynamicWindow | None = None,
         speed_scale_mps: float = 10.0,
-        thrust_scale_N: float = 1000.0,  # noqa: N803 (unit suffix)
+        thrust_scale_N: float = 1000.0,
     ) -> None:
         dynamic_order = order if dynamic_order is None else dynamic_order
         for value in (order, dynamic_order):
@@ -394,7 +394,7 @@ class OnlineThrustSpeedIdentifier:
         )
         self._last_window_t = t_s
 
-    def update(self, t_s: float, thrust_N: float, speed_mps: float) -> SteadySegment | None:  # noqa: N803
+    def update(self, t_s: float, thrust_N: float, speed_mps: float) -> SteadySegment | None:
         """Feed one sample (s, total thrust N, speed m/s); returns the constant-thrust segment it closed."""
         if (
             not (math.isfinite(t_s) and math.isfinite(thrust_N) and math.isfinite(speed_mps))

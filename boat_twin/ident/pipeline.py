@@ -88,7 +88,7 @@ def trial_samples(trial: Trial) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def replay_online(
     t_s: np.ndarray,
-    thrust_N: np.ndarray,  # noqa: N803 (unit suffix)
+    thrust_N: np.ndarray,
     speed_mps: np.ndarray,
     identifier: OnlineThrustSpeedIdentifier,
 ) -> OnlineThrustSpeedIdentifier:
@@ -106,7 +106,7 @@ def replay_online(
 
 def identify_arrays(
     t_s: Any,
-    thrust_N: Any,  # noqa: N803 (unit suffix)
+    thrust_N: Any,
     speed_mps: Any,
     *,
     order: int | None = None,

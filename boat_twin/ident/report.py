@@ -20,7 +20,7 @@ def write_trial_report(
     out_dir: Path,
     result: dict[str, Any],
     t_s: np.ndarray,
-    thrust_N: np.ndarray,  # noqa: N803 (unit suffix)
+    thrust_N: np.ndarray,
     speed_mps: np.ndarray,
     resimulation: Resimulation | None = None,
 ) -> list[Path]:

@@ -71,8 +71,8 @@ class Trial:
     """
 
     t_s: np.ndarray
-    thrust_left_N: np.ndarray  # noqa: N815
-    thrust_right_N: np.ndarray  # noqa: N815
+    thrust_left_N: np.ndarray
+    thrust_right_N: np.ndarray
     angle_left_rad: np.ndarray
     angle_right_rad: np.ndarray
     lat_deg: np.ndarray
@@ -99,7 +99,7 @@ class Trial:
         return np.arctan2(self.vel_north_mps, self.vel_east_mps)
 
     @property
-    def surge_thrust_N(self) -> np.ndarray:  # noqa: N802
+    def surge_thrust_N(self) -> np.ndarray:
         """Thrust along the hull: Σ T_i·cos δ_i, N."""
         return self.thrust_left_N * np.cos(self.angle_left_rad) + self.thrust_right_N * np.cos(self.angle_right_rad)
 

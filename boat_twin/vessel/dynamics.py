@@ -53,9 +53,9 @@ class CompiledModel:
     """The numbers the kernel needs: coefficients (see ``_K_*`` indices) and the tabulated resistance."""
 
     coefficients: np.ndarray
-    resistance_N: np.ndarray  # noqa: N815
+    resistance_N: np.ndarray
     resistance_max_speed_mps: float
-    extra_drag_N: np.ndarray  # noqa: N815
+    extra_drag_N: np.ndarray
 
 
 # Indices into CompiledModel.coefficients.
@@ -69,7 +69,7 @@ def resistance_grid_mps(params: VesselParams) -> np.ndarray:
     return np.linspace(0.0, params.resistance.max_speed_mps, RESISTANCE_TABLE_POINTS)
 
 
-def compile_model(params: VesselParams, extra_drag_N: np.ndarray | None = None) -> CompiledModel:  # noqa: N803
+def compile_model(params: VesselParams, extra_drag_N: np.ndarray | None = None) -> CompiledModel:
     """Derive the coefficients of ``params`` and tabulate its resistance for the kernel.
 
     ``extra_drag_N`` is an optional additional surge drag (e.g. a towed body) tabulated on the same grid.
@@ -236,7 +236,7 @@ def _run_ticks(
 class Dynamics:
     """The equations of motion of one boat design, stepping an ensemble of N boats together."""
 
-    def __init__(self, params: VesselParams, extra_drag_N: np.ndarray | None = None) -> None:  # noqa: N803
+    def __init__(self, params: VesselParams, extra_drag_N: np.ndarray | None = None) -> None:
         self.params = params
         self.model = compile_model(params, extra_drag_N)
 

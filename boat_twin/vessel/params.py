@@ -59,11 +59,11 @@ class VesselParams:
     engine_y_m: float = 0.9
     """Outboards' lateral offset from the centreline, m: one per demihull, each demihull ~0.8 m wide at the
     sides of the 2.6 m beam, so its centreline is 0.9 m out."""
-    engine_power_W: float = 29_830.0  # noqa: N815 (unit suffix)
+    engine_power_W: float = 29_830.0
     """Shaft power per outboard, W: 40 hp (Dyda & Chumakova 2021) × 745.7 W/hp."""
     propulsive_efficiency: float = 0.55
     """Propulsive efficiency of an outboard at planing speed, -: 0.5-0.6 (Faltinsen 2005, §9.4)."""
-    bollard_thrust_N: float = 2_000.0  # noqa: N815
+    bollard_thrust_N: float = 2_000.0
     """Static (bollard) thrust per outboard, N: about 5 kgf/hp for a planing propeller (assumed)."""
     reverse_thrust_ratio: float = 0.5
     """Astern thrust available as a fraction of the bollard thrust, -: propellers are ~half as good astern."""
@@ -121,19 +121,19 @@ class ModelCoefficients:
     """Sway mass with added mass, kg."""
     m33_kgm2: float
     """Yaw inertia with added inertia, kg·m^2."""
-    sway_damping_Nspm2: float  # noqa: N815
+    sway_damping_Nspm2: float
     """Sway lift damping a_v in Y = −a_v·|u|·v, N·s²/m² (derived from the reference turn)."""
     lateral_centre_x_m: float
     """Where the sway lift acts, m forward of the centre of gravity."""
-    yaw_damping_Nms: float  # noqa: N815
+    yaw_damping_Nms: float
     """Yaw lift damping a_r in N = −a_r·|u|·r, N·m·s (derived from the reference turn)."""
-    sway_quadratic_Ns2pm2: float  # noqa: N815
+    sway_quadratic_Ns2pm2: float
     """Cross-flow sway drag Y = −Y_vv·|v|·v, N·s²/m² (½ρ·Cd·2T·L)."""
-    yaw_quadratic_Nms2: float  # noqa: N815
+    yaw_quadratic_Nms2: float
     """Cross-flow yaw drag N = −N_rr·|r|·r, N·m·s² (½ρ·Cd·2T·L⁴/32)."""
 
 
-def reference_turn_thrust_N(params: VesselParams) -> float:  # noqa: N802
+def reference_turn_thrust_N(params: VesselParams) -> float:
     """Thrust per outboard that holds the reference turn's speed, N (surge balance of the steady turn)."""
     coeff = _inertia(params)
     u, v, r = _reference_turn_velocities(params)
@@ -218,7 +218,7 @@ def surge_time_constant_s(params: VesselParams, speed_mps: float) -> float:
     return _inertia(params)["m11"] / slope if slope > 0 else math.inf
 
 
-def max_thrust_N(params: VesselParams, speed_mps: np.ndarray) -> np.ndarray:  # noqa: N802
+def max_thrust_N(params: VesselParams, speed_mps: np.ndarray) -> np.ndarray:
     """Forward thrust available per outboard at speed through water u, N: min(bollard, η·P/|u|)."""
     power_limited = params.propulsive_efficiency * params.engine_power_W / np.maximum(np.abs(speed_mps), 1e-9)
     return np.minimum(params.bollard_thrust_N, power_limited)

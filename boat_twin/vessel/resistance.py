@@ -32,7 +32,7 @@ class ResistanceModel(Protocol):
     def max_speed_mps(self) -> float:
         """Highest speed the model was built from, m/s (a quadratic law beyond)."""
 
-    def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:  # noqa: N802 (unit suffix)
+    def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:
         """Resistance in N, same shape as ``speed_mps``."""
 
     def to_dict(self) -> dict[str, Any]:
@@ -60,7 +60,7 @@ class TableResistance:
     """
 
     speeds_mps: tuple[float, ...]
-    forces_N: tuple[float, ...]  # noqa: N815 (unit suffix)
+    forces_N: tuple[float, ...]
     _pchip: PchipInterpolator = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -83,7 +83,7 @@ class TableResistance:
         """Highest measured speed, m/s; above it the quadratic law takes over."""
         return float(self.speeds_mps[-1])
 
-    def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:  # noqa: N802
+    def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:
         """Resistance in N at speed through water ``speed_mps`` (m/s)."""
         return _odd_with_quadratic_tail(speed_mps, self._pchip, self.max_speed_mps)
 
@@ -114,7 +114,7 @@ class PowerSeriesResistance:
     def _series(self, a: np.ndarray) -> np.ndarray:
         return np.polynomial.polynomial.polyval(a, np.asarray(self.coefficients, dtype=float))
 
-    def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:  # noqa: N802
+    def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:
         """Resistance in N at speed through water ``speed_mps`` (m/s)."""
         return _odd_with_quadratic_tail(speed_mps, self._series, self.max_speed_mps)
 
@@ -157,7 +157,7 @@ class CorrectedResistance:
         """k(|u|), -."""
         return np.interp(np.abs(np.asarray(speed_mps, dtype=float)), self.speeds_mps, self.factors)
 
-    def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:  # noqa: N802
+    def force_N(self, speed_mps: np.ndarray | float) -> np.ndarray:
         """Fc_base(u)·k(|u|), N."""
         return self.base.force_N(speed_mps) * self.factor(speed_mps)
 

@@ -75,7 +75,7 @@ def _unit_curve(case_path: str, cable_length_m: float, max_speed_mps: float) -> 
     return speeds, loads
 
 
-def tow_drag_N(tow: TowConfig, speed_mps: np.ndarray, max_speed_mps: float) -> np.ndarray:  # noqa: N802
+def tow_drag_N(tow: TowConfig, speed_mps: np.ndarray, max_speed_mps: float) -> np.ndarray:
     """Surge drag of the towed system at speeds through water ``speed_mps`` (≥ 0, ≤ ``max_speed_mps``), N."""
     speeds, loads = _unit_curve(tow.case or default_case_path(), float(tow.cable_length_m), float(max_speed_mps))
     return tow.drag_scale * np.interp(np.abs(speed_mps), speeds, loads)
