@@ -212,7 +212,8 @@ def build_trial(
     fix = columns["gnss_fix"]
     if origin is None:
         valid = np.flatnonzero(np.all(np.isfinite(fix), axis=1))
-        origin = tuple(float(x) for x in fix[valid[0]]) if valid.size else (0.0, 0.0, 0.0)
+        lat, lon, alt = (float(x) for x in fix[valid[0]]) if valid.size else (0.0, 0.0, 0.0)
+        origin = (lat, lon, alt)
     meta.origin = origin
     east, north, _ = pymap3d.geodetic2enu(fix[:, 0], fix[:, 1], fix[:, 2], *origin)
     imu = columns["imu"]
