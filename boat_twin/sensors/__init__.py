@@ -2,7 +2,17 @@
 
 This module holds what both models share: config validation, reading a config from a YAML mapping,
 rate decimation and coloured (Gauss-Markov) noise. The models live in :mod:`boat_twin.sensors.gnss`
-and :mod:`boat_twin.sensors.um7`.
+and :mod:`boat_twin.sensors.um7`, each as two pieces:
+
+- an expected-measurement function (``gnss.expected_fix``, ``um7.expected_imu``): what the sensor reads
+  without noise (latency, antenna height, gravity, frames), deterministic and vectorised over samples and
+  boats (or replay windows);
+- a noise process (``gnss.GnssNoise``, ``um7.Um7Noise``) that owns its random state (Gauss-Markov states,
+  gyro bias random walk, the RNG): ``step()`` draws the next sample's errors (a live twin, tick by tick),
+  ``run(n)`` the next n at once (a batch record).
+
+``Model.measure(truth)`` is the batch composition of both; the live twin composes them per tick, keeping one
+noise process per sensor, so live noise has the batch statistics.
 """
 
 from __future__ import annotations
@@ -80,19 +90,47 @@ def decimation_step(t_s: np.ndarray, rate_hz: float, where: str) -> int:
     return step
 
 
+class GaussMarkov:
+    """First-order Gauss-Markov noise with its state, stepped sample by sample or run over a record.
+
+    e[k] = a e[k-1] + sqrt(1 - a^2) stdev w[k], a = exp(-dt/tau), w standard normal from ``rng``; the first
+    sample is drawn from the stationary distribution, later calls continue from the last sample.
+    ``correlation_time_s`` 0 gives white noise (no memory).
+    """
+
+    def __init__(self, rng: np.random.Generator, dims: int, stdev: float | np.ndarray, dt_s: float,
+                 correlation_time_s: float) -> None:
+        self.rng = rng
+        self.dims = dims
+        self.stdev = stdev
+        """Stationary stdev per column, in the noise's unit."""
+        self.a = math.exp(-dt_s / correlation_time_s) if correlation_time_s > 0.0 else 0.0
+        """Sample-to-sample correlation exp(-dt/tau); 0 for white noise."""
+        self._unit: np.ndarray | None = None  # last sample / stdev, (dims,); None before the first
+
+    def run(self, n: int) -> np.ndarray:
+        """The next ``n`` samples, shape (n, dims); draws one standard normal (n, dims) block."""
+        white = self.rng.standard_normal((n, self.dims))
+        if self.a == 0.0 or n == 0:
+            return white * self.stdev
+        from scipy.signal import lfilter
+
+        drive = white * math.sqrt(1.0 - self.a * self.a)
+        if self._unit is None:
+            drive[0] = white[0]
+            unit = lfilter([1.0], [1.0, -self.a], drive, axis=0)
+        else:
+            unit, _ = lfilter([1.0], [1.0, -self.a], drive, axis=0, zi=self.a * self._unit[None, :])
+        self._unit = unit[-1]
+        return unit * self.stdev
+
+    def step(self) -> np.ndarray:
+        """The next sample, shape (dims,)."""
+        return self.run(1)[0]
+
+
 def gauss_markov(rng: np.random.Generator, n: int, dims: int, stdev: float | np.ndarray, dt_s: float,
                  correlation_time_s: float) -> np.ndarray:
-    """Zero-mean stationary noise, shape (n, dims), stdev ``stdev`` per column.
-
-    ``correlation_time_s`` 0 gives white noise; otherwise a first-order Gauss-Markov process
-    e[k] = a e[k-1] + sqrt(1 - a^2) stdev w[k], a = exp(-dt/tau), started in its stationary distribution.
-    """
-    white = rng.standard_normal((n, dims))
-    if correlation_time_s <= 0.0 or n == 0:
-        return white * stdev
-    from scipy.signal import lfilter
-
-    a = math.exp(-dt_s / correlation_time_s)
-    drive = white * math.sqrt(1.0 - a * a)
-    drive[0] = white[0]
-    return lfilter([1.0], [1.0, -a], drive, axis=0) * stdev
+    """Zero-mean stationary noise, shape (n, dims), stdev ``stdev`` per column: a fresh :class:`GaussMarkov`
+    run over ``n`` samples of ``dt_s``."""
+    return GaussMarkov(rng, dims, stdev, dt_s, correlation_time_s).run(n)
