@@ -120,7 +120,7 @@ class ExpectedFix:
     has_state: np.ndarray
     """(n,) bool: the delayed state lies inside the record (earlier samples hold the first state)."""
 
-    def at(self, index: np.ndarray) -> ExpectedFix:
+    def at(self, index: np.ndarray | slice) -> ExpectedFix:
         """The samples ``index`` (along the first axis)."""
         return ExpectedFix(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
 

@@ -20,7 +20,7 @@ The boat model is 3-DOF: true roll = pitch = 0, angular velocity (0, 0, r), acce
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -143,10 +143,6 @@ class ExpectedImu:
     """(..., 3) specific force in the FLU body, gravity included (+g on z), m/s^2."""
     mag_tesla: np.ndarray
     """(..., 3) the configured geomagnetic field in the FLU body, T."""
-
-    def at(self, index: np.ndarray) -> ExpectedImu:
-        """The samples ``index`` (along the first axis)."""
-        return ExpectedImu(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
 
 
 @dataclass(frozen=True)
