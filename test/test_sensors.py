@@ -11,7 +11,7 @@ import pytest
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.live import LiveTwin
-from boat_twin.sensors import gauss_markov
+from boat_twin.sensors import GaussMarkov, gauss_markov
 from boat_twin.sensors.gnss import GnssConfig, GnssModel
 from boat_twin.sensors.um7 import WMM2020_VLADIVOSTOK_ENU_TESLA, Um7Config, Um7Model
 from boat_twin.units import STANDARD_GRAVITY_MPS2
@@ -113,6 +113,15 @@ def test_gnss_dropouts_remove_the_stated_fraction() -> None:
     assert abs(lost - p) < 3.0 * math.sqrt(p * (1.0 - p) / len(truth))
     assert np.all(np.diff(fixes.stamp_s) > 0.0)
     assert np.isin(np.round(fixes.stamp_s / DT_S), np.arange(len(truth))).all()
+
+
+def test_gauss_markov_continues_from_its_state() -> None:
+    """Run in pieces (down to single steps), the process is the one run at once: the state carries over."""
+    stdev = np.array([1.0, 3.0])
+    whole = GaussMarkov(np.random.default_rng(8), 2, stdev, DT_S, 2.0).run(50)
+    process = GaussMarkov(np.random.default_rng(8), 2, stdev, DT_S, 2.0)
+    pieces = np.concatenate([process.run(k) for k in (1, 1, 17, 0, 30, 1)])
+    np.testing.assert_allclose(pieces, whole, rtol=1e-12, atol=0.0)
 
 
 def test_gauss_markov_is_stationary_with_the_stated_correlation() -> None:

@@ -91,7 +91,7 @@ def decimation_step(t_s: np.ndarray, rate_hz: float, where: str) -> int:
 
 
 class GaussMarkov:
-    """First-order Gauss-Markov noise with its state, stepped sample by sample or run over a record.
+    """First-order Gauss-Markov noise with its state: ``run(n)`` continues it by n samples (n = 1: one step).
 
     e[k] = a e[k-1] + sqrt(1 - a^2) stdev w[k], a = exp(-dt/tau), w standard normal from ``rng``; the first
     sample is drawn from the stationary distribution, later calls continue from the last sample.
@@ -123,10 +123,6 @@ class GaussMarkov:
             unit, _ = lfilter([1.0], [1.0, -self.a], drive, axis=0, zi=self.a * self._unit[None, :])
         self._unit = unit[-1]
         return unit * self.stdev
-
-    def step(self) -> np.ndarray:
-        """The next sample, shape (dims,)."""
-        return self.run(1)[0]
 
 
 def gauss_markov(rng: np.random.Generator, n: int, dims: int, stdev: float | np.ndarray, dt_s: float,

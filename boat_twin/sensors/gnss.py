@@ -4,6 +4,11 @@ Position: the antenna (``gnss_link``, ``antenna_height_m`` straight above ``base
 noise, mapped to WGS-84 latitude/longitude/ellipsoidal height about a geodetic origin with pymap3d. Velocity:
 ENU over ground plus noise (Doppler velocity, independent of the position noise). A fix stamped t describes
 the boat at t - ``latency_s`` (delivered late; drivers stamp on reception). Lost fixes are dropped.
+
+Pieces: :func:`expected_fix` (noise-free antenna position and velocity, latency applied; vectorised over samples
+and boats or windows), :class:`GnssNoise` (position Gauss-Markov state, velocity noise, dropouts; ``step()`` per
+fix or ``run(n)``), :func:`fixes` (expected + errors -> :class:`GnssMeasurements`). :class:`GnssModel` composes
+them over a batch record.
 """
 
 from __future__ import annotations

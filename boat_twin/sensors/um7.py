@@ -15,6 +15,11 @@ default true) and REP-103/REP-145 where the driver is known to be wrong:
 
 The boat model is 3-DOF: true roll = pitch = 0, angular velocity (0, 0, r), acceleration (ax, ay, +g).
 ``imu_link`` coincides with ``base_link`` (no lever arm).
+
+Pieces: :func:`expected_imu` / :func:`expected_gyro` (noise-free outputs, gravity and constant bias included;
+any array shape), :class:`Um7Noise` (orientation Gauss-Markov state, gyro bias random walk state, white noise;
+``step()`` per sample or ``run(n)``), :func:`imu_samples` (expected + errors -> :class:`ImuMeasurements`).
+:class:`Um7Model` composes them over a batch record.
 """
 
 from __future__ import annotations
