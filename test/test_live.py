@@ -1,16 +1,25 @@
 """The live twin (what the simulator node wraps) produces the batch trial's messages, tick by tick."""
 
 import numpy as np
+import pytest
 
 from boat_twin.config import TwinConfig
 from boat_twin.io import messages
+from boat_twin.sensors.gnss import GnssConfig
+from boat_twin.sensors.um7 import Um7Config
 from boat_twin.twin.live import LiveTwin
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.scenarios import make_scenario
 
 
-def test_live_ticks_reproduce_the_batch_trial_without_noise() -> None:
-    config = TwinConfig()
+@pytest.mark.parametrize("config", [
+    TwinConfig(),
+    TwinConfig(gnss=GnssConfig(rate_hz=5.0, latency_s=0.23),
+               um7=Um7Config(rate_hz=2.0, gyro_bias_radps=(0.01, 0.0, -0.02)),
+               environment=Environment(current_east_mps=0.3, current_north_mps=-0.2)),
+], ids=["defaults", "slow-sensors-latency-bias-current"])
+def test_live_ticks_reproduce_the_batch_trial_without_noise(config: TwinConfig) -> None:
     scenario = make_scenario("random", config.vessel, np.random.default_rng(4), duration_s=30.0)
     batch = run_sea_trial(config, scenario, seed=4, noise=False)
     sensor_topics = {"gnss/fix", "gnss/vel", "imu/data", "imu/mag", "imu/rpy", "imu/temperature", "odom/truth", "tf"}

@@ -22,8 +22,11 @@ from scipy.signal import savgol_filter
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.io.trial import Trial
+from boat_twin.sensors.gnss import expected_fix
+from boat_twin.sensors.um7 import expected_gyro
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.tow import tow_drag_table
+from boat_twin.vessel.truth import ground_velocity_enu
 
 SIGNALS = ("vel_east_mps", "vel_north_mps", "yaw_rate_radps", "heading_rad")
 """Measured signals the diagnosis compares: GNSS velocity over ground (ENU), gyro yaw rate, IMU heading."""
@@ -191,17 +194,6 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics) -> 
     return states
 
 
-def _delayed(values: np.ndarray, delay_samples: float) -> np.ndarray:
-    """values(k − delay) along axis 0 by linear interpolation, held at the window's first value before it.
-
-    Holding (rather than masking) keeps the prediction continuous in the delay, which the fit differentiates.
-    """
-    k = np.maximum(np.arange(values.shape[0]) - delay_samples, 0.0)
-    lo = np.minimum(np.floor(k).astype(int), values.shape[0] - 2)
-    w = (k - lo).reshape((-1,) + (1,) * (values.ndim - 1))
-    return (1.0 - w) * values[lo] + w * values[lo + 1]
-
-
 @dataclass(frozen=True)
 class Prediction:
     """What ``config`` predicts the sensors read, window by window: signal name → (T, m), and position (T, m, 2)."""
@@ -211,28 +203,25 @@ class Prediction:
 
 
 def predict(windows: Windows, config: TwinConfig) -> Prediction:
-    """Run every window's commands through ``config``'s model from its measured initial state."""
+    """Run every window's commands through ``config``'s model from its measured initial state; the sensors read
+    the path as their expected-measurement functions say (:func:`~boat_twin.sensors.gnss.expected_fix`: velocity
+    over ground and position delayed by the GNSS latency; :func:`~boat_twin.sensors.um7.expected_gyro`: yaw rate
+    plus the gyro bias), noise-free."""
     dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
     states = initial_states(windows, config, dynamics)
     substeps = max(1, int(round(windows.dt_s * REPLAY_INTEGRATION_RATE_HZ)))
     environments = np.tile(config.environment.as_vector(), (states.shape[0], 1))
     path, _ = dynamics.run(states, windows.commands, environments, windows.dt_s / substeps, substeps)
     east, north, yaw, u, v, r = (path[..., j] for j in range(6))
-    c, s = np.cos(yaw), np.sin(yaw)
     env = config.environment
-    ground = np.stack([u * c - v * s + env.current_east_mps, u * s + v * c + env.current_north_mps,
-                       east, north], axis=-1)
-    delayed = _delayed(ground, float(config.gnss.latency_s) / windows.dt_s)
+    vel_east, vel_north = ground_velocity_enu(yaw, u, v, env.current_east_mps, env.current_north_mps)
+    window_t_s = np.arange(path.shape[0]) * windows.dt_s
+    fix = expected_fix(config.gnss, window_t_s, east, north, vel_east, vel_north)  # delayed; held at the start
     skip = int(round(SETTLING_S / windows.dt_s))
-    delayed[:skip] = np.nan
-    position = delayed[..., 2:4]
+    signals = {"vel_east_mps": fix.vel_east_mps, "vel_north_mps": fix.vel_north_mps,
+               "yaw_rate_radps": expected_gyro(config.um7, r)[..., 2], "heading_rad": yaw.copy()}
+    position = np.stack([fix.east_m, fix.north_m], axis=-1)
+    for values in (*signals.values(), position):
+        values[:skip] = np.nan
     offset = np.nanmean(windows.position - position, axis=0)  # each window's start position: a nuisance
-    yaw_rate = r + float(config.um7.gyro_bias_radps[2])
-    yaw_rate[:skip] = np.nan
-    heading = yaw.copy()
-    heading[:skip] = np.nan
-    return Prediction(
-        signals={"vel_east_mps": delayed[..., 0], "vel_north_mps": delayed[..., 1], "yaw_rate_radps": yaw_rate,
-                 "heading_rad": heading},
-        position=position + offset[None, :, :],
-    )
+    return Prediction(signals=signals, position=position + offset[None, :, :])

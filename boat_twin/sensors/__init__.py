@@ -2,65 +2,31 @@
 
 This module holds what both models share: config validation, reading a config from a YAML mapping,
 rate decimation and coloured (Gauss-Markov) noise. The models live in :mod:`boat_twin.sensors.gnss`
-and :mod:`boat_twin.sensors.um7`.
+and :mod:`boat_twin.sensors.um7`, each as two pieces:
+
+- an expected-measurement function (``gnss.expected_fix``, ``um7.expected_imu``): what the sensor reads
+  without noise (latency, antenna height, gravity, frames), deterministic and vectorised over samples and
+  boats (or replay windows);
+- a noise process (``gnss.GnssNoise``, ``um7.Um7Noise``) that owns its random state (Gauss-Markov states,
+  gyro bias random walk, the RNG): ``step()`` draws the next sample's errors (a live twin, tick by tick),
+  ``run(n)`` the next n at once (a batch record).
+
+``Model.measure(truth)`` is the batch composition of both; the live twin composes them per tick, keeping one
+noise process per sensor, so live noise has the batch statistics.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import fields
-from typing import Any, TypeVar
 
 import numpy as np
 
 from boat_twin.errors import InputError
 
-__all__ = ["RATE_TOLERANCE", "config_from_mapping", "decimation_step", "gauss_markov", "number", "vector3"]
-
-C = TypeVar("C")
+__all__ = ["RATE_TOLERANCE", "GaussMarkov", "decimation_step", "gauss_markov"]
 
 RATE_TOLERANCE = 1e-6
 """Relative tolerance when checking that a sensor rate divides the truth output rate."""
-
-
-def number(where: str, value: Any, *, minimum: float | None = None, maximum: float | None = None,
-           above: float | None = None, below: float | None = None) -> float:
-    """``value`` as a finite float within inclusive (minimum, maximum) and exclusive (above, below) bounds.
-
-    Anything else raises InputError naming ``where``.
-    """
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise InputError(f"{where}: expected a number, got {value!r}")
-    result = float(value)
-    if not math.isfinite(result):
-        raise InputError(f"{where}: must be finite, got {result}")
-    for bound, fails, relation in (
-        (minimum, lambda b: result < b, ">="), (maximum, lambda b: result > b, "<="),
-        (above, lambda b: result <= b, ">"), (below, lambda b: result >= b, "<"),
-    ):
-        if bound is not None and fails(bound):
-            raise InputError(f"{where}: must be {relation} {bound:g}, got {result:g}")
-    return result
-
-
-def vector3(where: str, value: Any) -> tuple[float, float, float]:
-    """``value`` as a tuple of three finite floats, else InputError naming ``where``."""
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 3:
-        raise InputError(f"{where}: expected a list of 3 numbers, got {value!r}")
-    x, y, z = (number(f"{where}[{i}]", v) for i, v in enumerate(value))
-    return x, y, z
-
-
-def config_from_mapping(cls: type[C], data: Any, section: str) -> C:
-    """Build the config dataclass ``cls`` from a YAML mapping; unknown keys raise InputError naming them."""
-    if not isinstance(data, Mapping):
-        raise InputError(f"{section}: expected a mapping of field: value, got {type(data).__name__}")
-    known = [f.name for f in fields(cls)]  # type: ignore[arg-type]
-    for key in data:
-        if key not in known:
-            raise InputError(f"{section}.{key}: unknown field (known: {', '.join(known)})")
-    return cls(**data)
 
 
 def decimation_step(t_s: np.ndarray, rate_hz: float, where: str) -> int:
@@ -82,19 +48,43 @@ def decimation_step(t_s: np.ndarray, rate_hz: float, where: str) -> int:
     return step
 
 
+class GaussMarkov:
+    """First-order Gauss-Markov noise with its state: ``run(n)`` continues it by n samples (n = 1: one step).
+
+    e[k] = a e[k-1] + sqrt(1 - a^2) stdev w[k], a = exp(-dt/tau), w standard normal from ``rng``; the first
+    sample is drawn from the stationary distribution, later calls continue from the last sample.
+    ``correlation_time_s`` 0 gives white noise (no memory).
+    """
+
+    def __init__(self, rng: np.random.Generator, dims: int, stdev: float | np.ndarray, dt_s: float,
+                 correlation_time_s: float) -> None:
+        self.rng = rng
+        self.dims = dims
+        self.stdev = stdev
+        """Stationary stdev per column, in the noise's unit."""
+        self.a = math.exp(-dt_s / correlation_time_s) if correlation_time_s > 0.0 else 0.0
+        """Sample-to-sample correlation exp(-dt/tau); 0 for white noise."""
+        self._unit: np.ndarray | None = None  # last sample / stdev, (dims,); None before the first
+
+    def run(self, n: int) -> np.ndarray:
+        """The next ``n`` samples, shape (n, dims); draws one standard normal (n, dims) block."""
+        white = self.rng.standard_normal((n, self.dims))
+        if self.a == 0.0 or n == 0:
+            return white * self.stdev
+        from scipy.signal import lfilter
+
+        drive = white * math.sqrt(1.0 - self.a * self.a)
+        if self._unit is None:
+            drive[0] = white[0]
+            unit = lfilter([1.0], [1.0, -self.a], drive, axis=0)
+        else:
+            unit, _ = lfilter([1.0], [1.0, -self.a], drive, axis=0, zi=self.a * self._unit[None, :])
+        self._unit = unit[-1]
+        return unit * self.stdev
+
+
 def gauss_markov(rng: np.random.Generator, n: int, dims: int, stdev: float | np.ndarray, dt_s: float,
                  correlation_time_s: float) -> np.ndarray:
-    """Zero-mean stationary noise, shape (n, dims), stdev ``stdev`` per column.
-
-    ``correlation_time_s`` 0 gives white noise; otherwise a first-order Gauss-Markov process
-    e[k] = a e[k-1] + sqrt(1 - a^2) stdev w[k], a = exp(-dt/tau), started in its stationary distribution.
-    """
-    white = rng.standard_normal((n, dims))
-    if correlation_time_s <= 0.0 or n == 0:
-        return white * stdev
-    from scipy.signal import lfilter
-
-    a = math.exp(-dt_s / correlation_time_s)
-    drive = white * math.sqrt(1.0 - a * a)
-    drive[0] = white[0]
-    return lfilter([1.0], [1.0, -a], drive, axis=0) * stdev
+    """Zero-mean stationary noise, shape (n, dims), stdev ``stdev`` per column: a fresh :class:`GaussMarkov`
+    run over ``n`` samples of ``dt_s``."""
+    return GaussMarkov(rng, dims, stdev, dt_s, correlation_time_s).run(n)

@@ -4,18 +4,24 @@ Position: the antenna (``gnss_link``, ``antenna_height_m`` straight above ``base
 noise, mapped to WGS-84 latitude/longitude/ellipsoidal height about a geodetic origin with pymap3d. Velocity:
 ENU over ground plus noise (Doppler velocity, independent of the position noise). A fix stamped t describes
 the boat at t - ``latency_s`` (delivered late; drivers stamp on reception). Lost fixes are dropped.
+
+Pieces: :func:`expected_fix` (noise-free antenna position and velocity, latency applied; vectorised over samples
+and boats or windows), :class:`GnssNoise` (position Gauss-Markov state, velocity noise, dropouts; ``step()`` per
+fix or ``run(n)``), :func:`fixes` (expected + errors -> :class:`GnssMeasurements`). :class:`GnssModel` composes
+them over a batch record.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
 import pymap3d
 
-from boat_twin.sensors import config_from_mapping, decimation_step, gauss_markov, number
+from boat_twin.sensors import GaussMarkov, decimation_step
+from boat_twin.validation import config_from_mapping, number
 from boat_twin.vessel.truth import TruthSeries
 
 CEP_TO_SIGMA = 1.0 / math.sqrt(2.0 * math.log(2.0))
@@ -100,6 +106,137 @@ class GnssMeasurements:
         return int(self.stamp_s.size)
 
 
+@dataclass(frozen=True)
+class ExpectedFix:
+    """What the receiver reads without noise: the antenna's local ENU position and velocity over ground at
+    each sample time, from the state ``latency_s`` earlier; arrays of shape (n, ...) like the inputs."""
+
+    east_m: np.ndarray
+    """Antenna east of the geodetic origin, m."""
+    north_m: np.ndarray
+    """Antenna north of the geodetic origin, m."""
+    up_m: np.ndarray
+    """Antenna height above the origin (``antenna_height_m``: the boat is 3-DOF), m."""
+    vel_east_mps: np.ndarray
+    """Velocity over ground, east, m/s."""
+    vel_north_mps: np.ndarray
+    """Velocity over ground, north, m/s."""
+    vel_up_mps: np.ndarray
+    """Velocity over ground, up (0: 3-DOF), m/s."""
+    has_state: np.ndarray
+    """(n,) bool: the delayed state lies inside the record (earlier samples hold the first state)."""
+
+    def at(self, index: np.ndarray | slice) -> ExpectedFix:
+        """The samples ``index`` (along the first axis)."""
+        return ExpectedFix(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
+
+
+@dataclass(frozen=True)
+class GnssErrors:
+    """Random errors of n fixes, drawn by :class:`GnssNoise`."""
+
+    position_m: np.ndarray
+    """(n, 3) ENU position error (east, north, up), m."""
+    velocity_mps: np.ndarray
+    """(n, 3) ENU velocity error, m/s."""
+    received: np.ndarray
+    """(n,) bool: False where the fix is lost."""
+
+
+def delayed(t_s: np.ndarray, values: np.ndarray, delay_s: float) -> np.ndarray:
+    """``values`` (n, ...) sampled at increasing times ``t_s`` (n,), s, read at ``t_s - delay_s``: linear
+    between samples, held at the first sample before it (:func:`numpy.interp` per column, exact at samples)."""
+    values = np.asarray(values, dtype=float)
+    if t_s.size == 0:
+        return values.copy()
+    columns = values.reshape(t_s.size, -1)
+    x_s = t_s - delay_s
+    out = np.empty_like(columns)
+    for j in range(columns.shape[1]):
+        out[:, j] = np.interp(x_s, t_s, columns[:, j])
+    return out.reshape(values.shape)
+
+
+def expected_fix(config: GnssConfig, t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray,
+                 vel_east_mps: np.ndarray, vel_north_mps: np.ndarray) -> ExpectedFix:
+    """The noise-free fix at every time of ``t_s`` (n,), s, from the true motion: ``base_link`` position
+    (local ENU, m) and velocity over ground (m/s), each of shape (n, ...) (e.g. (n, boats) or (n, windows)).
+
+    Latency: the fix at t carries the state at t - ``latency_s`` (:func:`delayed`). Antenna: ``antenna_height_m``
+    straight above ``base_link``, so the horizontal position and velocity are those of the boat.
+    """
+    t_s = np.asarray(t_s, dtype=float)
+    latency_s = config.latency_s
+    east = delayed(t_s, east_m, latency_s)
+    has_state = t_s - latency_s >= (t_s[0] if t_s.size else 0.0) - 1e-9
+    return ExpectedFix(
+        east_m=east,
+        north_m=delayed(t_s, north_m, latency_s),
+        up_m=np.full(east.shape, config.antenna_height_m),
+        vel_east_mps=delayed(t_s, vel_east_mps, latency_s),
+        vel_north_mps=delayed(t_s, vel_north_mps, latency_s),
+        vel_up_mps=np.zeros(east.shape),
+        has_state=has_state,
+    )
+
+
+class GnssNoise:
+    """The receiver's random errors with their state (Gauss-Markov position error, RNG), one fix at a time
+    (:meth:`step`) or a record at once (:meth:`run`); a fix lasts ``1 / rate_hz`` s.
+
+    Per fix it draws, in this order: position error (Gauss-Markov, stdev horizontal/horizontal/vertical),
+    velocity error (white, ``velocity_stdev_mps``), loss (probability ``dropout_probability``).
+    """
+
+    def __init__(self, config: GnssConfig, rng: np.random.Generator) -> None:
+        self.config = config
+        self.rng = rng
+        stdev = np.array([config.horizontal_stdev_m, config.horizontal_stdev_m, config.vertical_stdev_m])
+        self.position = GaussMarkov(rng, 3, stdev, 1.0 / config.rate_hz, config.position_correlation_time_s)
+
+    def run(self, n: int) -> GnssErrors:
+        """Errors of the next ``n`` fixes (each kind drawn as one block: the batch draw order)."""
+        position = self.position.run(n)
+        velocity = self.rng.standard_normal((n, 3)) * self.config.velocity_stdev_mps
+        received = self.rng.random(n) >= self.config.dropout_probability
+        return GnssErrors(position_m=position, velocity_mps=velocity, received=received)
+
+    def step(self) -> GnssErrors:
+        """Errors of the next fix (arrays with n = 1)."""
+        return self.run(1)
+
+
+def fixes(config: GnssConfig, stamp_s: np.ndarray, expected: ExpectedFix, errors: GnssErrors | None
+          ) -> GnssMeasurements:
+    """The published fixes: ``expected`` (shape (n,), at ``stamp_s``) plus ``errors`` (None: noise-free),
+    lost fixes dropped, mapped to WGS-84 about the config's origin."""
+    n = stamp_s.size
+    east_m, north_m, up_m = expected.east_m, expected.north_m, expected.up_m
+    vel = np.column_stack([expected.vel_east_mps, expected.vel_north_mps, expected.vel_up_mps])
+    keep = np.ones(n, dtype=bool)
+    if errors is not None:
+        east_m = east_m + errors.position_m[:, 0]
+        north_m = north_m + errors.position_m[:, 1]
+        up_m = up_m + errors.position_m[:, 2]
+        vel = vel + errors.velocity_mps
+        keep = errors.received
+    lat_deg, lon_deg, alt_m = pymap3d.enu2geodetic(
+        east_m[keep], north_m[keep], up_m[keep], config.origin_lat_deg, config.origin_lon_deg, config.origin_alt_m
+    )
+    variance = np.array([config.horizontal_stdev_m, config.horizontal_stdev_m, config.vertical_stdev_m]) ** 2
+    n_kept = int(keep.sum())
+    return GnssMeasurements(
+        stamp_s=stamp_s[keep],
+        lat_deg=np.asarray(lat_deg, dtype=float).reshape(n_kept),
+        lon_deg=np.asarray(lon_deg, dtype=float).reshape(n_kept),
+        alt_m=np.asarray(alt_m, dtype=float).reshape(n_kept),
+        vel_east_mps=vel[keep, 0],
+        vel_north_mps=vel[keep, 1],
+        vel_up_mps=vel[keep, 2],
+        position_covariance_m2=np.tile(variance, (n_kept, 1)),
+    )
+
+
 class GnssModel:
     """Turns a :class:`TruthSeries` into :class:`GnssMeasurements`; all randomness comes from ``rng``.
 
@@ -113,52 +250,13 @@ class GnssModel:
         self.noise = noise
 
     def measure(self, truth: TruthSeries) -> GnssMeasurements:
-        """Fixes at the decimated truth times whose delayed state lies inside the truth series."""
+        """Fixes at the decimated truth times whose delayed state lies inside the truth series: the
+        :func:`expected_fix` plus a fresh :class:`GnssNoise` run over the record."""
         cfg = self.config
         t_s = np.asarray(truth.t_s, dtype=float)
         step = decimation_step(t_s, cfg.rate_hz, "gnss.rate_hz")
-        stamp_s = t_s[::step]
-        if t_s.size:
-            stamp_s = stamp_s[stamp_s - cfg.latency_s >= t_s[0] - 1e-9]
-        state_t_s = stamp_s - cfg.latency_s
-        n = stamp_s.size
-
-        def at_state_time(values: np.ndarray) -> np.ndarray:
-            if n == 0:
-                return np.zeros(0)
-            return np.interp(state_t_s, t_s, values)  # exact at the truth samples themselves
-
-        east_m = at_state_time(truth.east_m)
-        north_m = at_state_time(truth.north_m)
-        up_m = np.full(n, cfg.antenna_height_m)
-        vel = np.column_stack(
-            [at_state_time(truth.vel_east_mps), at_state_time(truth.vel_north_mps), np.zeros(n)]
-        )
-        keep = np.ones(n, dtype=bool)
-        if self.noise:
-            dt_s = 1.0 / cfg.rate_hz
-            pos_err = gauss_markov(
-                self.rng, n, 3,
-                np.array([cfg.horizontal_stdev_m, cfg.horizontal_stdev_m, cfg.vertical_stdev_m]),
-                dt_s, cfg.position_correlation_time_s,
-            )
-            east_m = east_m + pos_err[:, 0]
-            north_m = north_m + pos_err[:, 1]
-            up_m = up_m + pos_err[:, 2]
-            vel = vel + self.rng.standard_normal((n, 3)) * cfg.velocity_stdev_mps
-            keep = self.rng.random(n) >= cfg.dropout_probability
-        lat_deg, lon_deg, alt_m = pymap3d.enu2geodetic(
-            east_m[keep], north_m[keep], up_m[keep], cfg.origin_lat_deg, cfg.origin_lon_deg, cfg.origin_alt_m
-        )
-        variance = np.array([cfg.horizontal_stdev_m, cfg.horizontal_stdev_m, cfg.vertical_stdev_m]) ** 2
-        n_kept = int(keep.sum())
-        return GnssMeasurements(
-            stamp_s=stamp_s[keep],
-            lat_deg=np.asarray(lat_deg, dtype=float).reshape(n_kept),
-            lon_deg=np.asarray(lon_deg, dtype=float).reshape(n_kept),
-            alt_m=np.asarray(alt_m, dtype=float).reshape(n_kept),
-            vel_east_mps=vel[keep, 0],
-            vel_north_mps=vel[keep, 1],
-            vel_up_mps=vel[keep, 2],
-            position_covariance_m2=np.tile(variance, (n_kept, 1)),
-        )
+        expected = expected_fix(cfg, t_s, truth.east_m, truth.north_m, truth.vel_east_mps, truth.vel_north_mps)
+        index = np.arange(0, t_s.size, step)
+        index = index[expected.has_state[index]]
+        errors = GnssNoise(cfg, self.rng).run(index.size) if self.noise else None
+        return fixes(cfg, t_s[index], expected.at(index), errors)

@@ -15,6 +15,11 @@ default true) and REP-103/REP-145 where the driver is known to be wrong:
 
 The boat model is 3-DOF: true roll = pitch = 0, angular velocity (0, 0, r), acceleration (ax, ay, +g).
 ``imu_link`` coincides with ``base_link`` (no lever arm).
+
+Pieces: :func:`expected_imu` / :func:`expected_gyro` (noise-free outputs, gravity and constant bias included;
+any array shape), :class:`Um7Noise` (orientation Gauss-Markov state, gyro bias random walk state, white noise;
+``step()`` per sample or ``run(n)``), :func:`imu_samples` (expected + errors -> :class:`ImuMeasurements`).
+:class:`Um7Model` composes them over a batch record.
 """
 
 from __future__ import annotations
@@ -25,8 +30,9 @@ from typing import Any
 
 import numpy as np
 
-from boat_twin.sensors import config_from_mapping, decimation_step, gauss_markov, number, vector3
+from boat_twin.sensors import GaussMarkov, decimation_step
 from boat_twin.units import STANDARD_GRAVITY_MPS2
+from boat_twin.validation import config_from_mapping, number, vector3
 from boat_twin.vessel.truth import TruthSeries
 
 WMM2020_VLADIVOSTOK_ENU_TESLA = (-4.892e-6, 26.225e-6, -45.635e-6)
@@ -131,6 +137,131 @@ def wrap_pi(angle_rad: np.ndarray) -> np.ndarray:
     return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
 
 
+@dataclass(frozen=True)
+class ExpectedImu:
+    """What the UM7 reads without noise: arrays of the inputs' shape (...), vectors with a last axis of 3."""
+
+    yaw_rad: np.ndarray
+    """ENU yaw of the orientation estimate (roll = pitch = 0: 3-DOF), rad."""
+    gyro_radps: np.ndarray
+    """(..., 3) angular velocity in the FLU body plus the constant gyro bias, rad/s."""
+    accel_mps2: np.ndarray
+    """(..., 3) specific force in the FLU body, gravity included (+g on z), m/s^2."""
+    mag_tesla: np.ndarray
+    """(..., 3) the configured geomagnetic field in the FLU body, T."""
+
+
+@dataclass(frozen=True)
+class Um7Errors:
+    """Random errors of n samples, drawn by :class:`Um7Noise`; every array (n, 3)."""
+
+    attitude_rad: np.ndarray
+    """Orientation estimate error (roll, pitch, yaw), rad."""
+    gyro_radps: np.ndarray
+    """Angular velocity error in the FLU body (bias random walk plus white noise), rad/s."""
+    accel_mps2: np.ndarray
+    """Acceleration error in the FLU body, m/s^2."""
+    mag_tesla: np.ndarray
+    """Magnetic field error in the FLU body, T."""
+
+
+def expected_gyro(config: Um7Config, yaw_rate_radps: np.ndarray) -> np.ndarray:
+    """(..., 3) noise-free gyro reading, rad/s: the body rate (0, 0, yaw rate) plus the constant bias."""
+    yaw_rate = np.asarray(yaw_rate_radps, dtype=float)
+    gyro = np.zeros(yaw_rate.shape + (3,))
+    gyro[..., 2] = yaw_rate
+    gyro += np.asarray(config.gyro_bias_radps)
+    return gyro
+
+
+def expected_imu(config: Um7Config, yaw_rad: np.ndarray, yaw_rate_radps: np.ndarray, accel_x_mps2: np.ndarray,
+                 accel_y_mps2: np.ndarray) -> ExpectedImu:
+    """The noise-free UM7 outputs from the true yaw (rad), yaw rate (rad/s) and body acceleration over
+    ground (m/s^2, no gravity), arrays of any one shape (samples, boats, ...)."""
+    yaw = np.asarray(yaw_rad, dtype=float)
+    b_east, b_north, b_up = config.magnetic_field_enu_tesla
+    cos_yaw, sin_yaw = np.cos(yaw), np.sin(yaw)
+    return ExpectedImu(
+        yaw_rad=yaw,
+        gyro_radps=expected_gyro(config, yaw_rate_radps),
+        accel_mps2=np.stack([np.asarray(accel_x_mps2, dtype=float), np.asarray(accel_y_mps2, dtype=float),
+                             np.full(yaw.shape, STANDARD_GRAVITY_MPS2)], axis=-1),
+        mag_tesla=np.stack([cos_yaw * b_east + sin_yaw * b_north, -sin_yaw * b_east + cos_yaw * b_north,
+                            np.full(yaw.shape, b_up)], axis=-1),
+    )
+
+
+class Um7Noise:
+    """The UM7's random errors with their state (orientation Gauss-Markov error, gyro bias random walk, RNG),
+    one sample at a time (:meth:`step`) or a record at once (:meth:`run`); a sample lasts ``1 / rate_hz`` s.
+
+    Per sample it draws, in this order: orientation error, bias walk increment, gyro, accelerometer and
+    magnetometer white noise. The bias walk starts at 0 (the bias at its constant value) on the first sample.
+    """
+
+    def __init__(self, config: Um7Config, rng: np.random.Generator) -> None:
+        self.config = config
+        self.rng = rng
+        self.dt_s = 1.0 / config.rate_hz
+        """Sample period, s."""
+        stdev = np.array([config.roll_pitch_stdev_rad, config.roll_pitch_stdev_rad, config.yaw_stdev_rad])
+        self.attitude = GaussMarkov(rng, 3, stdev, self.dt_s, config.orientation_correlation_time_s)
+        self.bias_walk_radps: np.ndarray | None = None
+        """Gyro bias drift at the last sample (x, y, z), rad/s; None before the first sample."""
+
+    def run(self, n: int) -> Um7Errors:
+        """Errors of the next ``n`` samples (each kind drawn as one block: the batch draw order)."""
+        cfg = self.config
+        attitude = self.attitude.run(n)
+        walk = self.rng.standard_normal((n, 3)) * (cfg.gyro_bias_walk_radps_per_sqrt_s * math.sqrt(self.dt_s))
+        if n:
+            walk[0] = 0.0 if self.bias_walk_radps is None else walk[0] + self.bias_walk_radps
+            bias = np.cumsum(walk, axis=0)
+            self.bias_walk_radps = bias[-1]
+        else:
+            bias = walk
+        return Um7Errors(
+            attitude_rad=attitude,
+            gyro_radps=bias + self.rng.standard_normal((n, 3)) * cfg.gyro_stdev_radps,
+            accel_mps2=self.rng.standard_normal((n, 3)) * cfg.accel_stdev_mps2,
+            mag_tesla=self.rng.standard_normal((n, 3)) * cfg.mag_stdev_tesla,
+        )
+
+    def step(self) -> Um7Errors:
+        """Errors of the next sample (arrays with n = 1)."""
+        return self.run(1)
+
+
+def imu_samples(config: Um7Config, stamp_s: np.ndarray, expected: ExpectedImu, errors: Um7Errors | None
+                ) -> ImuMeasurements:
+    """The published samples: ``expected`` (n samples, at ``stamp_s``) plus ``errors`` (None: noise-free)."""
+    n = stamp_s.size
+    gyro, accel, mag = expected.gyro_radps, expected.accel_mps2, expected.mag_tesla
+    attitude_error = np.zeros((n, 3))
+    if errors is not None:
+        attitude_error = errors.attitude_rad
+        gyro = gyro + errors.gyro_radps
+        accel = accel + errors.accel_mps2
+        mag = mag + errors.mag_tesla
+    roll, pitch = attitude_error[:, 0], attitude_error[:, 1]
+    yaw = expected.yaw_rad + attitude_error[:, 2]
+    return ImuMeasurements(
+        stamp_s=stamp_s,
+        quaternion_xyzw=quaternion_xyzw(roll, pitch, yaw),
+        yaw_rad=yaw,
+        gyro_radps=gyro,
+        accel_mps2=accel,
+        mag_tesla=mag,
+        rpy_rad=np.column_stack([-pitch, roll, wrap_pi(yaw - math.pi / 2.0)]),
+        temperature_celsius=np.full(n, config.temperature_celsius),
+        orientation_covariance_rad2=np.array(
+            [config.roll_pitch_stdev_rad, config.roll_pitch_stdev_rad, config.yaw_stdev_rad]) ** 2,
+        gyro_covariance_radps2=np.full(3, config.gyro_stdev_radps**2),
+        accel_covariance_mps2_2=np.full(3, config.accel_stdev_mps2**2),
+        mag_covariance_tesla2=np.full(3, config.mag_stdev_tesla**2),
+    )
+
+
 class Um7Model:
     """Turns a :class:`TruthSeries` into :class:`ImuMeasurements`; all randomness comes from ``rng``.
 
@@ -144,52 +275,15 @@ class Um7Model:
         self.noise = noise
 
     def measure(self, truth: TruthSeries) -> ImuMeasurements:
-        """Samples at the decimated truth times."""
+        """Samples at the decimated truth times: the :func:`expected_imu` plus a fresh :class:`Um7Noise` run
+        over the record."""
         cfg = self.config
         t_s = np.asarray(truth.t_s, dtype=float)
         step = decimation_step(t_s, cfg.rate_hz, "um7.rate_hz")
+        expected = expected_imu(cfg, np.asarray(truth.yaw_rad, dtype=float)[::step],
+                                np.asarray(truth.yaw_rate_radps, dtype=float)[::step],
+                                np.asarray(truth.accel_x_mps2, dtype=float)[::step],
+                                np.asarray(truth.accel_y_mps2, dtype=float)[::step])
         stamp_s = t_s[::step]
-        n = stamp_s.size
-        yaw_true = np.asarray(truth.yaw_rad, dtype=float)[::step]
-        gyro = np.zeros((n, 3))
-        gyro[:, 2] = np.asarray(truth.yaw_rate_radps, dtype=float)[::step]
-        gyro += np.asarray(cfg.gyro_bias_radps)
-        accel = np.column_stack([
-            np.asarray(truth.accel_x_mps2, dtype=float)[::step],
-            np.asarray(truth.accel_y_mps2, dtype=float)[::step],
-            np.full(n, STANDARD_GRAVITY_MPS2),
-        ])
-        b_east, b_north, b_up = cfg.magnetic_field_enu_tesla
-        cos_yaw, sin_yaw = np.cos(yaw_true), np.sin(yaw_true)
-        mag = np.column_stack([
-            cos_yaw * b_east + sin_yaw * b_north,
-            -sin_yaw * b_east + cos_yaw * b_north,
-            np.full(n, b_up),
-        ])
-        attitude_error = np.zeros((n, 3))
-        if self.noise:
-            dt_s = 1.0 / cfg.rate_hz
-            stdev = np.array([cfg.roll_pitch_stdev_rad, cfg.roll_pitch_stdev_rad, cfg.yaw_stdev_rad])
-            attitude_error = gauss_markov(self.rng, n, 3, stdev, dt_s, cfg.orientation_correlation_time_s)
-            walk = self.rng.standard_normal((n, 3)) * (cfg.gyro_bias_walk_radps_per_sqrt_s * math.sqrt(dt_s))
-            walk[:1] = 0.0  # the bias starts at its constant value
-            gyro += np.cumsum(walk, axis=0) + self.rng.standard_normal((n, 3)) * cfg.gyro_stdev_radps
-            accel += self.rng.standard_normal((n, 3)) * cfg.accel_stdev_mps2
-            mag += self.rng.standard_normal((n, 3)) * cfg.mag_stdev_tesla
-        roll, pitch = attitude_error[:, 0], attitude_error[:, 1]
-        yaw = yaw_true + attitude_error[:, 2]
-        return ImuMeasurements(
-            stamp_s=stamp_s,
-            quaternion_xyzw=quaternion_xyzw(roll, pitch, yaw),
-            yaw_rad=yaw,
-            gyro_radps=gyro,
-            accel_mps2=accel,
-            mag_tesla=mag,
-            rpy_rad=np.column_stack([-pitch, roll, wrap_pi(yaw - math.pi / 2.0)]),
-            temperature_celsius=np.full(n, cfg.temperature_celsius),
-            orientation_covariance_rad2=np.array(
-                [cfg.roll_pitch_stdev_rad, cfg.roll_pitch_stdev_rad, cfg.yaw_stdev_rad]) ** 2,
-            gyro_covariance_radps2=np.full(3, cfg.gyro_stdev_radps**2),
-            accel_covariance_mps2_2=np.full(3, cfg.accel_stdev_mps2**2),
-            mag_covariance_tesla2=np.full(3, cfg.mag_stdev_tesla**2),
-        )
+        errors = Um7Noise(cfg, self.rng).run(stamp_s.size) if self.noise else None
+        return imu_samples(cfg, stamp_s, expected, errors)

@@ -1,33 +1,39 @@
 """The twin tick by tick, for live use (the simulator node, a ground-station link): commands in, messages out.
 
-It runs the same dynamics kernel, sensor models and message builders as a batch sea trial. Sensors need a short
-history (GNSS latency), so each tick measures a sliding window of truth samples and publishes the samples stamped
-at the current tick's nominal time; a live node restamps them with its clock (:func:`boat_twin.io.messages.restamped`).
-Correlated noise processes (Gauss-Markov position error, gyro bias random walk) restart
-with every window in live mode; white noise, constant biases and latency are as in batch.
+It runs the same dynamics kernel, sensor models and message builders as a batch sea trial. Each sensor is its
+expected-measurement function (:func:`boat_twin.sensors.gnss.expected_fix`,
+:func:`boat_twin.sensors.um7.expected_imu`) evaluated on a short history of truth samples (GNSS latency), plus
+one noise process per sensor (:class:`~boat_twin.sensors.gnss.GnssNoise`, :class:`~boat_twin.sensors.um7.Um7Noise`)
+stepped once per sensor sample and kept across ticks, so correlated noise (Gauss-Markov position error, gyro bias
+random walk) has the batch statistics. Without noise the messages equal the batch trial's, bit for bit. Messages
+are stamped at the tick's nominal time; a live node restamps them with its clock
+(:func:`boat_twin.io.messages.restamped`).
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
+from dataclasses import fields
 
 import numpy as np
 
 from boat_twin.config import TwinConfig
 from boat_twin.io import messages
-from boat_twin.sensors.gnss import GnssModel
-from boat_twin.sensors.um7 import Um7Model
+from boat_twin.sensors import decimation_step
+from boat_twin.sensors.gnss import GnssNoise, expected_fix, fixes
+from boat_twin.sensors.um7 import Um7Noise, expected_imu, imu_samples
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.simulate import INTEGRATION_RATE_HZ, OUTPUT_RATE_HZ, SimulationRecord
 from boat_twin.vessel.tow import tow_drag_table
+from boat_twin.vessel.truth import TruthSeries
 
 
 class LiveTwin:
     """One boat stepped at the output rate; ``tick(commands)`` returns that tick's messages.
 
     ``epoch_s`` is the absolute time of the first tick (e.g. the ROS clock at start-up): stamps are
-    ``epoch_s + k / OUTPUT_RATE_HZ``.
+    ``epoch_s + k / OUTPUT_RATE_HZ``. ``seed`` seeds the one RNG both sensors' noise processes draw from.
     """
 
     def __init__(self, config: TwinConfig, seed: int = 0, noise: bool = True, epoch_s: float = 0.0) -> None:
@@ -39,13 +45,13 @@ class LiveTwin:
         self.epoch_s = epoch_s
         self.tick_index = 0
         rng = np.random.default_rng(seed)
-        self.gnss_model = GnssModel(config.gnss, rng, noise=noise)
-        self.imu_model = Um7Model(config.um7, rng, noise=noise)
-        self._gnss_step = round(OUTPUT_RATE_HZ / config.gnss.rate_hz)
-        self._imu_step = round(OUTPUT_RATE_HZ / config.um7.rate_hz)
-        history_ticks = math.ceil(config.gnss.latency_s * OUTPUT_RATE_HZ) + 2
-        self._window = max(history_ticks, self._gnss_step, self._imu_step) + max(self._gnss_step, self._imu_step)
-        self._history: deque[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = deque(maxlen=self._window + 1)
+        self._gnss_noise = GnssNoise(config.gnss, rng) if noise else None
+        self._imu_noise = Um7Noise(config.um7, rng) if noise else None
+        tick_times_s = np.array([0.0, 1.0 / OUTPUT_RATE_HZ])
+        self._gnss_step = decimation_step(tick_times_s, config.gnss.rate_hz, "gnss.rate_hz")
+        self._imu_step = decimation_step(tick_times_s, config.um7.rate_hz, "um7.rate_hz")
+        history_ticks = math.ceil(config.gnss.latency_s * OUTPUT_RATE_HZ) + 2  # covers the fix's delayed state
+        self._history: deque[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = deque(maxlen=history_ticks)
 
     @property
     def time_s(self) -> float:
@@ -66,36 +72,37 @@ class LiveTwin:
         now = self.time_s
         self._history.append((now, states[0], commands[0], derivatives[0]))
         out = list(messages.command_messages(np.array([now]), commands[0]))
-        out += self._sensor_messages(now)
+        out += self._sensor_messages()
         self.tick_index += 1
         return out
 
-    def _window_record(self, step: int, last_only: bool = False) -> SimulationRecord | None:
-        """The buffered ticks whose first sample is on this sensor's decimation phase (or just the last)."""
-        first_tick = self.tick_index - len(self._history) + 1
-        offset = len(self._history) - 1 if last_only else (-first_tick) % step
-        items = list(self._history)[offset:]
-        if len(items) < 1:
-            return None
+    def _recent_truth(self) -> TruthSeries:
+        """The true motion over the buffered ticks (the current tick last)."""
+        items = list(self._history)
         return SimulationRecord(
             t_s=np.array([i[0] for i in items]),
             states=np.array([i[1] for i in items]),
             commands=np.array([i[2] for i in items]),
             derivatives=np.array([i[3] for i in items]),
             environment=self.config.environment,
-        )
+        ).truth()
 
-    def _sensor_messages(self, now: float) -> list[messages.Message]:
+    def _sensor_messages(self) -> list[messages.Message]:
+        """This tick's GNSS fix and IMU sample (on their decimation phase, as in batch) and truth."""
+        truth = self._recent_truth()
+        last = slice(-1, None)
         out: list[messages.Message] = []
-        gnss_window = self._window_record(self._gnss_step)
-        if gnss_window is not None and self.tick_index % self._gnss_step == 0:
-            out += [m for m in messages.gnss_messages(self.gnss_model.measure(gnss_window.truth()))
-                    if abs(m[1] - round(now * 1e9)) < 1000]
-        imu_window = self._window_record(self._imu_step)
-        if imu_window is not None and self.tick_index % self._imu_step == 0:
-            out += [m for m in messages.imu_messages(self.imu_model.measure(imu_window.truth()))
-                    if abs(m[1] - round(now * 1e9)) < 1000]
-        last = self._window_record(1, last_only=True)
-        if last is not None:
-            out += list(messages.truth_messages(last.truth()))
+        gnss = self.config.gnss
+        if self.tick_index % self._gnss_step == 0:
+            expected = expected_fix(gnss, truth.t_s, truth.east_m, truth.north_m, truth.vel_east_mps,
+                                    truth.vel_north_mps)
+            if expected.has_state[-1]:
+                errors = self._gnss_noise.step() if self._gnss_noise is not None else None
+                out += messages.gnss_messages(fixes(gnss, truth.t_s[last], expected.at(last), errors))
+        if self.tick_index % self._imu_step == 0:
+            expected_sample = expected_imu(self.config.um7, truth.yaw_rad[last], truth.yaw_rate_radps[last],
+                                           truth.accel_x_mps2[last], truth.accel_y_mps2[last])
+            errors_imu = self._imu_noise.step() if self._imu_noise is not None else None
+            out += messages.imu_messages(imu_samples(self.config.um7, truth.t_s[last], expected_sample, errors_imu))
+        out += messages.truth_messages(TruthSeries(**{f.name: getattr(truth, f.name)[last] for f in fields(truth)}))
         return out

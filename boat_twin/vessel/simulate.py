@@ -10,7 +10,7 @@ from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import VesselParams
 from boat_twin.vessel.scenarios import CommandProfile, Scenario
-from boat_twin.vessel.truth import TruthSeries
+from boat_twin.vessel.truth import TruthSeries, ground_velocity_enu
 
 OUTPUT_RATE_HZ = 10.0
 """Output (sensor and command) rate, Hz: the 10 Hz logging of Dyda & Chumakova (2021)."""
@@ -36,15 +36,15 @@ class SimulationRecord:
         """The true motion of one boat of the ensemble, for the sensor models."""
         east, north, yaw, u, v, r = (self.states[:, boat, j] for j in range(6))
         du, dv = self.derivatives[:, boat, 3], self.derivatives[:, boat, 4]
-        cos, sin = np.cos(yaw), np.sin(yaw)
         env = self.environment
+        vel_east, vel_north = ground_velocity_enu(yaw, u, v, env.current_east_mps, env.current_north_mps)
         return TruthSeries(
             t_s=self.t_s,
             east_m=east,
             north_m=north,
             yaw_rad=yaw,
-            vel_east_mps=u * cos - v * sin + env.current_east_mps,
-            vel_north_mps=u * sin + v * cos + env.current_north_mps,
+            vel_east_mps=vel_east,
+            vel_north_mps=vel_north,
             surge_mps=u,
             sway_mps=v,
             yaw_rate_radps=r,

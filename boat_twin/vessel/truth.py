@@ -40,3 +40,11 @@ class TruthSeries:
 
     def __len__(self) -> int:
         return int(self.t_s.size)
+
+
+def ground_velocity_enu(yaw_rad: np.ndarray, surge_mps: np.ndarray, sway_mps: np.ndarray, current_east_mps: float,
+                        current_north_mps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity over ground (east, north), m/s, of a boat at ENU yaw (rad) moving (surge, sway) through the water
+    (body FLU, m/s) in a uniform current (ENU, m/s); arrays of any one shape."""
+    cos, sin = np.cos(yaw_rad), np.sin(yaw_rad)
+    return surge_mps * cos - sway_mps * sin + current_east_mps, surge_mps * sin + sway_mps * cos + current_north_mps
