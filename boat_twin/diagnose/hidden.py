@@ -22,11 +22,13 @@ from boat_twin.io.bags import write_bag
 from boat_twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import VesselParams
-from boat_twin.vessel.scenarios import CommandProfile, Scenario, Zigzag, random_commands, thrust_steps
+from boat_twin.vessel.scenarios import CommandProfile, Scenario, make_scenario, random_commands
 from boat_twin.vessel.tow import TowConfig, tow_drag_N
 
-TRIAL_KINDS = ("thrust-steps", "zigzag", "random")
-"""Kinds of trial the study draws from."""
+TRIAL_SCENARIOS = {"thrust-steps": "thrust-steps", "zigzag": "zigzag-20-20", "random": "random"}
+"""Kinds of trial the study draws from → the scenario each runs (:data:`~boat_twin.vessel.scenarios.SCENARIOS`)."""
+TRIAL_KINDS = tuple(TRIAL_SCENARIOS)
+"""Kinds of trial the study draws from, in the order the studies cycle through them."""
 TOW_SPEEDS_MPS = (1.0, 1.5, 2.0, 1.25, 1.75)
 """Steady speeds of the towing trial, m/s: the 1-2 m/s the towed body is towed at."""
 
@@ -40,15 +42,11 @@ def scenario(kind: str, params: VesselParams, rng: np.random.Generator, duration
         times = np.arange(levels.size) * duration_s / levels.size
         rows = np.column_stack([levels / 2, levels / 2, np.zeros((levels.size, 2))])
         return CommandProfile("tow-steps", times, rows, duration_s, float(speeds[0]))
-    if kind == "thrust-steps":
-        return replace(thrust_steps(params), duration_s=duration_s)
-    if kind == "zigzag":
-        zigzag = Zigzag(params, math.radians(20.0), math.radians(20.0), duration_s=duration_s, name="zigzag")
-        zigzag.initial_surge_mps = zigzag.speed_mps
-        return zigzag
-    if kind == "random":
+    if kind not in TRIAL_SCENARIOS:
+        raise ValueError(f"unknown trial kind {kind!r}")
+    if kind == "random":  # commands drawn over the whole trial (the registry's draws 600 s, then holds the last)
         return random_commands(params, rng, duration_s)
-    raise ValueError(f"unknown trial kind {kind!r}")
+    return make_scenario(TRIAL_SCENARIOS[kind], params, rng, duration_s)
 
 
 def visited_speeds_mps(config: TwinConfig, kind: str, seed: int, duration_s: float) -> np.ndarray:
