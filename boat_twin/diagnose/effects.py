@@ -14,8 +14,9 @@
 Each parameter has a *null* value (the effect absent) and a *scale* (a size the data resolve easily), so the
 fit works in ``x = (p − null) / scale``. Each effect has a *size* (:attr:`EffectSpec.magnitude`), a detection
 *threshold* (the size the diagnosis promises to detect: what the tests and the accuracy study hide, at 1.2-2×)
-and a *minimum size* (the decision rule's floor, half the threshold). ``tow_load``'s size is its
-``drag_scale`` (dimensionless: the towed system's drag relative to the packaged body on its 50 m cable).
+and a *minimum size* (the decision rule's floor, half the threshold), all in the effect's ``size_unit``.
+``tow_load``'s size is its ``drag_scale`` (dimensionless: the towed system's drag relative to the packaged body
+on its 50 m cable, which stays 50 m): threshold 0.6, floor 0.3, towed at 1-2 m/s.
 
 Adding a diagnosis effect
 -------------------------
@@ -82,7 +83,7 @@ class EffectSpec:
     """One cause, everything about it: the registry's record (see "Adding a diagnosis effect" above)."""
 
     name: str
-    """Canonical name, used in reports and on the command line."""
+    """Canonical name, as the report and its JSON give it."""
     parameters: tuple[Parameter, ...]
     """Its parameters; a per-knot effect has one, repeated at every knot."""
     apply: Callable[..., TwinConfig]
@@ -92,12 +93,13 @@ class EffectSpec:
     size_unit: str
     """Unit of the size, threshold and minimum size."""
     threshold: float
-    """The smallest size the diagnosis must detect (issue 5): trials hide it at 1.2-2× this."""
+    """The smallest size the diagnosis must detect (issue 5), in ``size_unit``: the tests and the accuracy study
+    hide it at 1.2-2× this (``tow_load`` at 1-2.5×, see its draw)."""
     min_size: float
-    """The smallest size the diagnosis names: half the threshold (README "Diagnosis"). Zero-mean errors of the
-    replay's initial states (sensor noise carried through the hull's dynamics) leave spurious fits of up to
-    ~0.02 m/s of current or ~3 % of mass on clean 10-minute trials: real, stable across the trial, but not a
-    cause worth naming."""
+    """The smallest size the diagnosis names, in ``size_unit``: half the threshold (README "Diagnosis").
+    Zero-mean errors of the replay's initial states (sensor noise carried through the hull's dynamics) leave
+    spurious fits of up to ~0.02 m/s of current or ~3 % of mass on clean 10-minute trials: real, stable across
+    the trial, but not a cause worth naming."""
     draw: Draw
     """How a trial hides it: (base, size, sign, generator, visited speeds) → (true config, truth by name)."""
     per_knot: bool = False
