@@ -18,6 +18,7 @@ import yaml
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.diagnose import hidden
+from boat_twin.diagnose.effects import EFFECTS, catalogue
 from boat_twin.diagnose.pipeline import diagnose_trial
 from boat_twin.diagnose.replay import cut_windows, predict
 from boat_twin.diagnose.table import runs_test_p
@@ -29,7 +30,9 @@ TOLERANCE = {
     "water_current": ("east_mps", 0.05), "gyro_bias": ("bias_radps", 0.0015), "gnss_latency": ("delay_s", 0.1),
     "steering_offset": ("offset_rad", 0.01), "mass_error": ("mass_factor", 0.08), "tow_load": ("drag_scale", 0.35),
 }
-"""(parameter checked, absolute tolerance) per effect: ~3× the jackknife standard error seen on 5-minute trials."""
+"""(parameter checked, absolute tolerance) per effect: ~3× the jackknife standard error seen on 5-minute trials.
+A test-side accuracy bound on the fitted value, in the parameter's unit; not the registry's detection threshold
+or minimum size (:class:`~boat_twin.diagnose.effects.EffectSpec`), which bound the effect's size."""
 
 
 def _diagnose(tmp_path: Path, config: TwinConfig, kind: str, seed: int, *extra: str) -> dict:
@@ -82,6 +85,25 @@ def test_hidden_effect_is_named_with_its_size(tmp_path: Path, effect: str, kind:
         low, high = truth["band_mps"]
         inside = [v for k, v in found.items() if low <= float(k.split("_")[2]) <= high]
         assert inside and max(inside, key=abs) == pytest.approx(truth["change"], abs=0.06)
+
+
+@pytest.mark.parametrize("name", list(EFFECTS))
+def test_registry_entry_is_consistent(name: str) -> None:
+    """Floor = half the threshold; a drawn effect is 1-2.5× its threshold and is the registry's own apply."""
+    spec, base = EFFECTS[name], TwinConfig()
+    assert spec.min_size == pytest.approx(spec.threshold / 2, rel=0.01)
+    effect = catalogue(base, np.linspace(0.5, 9.0, 200))[name]
+    assert effect.magnitude(effect.null) == pytest.approx(0.0, abs=1e-12)
+    assert np.all((effect.lower <= effect.null) & (effect.null <= effect.upper))
+    if name in TOLERANCE:
+        assert TOLERANCE[name][0] in effect.parameter_names
+    if spec.per_knot:
+        return
+    for seed in range(5):
+        config, truth = hidden.draw_effect(name, base, np.random.default_rng(seed))
+        values = np.array([truth[n] for n in effect.parameter_names])
+        assert spec.threshold <= effect.magnitude(values) <= 2.5 * spec.threshold
+        assert effect.apply(base, values) == config
 
 
 @pytest.mark.parametrize(("kind", "seed"), [("zigzag", 31), ("random", 32), ("thrust-steps", 33)])

@@ -21,7 +21,15 @@ from boat_twin.vessel.resistance import (
     TableResistance,
     dyda2021_resistance,
 )
-from boat_twin.vessel.scenarios import CommandProfile, Zigzag, make_scenario, steady_speed_mps, thrust_steps
+from boat_twin.vessel.scenarios import (
+    SCENARIO_NAMES,
+    SCENARIOS,
+    CommandProfile,
+    Zigzag,
+    make_scenario,
+    steady_speed_mps,
+    thrust_steps,
+)
 from boat_twin.vessel.simulate import simulate
 
 PARAMS = VesselParams()
@@ -91,6 +99,19 @@ def test_zigzag_executes_to_starboard_first_and_overshoots() -> None:
     first = np.flatnonzero(np.abs(yaw) > 1.0)[0]
     assert yaw[first] < 0.0  # starboard = clockwise = negative ENU yaw
     assert 20.0 < -yaw.min() < 40.0 and 20.0 < yaw.max() < 40.0
+
+
+@pytest.mark.parametrize("name", SCENARIO_NAMES)
+def test_every_registered_scenario_is_built_under_its_name(name: str) -> None:
+    scenario = make_scenario(name, PARAMS, np.random.default_rng(0), duration_s=42.0)
+    assert scenario.name == name and scenario.duration_s == 42.0
+    assert make_scenario(name, PARAMS, np.random.default_rng(0)).duration_s > 0.0
+    assert tuple(SCENARIOS) == SCENARIO_NAMES
+
+
+def test_unknown_scenario_names_the_registered_ones() -> None:
+    with pytest.raises(InputError, match=r"unknown scenario 'nope' \(choose from thrust-steps, accel-stop, "):
+        make_scenario("nope", PARAMS, np.random.default_rng(0))
 
 
 def test_thrust_steps_hold_each_level_for_several_time_constants() -> None:

@@ -9,16 +9,32 @@
 | ``steering_offset`` | ``offset_rad`` | ``vessel.steering_offset_rad`` += offset |
 | ``mass_error`` | ``mass_factor`` | ``vessel.mass_kg`` ×= factor (every inertia and derived damping follows) |
 | ``resistance_shape`` | ``change_at_<u>_mps`` per knot | ``vessel.resistance`` ×= 1 + piecewise-linear change(u) |
-| ``tow_load`` | ``drag_scale`` | ``tow`` = the packaged towed body on 50 m, drag × scale |
+| ``tow_load`` | ``drag_scale`` | ``tow`` = the packaged towed body on 50 m of cable, drag × scale |
 
 Each parameter has a *null* value (the effect absent) and a *scale* (a size the data resolve easily), so the
-fit works in ``x = (p − null) / scale``.
+fit works in ``x = (p − null) / scale``. Each effect has a *size* (:attr:`EffectSpec.magnitude`), a detection
+*threshold* (the size the diagnosis promises to detect: what the tests and the accuracy study hide, at 1.2-2×)
+and a *minimum size* (the decision rule's floor, half the threshold), all in the effect's ``size_unit``.
+``tow_load``'s size is its ``drag_scale`` (dimensionless: the towed system's drag relative to the packaged body
+on its 50 m cable, which stays 50 m): threshold 0.6, floor 0.3, towed at 1-2 m/s.
+
+Adding a diagnosis effect
+-------------------------
+Write its ``apply`` (config, parameters → extended config), its ``draw`` (how a trial hides it at a given
+size) and one :class:`EffectSpec` entry in :data:`EFFECTS`; nothing else. Its position in :data:`EFFECTS` is
+its place in the report, the accuracy study (``benchmarks/bench_diagnose.py``) picks it up, and the fit, the
+decision rule (:mod:`~boat_twin.diagnose.search`) and the hidden trials (:mod:`~boat_twin.diagnose.hidden`)
+read everything from the entry. Add a case to ``test/test_diagnose.py``'s parametrized hidden-effect test.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
+from functools import partial
+from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 
@@ -26,23 +42,6 @@ from boat_twin.config import TwinConfig
 from boat_twin.vessel.resistance import CorrectedResistance
 from boat_twin.vessel.tow import TowConfig
 
-EFFECT_NAMES = ("water_current", "gyro_bias", "gnss_latency", "thrust_asymmetry", "steering_offset", "mass_error",
-                "resistance_shape", "tow_load")
-"""Canonical names, in the order the report lists them."""
-MIN_SIZES = {
-    "water_current": 0.075,  # m/s, current speed
-    "gyro_bias": 0.0025,  # rad/s
-    "gnss_latency": 0.15,  # s, change of the latency
-    "thrust_asymmetry": 0.04,  # largest |factor − 1|
-    "steering_offset": 0.013,  # rad (0.75°)
-    "mass_error": 0.10,  # |mass_factor − 1|
-    "resistance_shape": 0.05,  # largest |change| of the resistance
-    "tow_load": 0.3,  # drag_scale
-}
-"""The smallest size the diagnosis names: half the size it promises to detect (README "Diagnosis").
-Zero-mean errors of the replay's initial states (sensor noise carried through the hull's dynamics)
-leave spurious fits of up to ~0.02 m/s of current or ~3 % of mass on clean 10-minute trials: real, stable
-across the trial, but not a cause worth naming."""
 RESISTANCE_CHANGE_RANGE = (-0.5, 1.0)
 """Physical range of a resistance change, fraction of Fc: the hull's resistance at most halves or doubles
 (fouling adds tens of percent, as does a heavier load or a planing regime reached earlier or later). A fit
@@ -51,13 +50,83 @@ RESISTANCE_KNOTS = 5
 """Knots of the resistance correction k(u), at evenly spaced quantiles of the speeds the trial visited."""
 MIN_KNOT_SPACING_MPS = 0.1
 """Smallest distance between two knots of the resistance correction, m/s."""
+BAND_TIME_SHARE = 0.4
+"""A hidden resistance change covers the speeds where the trial spends this share of its time."""
+
+Draw = Callable[[TwinConfig, float, float, np.random.Generator, np.ndarray | None], tuple[TwinConfig, dict[str, Any]]]
+"""(base config, size, sign ±1, generator, speeds the trial visits in m/s or None) → (true config, truth)."""
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One parameter of an effect."""
+
+    name: str
+    """Its key in reports, unit suffixed (``east_mps``); a per-knot effect's is a format of ``knot_mps``."""
+    unit: str
+    """SI unit, ``-`` when dimensionless."""
+    scale: float
+    """A size the data resolve easily, in ``unit``: the fit works in (value − null) / scale."""
+    lower: float
+    """Physical range, in ``unit``: a fit ending on a bound stands in for another cause."""
+    upper: float
+    null: float | Callable[[TwinConfig], float] = 0.0
+    """The value with the effect absent, in ``unit``: a number, or read from the base config."""
+
+    def null_for(self, base: TwinConfig) -> float:
+        """The null value for the base config ``base``."""
+        return float(self.null(base)) if callable(self.null) else float(self.null)
+
+
+@dataclass(frozen=True)
+class EffectSpec:
+    """One cause, everything about it: the registry's record (see "Adding a diagnosis effect" above)."""
+
+    name: str
+    """Canonical name, as the report and its JSON give it."""
+    parameters: tuple[Parameter, ...]
+    """Its parameters; a per-knot effect has one, repeated at every knot."""
+    apply: Callable[..., TwinConfig]
+    """(config, parameters) → the extended config; a per-knot effect also takes ``knots_mps=``."""
+    magnitude: Callable[[np.ndarray, np.ndarray], float]
+    """(parameters, null values) → the effect's size, in ``size_unit``."""
+    size_unit: str
+    """Unit of the size, threshold and minimum size."""
+    threshold: float
+    """The smallest size the diagnosis must detect (issue 5), in ``size_unit``: the tests and the accuracy study
+    hide it at 1.2-2× this (``tow_load`` at 1-2.5×, see its draw)."""
+    min_size: float
+    """The smallest size the diagnosis names, in ``size_unit``: half the threshold (README "Diagnosis").
+    Zero-mean errors of the replay's initial states (sensor noise carried through the hull's dynamics) leave
+    spurious fits of up to ~0.02 m/s of current or ~3 % of mass on clean 10-minute trials: real, stable across
+    the trial, but not a cause worth naming."""
+    draw: Draw
+    """How a trial hides it: (base, size, sign, generator, visited speeds) → (true config, truth by name)."""
+    per_knot: bool = False
+    """One parameter per knot of :func:`resistance_knots_mps` (the speeds the trial visited)."""
+
+    def for_trial(self, base: TwinConfig, speed_mps: np.ndarray) -> Effect:
+        """The effect set up for a trial of the base config ``base`` that visited ``speed_mps`` (m/s)."""
+        parameters, apply = self.parameters, self.apply
+        if self.per_knot:
+            knots = resistance_knots_mps(speed_mps)
+            (one,) = self.parameters
+            parameters = tuple(replace(one, name=one.name.format(knot_mps=k)) for k in knots)
+            apply = partial(self.apply, knots_mps=knots)
+
+        def column(values: list[float]) -> np.ndarray:
+            return np.array(values, dtype=float)
+
+        return Effect(self, tuple(p.name for p in parameters), column([p.null_for(base) for p in parameters]),
+                      column([p.scale for p in parameters]), column([p.lower for p in parameters]),
+                      column([p.upper for p in parameters]), apply)
 
 
 @dataclass(frozen=True)
 class Effect:
-    """One cause: its parameters and how they extend a model."""
+    """One cause set up for a trial: its parameters' names, null values, scales and bounds as arrays."""
 
-    name: str
+    spec: EffectSpec
     parameter_names: tuple[str, ...]
     null: np.ndarray
     scale: np.ndarray
@@ -65,66 +134,24 @@ class Effect:
     upper: np.ndarray
     apply: Callable[[TwinConfig, np.ndarray], TwinConfig]
     """(config, parameters) → the extended config."""
-    magnitude: Callable[[np.ndarray], float]
-    """The effect's size from its parameters, in the units of :data:`MIN_SIZES`."""
+
+    @property
+    def name(self) -> str:
+        """The effect's canonical name."""
+        return self.spec.name
 
     @property
     def size(self) -> int:
         """Number of parameters."""
         return len(self.parameter_names)
 
+    def magnitude(self, values: np.ndarray) -> float:
+        """The effect's size at parameters ``values``, in :attr:`EffectSpec.size_unit`."""
+        return self.spec.magnitude(values, self.null)
+
     def named(self, values: np.ndarray) -> dict[str, float]:
         """Parameters by name."""
         return {k: float(v) for k, v in zip(self.parameter_names, values, strict=True)}
-
-
-def _vec(*values: float) -> np.ndarray:
-    return np.array(values, dtype=float)
-
-
-def _current(config: TwinConfig, p: np.ndarray) -> TwinConfig:
-    env = config.environment
-    return replace(config, environment=replace(env, current_east_mps=env.current_east_mps + float(p[0]),
-                                               current_north_mps=env.current_north_mps + float(p[1])))
-
-
-def _gyro_bias(config: TwinConfig, p: np.ndarray) -> TwinConfig:
-    x, y, z = config.um7.gyro_bias_radps
-    return replace(config, um7=replace(config.um7, gyro_bias_radps=(x, y, z + float(p[0]))))
-
-
-def _latency(config: TwinConfig, p: np.ndarray) -> TwinConfig:
-    return replace(config, gnss=replace(config.gnss, latency_s=float(p[0])))
-
-
-def _asymmetry(config: TwinConfig, p: np.ndarray) -> TwinConfig:
-    return replace(config, vessel=replace(config.vessel, thrust_factor_left=float(p[0]),
-                                          thrust_factor_right=float(p[1])))
-
-
-def _steering(config: TwinConfig, p: np.ndarray) -> TwinConfig:
-    vessel = config.vessel
-    return replace(config, vessel=replace(vessel, steering_offset_rad=vessel.steering_offset_rad + float(p[0])))
-
-
-def _mass(config: TwinConfig, p: np.ndarray) -> TwinConfig:
-    return replace(config, vessel=replace(config.vessel, mass_kg=config.vessel.mass_kg * float(p[0])))
-
-
-def _tow(config: TwinConfig, p: np.ndarray) -> TwinConfig:
-    if p[0] <= 0.0:
-        return replace(config, tow=None)
-    tow = config.tow or TowConfig()
-    return replace(config, tow=replace(tow, drag_scale=float(p[0])))
-
-
-def _resistance(knots_mps: np.ndarray) -> Callable[[TwinConfig, np.ndarray], TwinConfig]:
-    def apply(config: TwinConfig, p: np.ndarray) -> TwinConfig:
-        base = config.vessel.resistance
-        corrected = CorrectedResistance(base, tuple(knots_mps.tolist()), tuple((1.0 + p).tolist()))
-        return replace(config, vessel=replace(config.vessel, resistance=corrected))
-
-    return apply
 
 
 def resistance_knots_mps(speed_mps: np.ndarray) -> np.ndarray:
@@ -138,29 +165,168 @@ def resistance_knots_mps(speed_mps: np.ndarray) -> np.ndarray:
     return knots
 
 
+# --- how each effect extends a config (apply) and hides in a trial (draw) ---------------------------------
+
+
+def _current(config: TwinConfig, p: np.ndarray) -> TwinConfig:
+    env = config.environment
+    return replace(config, environment=replace(env, current_east_mps=env.current_east_mps + float(p[0]),
+                                               current_north_mps=env.current_north_mps + float(p[1])))
+
+
+def _draw_current(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+                  speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    angle = rng.uniform(-math.pi, math.pi)
+    east, north = size * math.cos(angle), size * math.sin(angle)
+    return replace(base, environment=replace(base.environment, current_east_mps=east,
+                                             current_north_mps=north)), {"east_mps": east, "north_mps": north}
+
+
+def _gyro_bias(config: TwinConfig, p: np.ndarray) -> TwinConfig:
+    x, y, z = config.um7.gyro_bias_radps
+    return replace(config, um7=replace(config.um7, gyro_bias_radps=(x, y, z + float(p[0]))))
+
+
+def _draw_gyro_bias(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+                    speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    return replace(base, um7=replace(base.um7, gyro_bias_radps=(0.0, 0.0, sign * size))), {"bias_radps": sign * size}
+
+
+def _latency(config: TwinConfig, p: np.ndarray) -> TwinConfig:
+    return replace(config, gnss=replace(config.gnss, latency_s=float(p[0])))
+
+
+def _draw_latency(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+                  speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    delay = base.gnss.latency_s + size
+    return replace(base, gnss=replace(base.gnss, latency_s=delay)), {"delay_s": delay}
+
+
+def _asymmetry(config: TwinConfig, p: np.ndarray) -> TwinConfig:
+    return replace(config, vessel=replace(config.vessel, thrust_factor_left=float(p[0]),
+                                          thrust_factor_right=float(p[1])))
+
+
+def _draw_asymmetry(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+                    speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    left, right = (1.0 - size, 1.0) if sign > 0 else (1.0, 1.0 - size)
+    return (replace(base, vessel=replace(base.vessel, thrust_factor_left=left, thrust_factor_right=right)),
+            {"left_factor": left, "right_factor": right})
+
+
+def _steering(config: TwinConfig, p: np.ndarray) -> TwinConfig:
+    vessel = config.vessel
+    return replace(config, vessel=replace(vessel, steering_offset_rad=vessel.steering_offset_rad + float(p[0])))
+
+
+def _draw_steering(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+                   speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    return replace(base, vessel=replace(base.vessel, steering_offset_rad=sign * size)), {"offset_rad": sign * size}
+
+
+def _mass(config: TwinConfig, p: np.ndarray) -> TwinConfig:
+    return replace(config, vessel=replace(config.vessel, mass_kg=config.vessel.mass_kg * float(p[0])))
+
+
+def _draw_mass(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+               speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    factor = 1.0 + sign * size
+    return replace(base, vessel=replace(base.vessel, mass_kg=base.vessel.mass_kg * factor)), {"mass_factor": factor}
+
+
+def _resistance(config: TwinConfig, p: np.ndarray, knots_mps: np.ndarray) -> TwinConfig:
+    corrected = CorrectedResistance(config.vessel.resistance, tuple(knots_mps.tolist()), tuple((1.0 + p).tolist()))
+    return replace(config, vessel=replace(config.vessel, resistance=corrected))
+
+
+def _draw_resistance(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+                     speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    """A change covering the speeds where the trial spends :data:`BAND_TIME_SHARE` of its time (between two
+    quantiles of ``speeds_mps``, drawn at random), with ramps a fifth of its width at both ends."""
+    if speeds_mps is None:
+        raise ValueError("a resistance_shape change needs the speeds the trial visits")
+    quantile = rng.uniform(0.1, 0.5)
+    low, high = (float(v) for v in np.quantile(speeds_mps, [quantile, quantile + BAND_TIME_SHARE]))
+    width = max(high - low, 0.1)
+    ramp = 0.2 * width
+    knots = (max(low - ramp, 0.0), low, low + width, low + width + ramp)
+    factors = (1.0, 1.0 + sign * size, 1.0 + sign * size, 1.0)
+    resistance = CorrectedResistance(base.vessel.resistance, knots, factors)
+    return (replace(base, vessel=replace(base.vessel, resistance=resistance)),
+            {"band_mps": [low, low + width], "change": sign * size})
+
+
+def _tow(config: TwinConfig, p: np.ndarray) -> TwinConfig:
+    if p[0] <= 0.0:
+        return replace(config, tow=None)
+    tow = config.tow or TowConfig()
+    return replace(config, tow=replace(tow, drag_scale=float(p[0])))
+
+
+def _draw_tow(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+              speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    """A drag_scale uniform in 0.6-1.5 (1-2.5× the threshold: the packaged body, 40 % smaller to 50 % larger in
+    drag), whatever ``size``."""
+    scale = rng.uniform(0.6, 1.5)
+    return replace(base, tow=TowConfig(drag_scale=scale)), {"drag_scale": scale}
+
+
+# --- the registry -------------------------------------------------------------------------------------------
+
+EFFECTS: Mapping[str, EffectSpec] = MappingProxyType({spec.name: spec for spec in (
+    EffectSpec(
+        name="water_current",
+        parameters=(Parameter("east_mps", "m/s", scale=0.05, lower=-3.0, upper=3.0),
+                    Parameter("north_mps", "m/s", scale=0.05, lower=-3.0, upper=3.0)),
+        apply=_current, magnitude=lambda p, null: float(np.hypot(p[0], p[1])), size_unit="m/s (current speed)",
+        threshold=0.15, min_size=0.075, draw=_draw_current),
+    EffectSpec(
+        name="gyro_bias",
+        parameters=(Parameter("bias_radps", "rad/s", scale=0.001, lower=-0.2, upper=0.2),),
+        apply=_gyro_bias, magnitude=lambda p, null: abs(float(p[0])), size_unit="rad/s",
+        threshold=0.005, min_size=0.0025, draw=_draw_gyro_bias),
+    EffectSpec(
+        name="gnss_latency",
+        parameters=(Parameter("delay_s", "s", scale=0.1, lower=0.0, upper=3.0, null=lambda c: c.gnss.latency_s),),
+        apply=_latency, magnitude=lambda p, null: abs(float(p[0]) - float(null[0])),
+        size_unit="s (change of the latency)", threshold=0.3, min_size=0.15, draw=_draw_latency),
+    EffectSpec(
+        name="thrust_asymmetry",
+        parameters=(Parameter("left_factor", "-", scale=0.03, lower=0.2, upper=2.0,
+                              null=lambda c: c.vessel.thrust_factor_left),
+                    Parameter("right_factor", "-", scale=0.03, lower=0.2, upper=2.0,
+                              null=lambda c: c.vessel.thrust_factor_right)),
+        apply=_asymmetry, magnitude=lambda p, null: float(np.max(np.abs(p - 1.0))),
+        size_unit="- (largest |factor − 1|)", threshold=0.08, min_size=0.04, draw=_draw_asymmetry),
+    EffectSpec(
+        name="steering_offset",
+        parameters=(Parameter("offset_rad", "rad", scale=0.005, lower=-0.3, upper=0.3),),
+        apply=_steering, magnitude=lambda p, null: abs(float(p[0])), size_unit="rad",
+        threshold=math.radians(1.5), min_size=0.013, draw=_draw_steering),  # min_size: 0.75°, rounded
+    EffectSpec(
+        name="mass_error",
+        parameters=(Parameter("mass_factor", "-", scale=0.05, lower=0.3, upper=3.0, null=1.0),),
+        apply=_mass, magnitude=lambda p, null: abs(float(p[0]) - 1.0), size_unit="- (|mass_factor − 1|)",
+        threshold=0.20, min_size=0.10, draw=_draw_mass),
+    EffectSpec(
+        name="resistance_shape",
+        parameters=(Parameter("change_at_{knot_mps:.2f}_mps", "- (fraction of Fc)", scale=0.03,
+                              lower=RESISTANCE_CHANGE_RANGE[0], upper=RESISTANCE_CHANGE_RANGE[1]),),
+        apply=_resistance, magnitude=lambda p, null: float(np.max(np.abs(p))),
+        size_unit="- (largest |change| over a speed band)", threshold=0.10, min_size=0.05, draw=_draw_resistance,
+        per_knot=True),
+    EffectSpec(
+        name="tow_load",
+        parameters=(Parameter("drag_scale", "- ((size ratio)² of the packaged body and cable)", scale=0.1,
+                              lower=0.0, upper=50.0),),
+        apply=_tow, magnitude=lambda p, null: float(p[0]), size_unit="- (drag_scale, towing at 1-2 m/s)",
+        threshold=0.6, min_size=0.3, draw=_draw_tow),
+)})
+"""Every diagnosis effect by canonical name, in the order the report lists them."""
+EFFECT_NAMES = tuple(EFFECTS)
+"""Canonical names, in the order the report lists them."""
+
+
 def catalogue(base: TwinConfig, speed_mps: np.ndarray) -> dict[str, Effect]:
     """Every effect, set up for a trial that visited the speeds ``speed_mps`` (through water, m/s)."""
-    knots = resistance_knots_mps(speed_mps)
-    n = knots.size
-    vessel = base.vessel
-    latency = base.gnss.latency_s
-    effects = [
-        Effect("water_current", ("east_mps", "north_mps"), _vec(0, 0), _vec(0.05, 0.05), _vec(-3, -3), _vec(3, 3),
-               _current, lambda p: float(np.hypot(p[0], p[1]))),
-        Effect("gyro_bias", ("bias_radps",), _vec(0), _vec(0.001), _vec(-0.2), _vec(0.2), _gyro_bias,
-               lambda p: abs(float(p[0]))),
-        Effect("gnss_latency", ("delay_s",), _vec(latency), _vec(0.1), _vec(0.0), _vec(3.0), _latency,
-               lambda p: abs(float(p[0]) - latency)),
-        Effect("thrust_asymmetry", ("left_factor", "right_factor"),
-               _vec(vessel.thrust_factor_left, vessel.thrust_factor_right), _vec(0.03, 0.03), _vec(0.2, 0.2),
-               _vec(2.0, 2.0), _asymmetry, lambda p: float(np.max(np.abs(p - 1.0)))),
-        Effect("steering_offset", ("offset_rad",), _vec(0), _vec(0.005), _vec(-0.3), _vec(0.3), _steering,
-               lambda p: abs(float(p[0]))),
-        Effect("mass_error", ("mass_factor",), _vec(1), _vec(0.05), _vec(0.3), _vec(3.0), _mass,
-               lambda p: abs(float(p[0]) - 1.0)),
-        Effect("resistance_shape", tuple(f"change_at_{k:.2f}_mps" for k in knots), np.zeros(n), np.full(n, 0.03),
-               np.full(n, RESISTANCE_CHANGE_RANGE[0]), np.full(n, RESISTANCE_CHANGE_RANGE[1]), _resistance(knots),
-               lambda p: float(np.max(np.abs(p)))),
-        Effect("tow_load", ("drag_scale",), _vec(0), _vec(0.1), _vec(0.0), _vec(50.0), _tow, lambda p: float(p[0])),
-    ]
-    return {e.name: e for e in effects}
+    return {name: spec.for_trial(base, speed_mps) for name, spec in EFFECTS.items()}

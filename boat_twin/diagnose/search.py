@@ -17,12 +17,12 @@ Method (README "Diagnosis" states it with the numbers):
   candidate's residuals, ΔBIC = Σ_s n_eff,s·ln(SSE_s,new / SSE_s,old) + Δk·ln(Σ n_eff,s).
 - Decision rule: a candidate is *named* when ΔBIC < :data:`BIC_THRESHOLD` (very strong evidence, Kass &
   Raftery 1995) **and** its held-out gain > :data:`MIN_HELDOUT_GAIN` **and** its 95 % interval excludes the
-  null value of at least one parameter **and** its size reaches :data:`~boat_twin.diagnose.effects.MIN_SIZES`
-  **and** no parameter ends on a bound of its physical range (:attr:`Effect.lower`/``upper``: a current of
-  3 m/s or a resistance × 4 that the fit wants is a stand-in for another cause, e.g. a resistance change
-  taking up a towed body's drag) **and**, from the second round on, it leaves the size of every effect already
-  named within :data:`TAKEOVER_FRACTION` of what it was (a candidate that takes over an earlier one's part is
-  not separable from it on this trial).
+  null value of at least one parameter **and** its size reaches the effect's
+  :attr:`~boat_twin.diagnose.effects.EffectSpec.min_size` **and** no parameter ends on a bound of its physical
+  range (:attr:`Effect.lower`/``upper``: a current of 3 m/s or a resistance × 4 that the fit wants is a
+  stand-in for another cause, e.g. a resistance change taking up a towed body's drag) **and**, from the second
+  round on, it leaves the size of every effect already named within :data:`TAKEOVER_FRACTION` of what it was
+  (a candidate that takes over an earlier one's part is not separable from it on this trial).
   Forward selection: the named candidate with the lowest ΔBIC joins the model, its parameters stay free,
   and the remaining candidates are tried again against the extended model.
 """
@@ -37,7 +37,7 @@ from scipy.optimize import least_squares
 from scipy.stats import t as student_t
 
 from boat_twin.config import TwinConfig
-from boat_twin.diagnose.effects import MIN_SIZES, Effect
+from boat_twin.diagnose.effects import Effect
 from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, predict
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
@@ -266,7 +266,7 @@ class Candidate:
     @property
     def plausible(self) -> bool:
         """The in-sample conditions of the decision rule, checked before the held-out judgement."""
-        return (self.delta_bic < BIC_THRESHOLD and self.size >= MIN_SIZES[self.effect.name] and not self.at_bound
+        return (self.delta_bic < BIC_THRESHOLD and self.size >= self.effect.spec.min_size and not self.at_bound
                 and not self.takes_over)
 
     @property

@@ -6,7 +6,7 @@ subscriber gets the held value), stamped by the node clock (use_sim_time:=true f
 It exits when the profile ends.
 
 Parameters (read at start-up)
-  scenario (string, thrust-steps)   an open-loop scenario: thrust-steps, accel-stop, turning-circle, random
+  scenario (string, thrust-steps)   an open-loop scenario of the registry (boat_twin.vessel.scenarios.SCENARIOS)
   commands_file (string, "")        or a command CSV (t, thrust_left_N, thrust_right_N, angle_left_rad,
                                     angle_right_rad), as ``simulate --commands``
   seed (int, 0)                     random scenario's seed

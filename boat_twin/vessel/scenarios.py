@@ -4,14 +4,24 @@ A scenario gives the four commands (thrust_left_N, thrust_right_N, angle_left_ra
 boat of an ensemble at each output tick; the simulator holds them until the next tick (zero-order hold).
 Steering sign: a positive outboard angle points the thrust to port, which pushes the stern to port and turns
 the bow to starboard (yaw rate < 0, REP-103).
+
+Adding a scenario
+-----------------
+Write a factory ``(params, rng) → Scenario`` (a :class:`CommandProfile` for open-loop commands, or a class
+with ``name``, ``duration_s``, ``initial_surge_mps`` and ``command(t_s, states)`` for closed loop) and add it
+to :data:`SCENARIOS` under the name the command line takes; that is all. ``boat-twin simulate``, its help and
+errors, the ``player`` node and :func:`make_scenario` (with its ``--duration`` override) read the registry.
+Give the scenario the same ``name``, which the run reports.
 """
 
 from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from types import MappingProxyType
 from typing import Protocol
 
 import numpy as np
@@ -169,27 +179,42 @@ def random_commands(params: VesselParams, rng: np.random.Generator, duration_s: 
     return CommandProfile("random", np.array(times), np.array(rows), duration_s)
 
 
-SCENARIO_NAMES = ("thrust-steps", "accel-stop", "zigzag-20-20", "zigzag-10-10", "turning-circle", "random")
+ScenarioFactory = Callable[[VesselParams, np.random.Generator], Scenario]
+"""(vessel parameters, seeded generator) → the scenario at its natural length."""
+
+
+def _zigzag(name: str, angle_deg: float) -> ScenarioFactory:
+    """The IMO zigzag ``angle_deg``/``angle_deg`` (degrees), called ``name``, from its approach speed."""
+
+    def make(params: VesselParams, rng: np.random.Generator) -> Scenario:
+        angle = math.radians(angle_deg)
+        zigzag = Zigzag(params, angle, angle, name=name)
+        zigzag.initial_surge_mps = zigzag.speed_mps
+        return zigzag
+
+    return make
+
+
+SCENARIOS: Mapping[str, ScenarioFactory] = MappingProxyType({
+    "thrust-steps": lambda params, rng: thrust_steps(params),
+    "accel-stop": lambda params, rng: accel_stop(params),
+    "zigzag-20-20": _zigzag("zigzag-20-20", 20.0),
+    "zigzag-10-10": _zigzag("zigzag-10-10", 10.0),
+    "turning-circle": lambda params, rng: turning_circle(params),
+    "random": lambda params, rng: random_commands(params, rng),
+})
+"""Every named scenario: name (as the command line takes it) → factory."""
+SCENARIO_NAMES = tuple(SCENARIOS)
 """Scenario names the command line accepts."""
 
 
 def make_scenario(name: str, params: VesselParams, rng: np.random.Generator,
                   duration_s: float | None = None) -> Scenario:
-    """Build the named scenario; ``duration_s`` overrides its natural length."""
-    if name == "thrust-steps":
-        scenario: Scenario = thrust_steps(params)
-    elif name == "accel-stop":
-        scenario = accel_stop(params)
-    elif name in ("zigzag-20-20", "zigzag-10-10"):
-        angle = math.radians(20.0 if name == "zigzag-20-20" else 10.0)
-        scenario = Zigzag(params, angle, angle, name=name)
-        scenario.initial_surge_mps = scenario.speed_mps
-    elif name == "turning-circle":
-        scenario = turning_circle(params)
-    elif name == "random":
-        scenario = random_commands(params, rng)
-    else:
+    """Build the scenario registered as ``name``; ``duration_s`` (s) overrides its natural length."""
+    factory = SCENARIOS.get(name)
+    if factory is None:
         raise InputError(f"unknown scenario {name!r} (choose from {', '.join(SCENARIO_NAMES)})")
+    scenario = factory(params, rng)
     if duration_s is not None:
         if not (math.isfinite(duration_s) and duration_s > 0.0):
             raise InputError(f"--duration must be a positive number of seconds, got {duration_s!r}")
