@@ -604,7 +604,7 @@ class MavlinkBoat:
             t_rel = self.sim_time_s
             self._apply_commands(t_rel)
             tick = self.twin.tick()
-            self._absorb(tick)
+            self._absorb()
             self._send_due(t_rel)
             out += tick
         return out
@@ -651,20 +651,20 @@ class MavlinkBoat:
                 f"{s.packets_received} received ({s.commands_applied} commands), {s.dropped} malformed dropped")
 
     # ------------------------------------------------------------------ output
-    def _absorb(self, tick: list[messages.Message]) -> None:
-        """Keep the latest GNSS fix, GNSS velocity and IMU attitude of this tick's sensor messages."""
-        for topic, stamp_ns, msg in tick:
-            if topic == messages.TOPIC_GNSS_FIX:
-                cov = msg.position_covariance
-                self._fix = {"stamp_s": stamp_ns * 1e-9, "lat": msg.latitude, "lon": msg.longitude,
-                             "alt": msg.altitude, "h_std": math.sqrt(max(0.0, (cov[0] + cov[4]) / 2.0)),
-                             "v_std": math.sqrt(max(0.0, cov[8]))}
-            elif topic == messages.TOPIC_GNSS_VEL:
-                v = msg.twist.linear
-                self._vel = (v.x, v.y, v.z)
-            elif topic == messages.TOPIC_IMU_DATA:
-                q, w = msg.orientation, msg.angular_velocity
-                self._attitude = (*ned_attitude(q.x, q.y, q.z, q.w), w.x, -w.y, -w.z)
+    def _absorb(self) -> None:
+        """Keep the latest GNSS fix, GNSS velocity and IMU attitude the twin measured this tick (its sensor
+        models' measurements, not its ROS messages)."""
+        gnss, imu = self.twin.tick_gnss, self.twin.tick_imu
+        if gnss is not None and len(gnss):
+            var = gnss.position_covariance_m2[-1]
+            self._fix = {"stamp_s": float(gnss.stamp_s[-1]), "lat": float(gnss.lat_deg[-1]),
+                         "lon": float(gnss.lon_deg[-1]), "alt": float(gnss.alt_m[-1]),
+                         "h_std": math.sqrt(max(0.0, (var[0] + var[1]) / 2.0)), "v_std": math.sqrt(max(0.0, var[2]))}
+            self._vel = (float(gnss.vel_east_mps[-1]), float(gnss.vel_north_mps[-1]), float(gnss.vel_up_mps[-1]))
+        if imu is not None and len(imu):
+            x, y, z, w = imu.quaternion_xyzw[-1].tolist()
+            p, q, r = imu.gyro_radps[-1].tolist()
+            self._attitude = (*ned_attitude(x, y, z, w), p, -q, -r)
 
     def _fix_fresh(self) -> bool:
         return self._fix is not None and self._stamp_s - self._fix["stamp_s"] <= STALE_FIX_S + 1e-6

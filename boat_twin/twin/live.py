@@ -21,8 +21,8 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.io import messages
 from boat_twin.sensors import decimation_step
-from boat_twin.sensors.gnss import GnssNoise, expected_fix, fixes
-from boat_twin.sensors.um7 import Um7Noise, expected_imu, imu_samples
+from boat_twin.sensors.gnss import GnssMeasurements, GnssNoise, expected_fix, fixes
+from boat_twin.sensors.um7 import ImuMeasurements, Um7Noise, expected_imu, imu_samples
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.simulate import INTEGRATION_RATE_HZ, OUTPUT_RATE_HZ, SimulationRecord
 from boat_twin.vessel.tow import tow_drag_table
@@ -44,6 +44,11 @@ class LiveTwin:
         self.commands = np.zeros(4)
         self.epoch_s = epoch_s
         self.tick_index = 0
+        self.tick_gnss: GnssMeasurements | None = None
+        """This tick's GNSS fix (empty when it was lost; None off the GNSS rate): the measurements that front
+        ends encode (ROS messages here, MAVLink in boat_twin.link)."""
+        self.tick_imu: ImuMeasurements | None = None
+        """This tick's UM7 sample (None off the IMU rate)."""
         rng = np.random.default_rng(seed)
         self._gnss_noise = GnssNoise(config.gnss, rng) if noise else None
         self._imu_noise = Um7Noise(config.um7, rng) if noise else None
@@ -93,16 +98,19 @@ class LiveTwin:
         last = slice(-1, None)
         out: list[messages.Message] = []
         gnss = self.config.gnss
+        self.tick_gnss = self.tick_imu = None
         if self.tick_index % self._gnss_step == 0:
             expected = expected_fix(gnss, truth.t_s, truth.east_m, truth.north_m, truth.vel_east_mps,
                                     truth.vel_north_mps)
             if expected.has_state[-1]:
                 errors = self._gnss_noise.step() if self._gnss_noise is not None else None
-                out += messages.gnss_messages(fixes(gnss, truth.t_s[last], expected.at(last), errors))
+                self.tick_gnss = fixes(gnss, truth.t_s[last], expected.at(last), errors)
+                out += messages.gnss_messages(self.tick_gnss)
         if self.tick_index % self._imu_step == 0:
             expected_sample = expected_imu(self.config.um7, truth.yaw_rad[last], truth.yaw_rate_radps[last],
                                            truth.accel_x_mps2[last], truth.accel_y_mps2[last])
             errors_imu = self._imu_noise.step() if self._imu_noise is not None else None
-            out += messages.imu_messages(imu_samples(self.config.um7, truth.t_s[last], expected_sample, errors_imu))
+            self.tick_imu = imu_samples(self.config.um7, truth.t_s[last], expected_sample, errors_imu)
+            out += messages.imu_messages(self.tick_imu)
         out += messages.truth_messages(TruthSeries(**{f.name: getattr(truth, f.name)[last] for f in fields(truth)}))
         return out
