@@ -46,9 +46,17 @@ flat stretch (44-50 kgf) where the measured curve has no unique steady speed."""
 class Scenario(Protocol):
     """What is commanded: ``command(t, states)`` → (N, 4) commands for N boats, over ``duration_s``."""
 
-    name: str
-    duration_s: float
-    initial_surge_mps: float
+    @property
+    def name(self) -> str:
+        """Scenario name (as the command line knows it)."""
+
+    @property
+    def duration_s(self) -> float:
+        """Length of the scenario, s."""
+
+    @property
+    def initial_surge_mps(self) -> float:
+        """Surge speed the boat starts with, m/s."""
 
     def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
         """Commands for every boat at time ``t_s`` given their states (N, 6)."""
@@ -113,7 +121,7 @@ def accel_stop(params: VesselParams, run_s: float = 60.0, coast_s: float = 60.0)
 def _approach_thrust_N(params: VesselParams, speed_mps: float) -> float:  # noqa: N802
     """Thrust per outboard that holds ``speed_mps`` straight ahead (within the engine envelope), N."""
     need = float(params.resistance.force_N(speed_mps)) / 2.0
-    return float(min(need, max_thrust_N(params, np.array(speed_mps))))
+    return min(need, float(max_thrust_N(params, np.array(speed_mps))))
 
 
 @dataclass
@@ -234,7 +242,7 @@ def read_command_csv(path: Path) -> CommandProfile:
             header = tuple(h.strip() for h in next(reader, ()))
             if header != CSV_HEADER:
                 raise InputError(f"{path}: header must be '{','.join(CSV_HEADER)}', got '{','.join(header)}'")
-            rows = []
+            rows: list[list[float]] = []
             for line_no, row in enumerate(reader, start=2):
                 if not row or all(not c.strip() for c in row):
                     continue
