@@ -13,6 +13,7 @@ from boat_twin.ident.pipeline import (
     trial_samples,
     write_model_yaml,
 )
+from boat_twin.ident.resimulate import Resimulation, resimulate
 from boat_twin.ident.steady import FitResult, fit_power_series, select_order
 
 __all__ = [
@@ -20,6 +21,7 @@ __all__ = [
     "FitResult",
     "LiveIdentifier",
     "OnlineThrustSpeedIdentifier",
+    "Resimulation",
     "SteadyCriteria",
     "detect_steady_segments",
     "fit_power_series",
@@ -28,6 +30,7 @@ __all__ = [
     "identify_table",
     "identify_trial",
     "model_dict",
+    "resimulate",
     "select_order",
     "trial_samples",
     "write_model_yaml",

@@ -10,10 +10,11 @@ from boat_twin.vessel.resistance import (
     TableResistance,
     resistance_from_dict,
 )
-from boat_twin.vessel.scenarios import SCENARIO_NAMES, CommandProfile, Scenario, make_scenario
+from boat_twin.vessel.scenarios import SCENARIO_NAMES, SCENARIOS, CommandProfile, Scenario, make_scenario, thrust_steps
 from boat_twin.vessel.simulate import SimulationRecord, simulate
 
 __all__ = [
+    "SCENARIOS",
     "SCENARIO_NAMES",
     "CommandProfile",
     "CorrectedResistance",
@@ -30,4 +31,5 @@ __all__ = [
     "resistance_from_dict",
     "save_params",
     "simulate",
+    "thrust_steps",
 ]
