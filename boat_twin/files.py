@@ -14,15 +14,34 @@ import yaml
 from boat_twin.errors import InputError
 
 
+BAG_FILE_SUFFIXES = (".mcap", ".db3", ".db3-shm", ".db3-wal", ".yaml")
+"""What a rosbag2 directory holds (storage files and metadata.yaml); --force replaces no other directory."""
+
+
+def _is_bag_dir(path: Path) -> bool:
+    """A rosbag2 directory: metadata.yaml and nothing but bag files."""
+    entries = list(path.iterdir())
+    return (path / "metadata.yaml").is_file() and all(e.is_file() and e.suffix in BAG_FILE_SUFFIXES for e in entries)
+
+
 def prepare_output(path: Path, force: bool) -> None:
-    """Check that ``path`` may be written: refuse an existing one unless ``force`` (then remove it)."""
-    if path.exists():
+    """Check that ``path`` may be written, before any work; nothing is deleted here.
+
+    Refused: the current directory or one that contains it, an existing path without ``force``, and with
+    ``force`` a directory that is not a rosbag2 bag. The new output goes to a temporary next to ``path`` and
+    :func:`replace_output` swaps it in, so a failure or an interrupt leaves the old output as it was.
+    """
+    resolved = path.resolve()
+    cwd = Path.cwd().resolve()
+    if str(path) in ("", ".") or resolved == cwd or resolved in cwd.parents:
+        raise InputError(f"{path or '.'}: is the current directory or contains it; refusing to write over it "
+                         "(give a new file or directory name)")
+    if path.exists() or path.is_symlink():
         if not force:
             raise InputError(f"{path}: already exists (use --force to overwrite)")
-        if path.is_dir():
-            shutil.rmtree(path)
-        else:
-            path.unlink()
+        if path.is_dir() and not _is_bag_dir(path):
+            raise InputError(f"{path}: is a directory that is not a rosbag2 bag (metadata.yaml and bag files "
+                             "only); refusing to replace it")
     parent = path.parent if str(path.parent) else Path(".")
     try:
         parent.mkdir(parents=True, exist_ok=True)
@@ -30,6 +49,25 @@ def prepare_output(path: Path, force: bool) -> None:
         raise InputError(f"{path}: cannot create its directory ({err.strerror})") from None
     if not os.access(parent, os.W_OK):
         raise InputError(f"{parent}: directory is not writable")
+
+
+def replace_output(new: Path, path: Path) -> None:
+    """Move the finished output ``new`` (a file or directory next to ``path``) to ``path``; an old ``path`` is
+    moved aside first and removed only once the new one is in place."""
+    if not (path.exists() or path.is_symlink()):
+        os.rename(new, path)
+        return
+    old = path.with_name(f".{path.name}.old.{os.getpid()}")
+    os.rename(path, old)
+    try:
+        os.rename(new, path)
+    except BaseException:
+        os.rename(old, path)
+        raise
+    if old.is_dir() and not old.is_symlink():
+        shutil.rmtree(old)
+    else:
+        old.unlink()
 
 
 def ensure_out_dir(path: Path) -> Path:

@@ -20,7 +20,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 
 from boat_twin.errors import InputError
-from boat_twin.files import prepare_output
+from boat_twin.files import prepare_output, replace_output
 from boat_twin.io.messages import TOPICS, TS
 from boat_twin.io.trial import Stream, Trial, build_trial
 
@@ -69,10 +69,7 @@ def write_bag(path: Path, messages: Iterable[Message], storage: str = "mcap", fo
                     connections[topic] = conn
                 writer.write(conn, stamp_ns, TS.serialize_cdr(msg, TOPICS[topic]))
                 count += 1
-        if bare:
-            (bag_dir / f"{bag_dir.name}.mcap").rename(path)
-        else:
-            bag_dir.rename(path)
+        replace_output(bag_dir / f"{bag_dir.name}.mcap" if bare else bag_dir, path)
     finally:
         shutil.rmtree(tmp_root, ignore_errors=True)
     return count

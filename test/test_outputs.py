@@ -1,0 +1,76 @@
+"""Nothing lost: --force replaces a bag or a file, never anything else, and only once the new output exists."""
+
+from __future__ import annotations
+
+import os
+import socket
+from pathlib import Path
+
+import pytest
+
+from boat_twin.cli import main
+from boat_twin.errors import InputError
+from boat_twin.files import prepare_output, replace_output
+
+
+def _tree(path) -> dict[str, bytes]:
+    return {str(p.relative_to(path)): p.read_bytes() for p in sorted(path.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture()
+def precious(tmp_path):
+    """A directory of a user's unrelated files, with a sub-directory."""
+    home = tmp_path / "work"
+    (home / "notes").mkdir(parents=True)
+    (home / "thesis.tex").write_text("months of work")
+    (home / "notes" / "trial.csv").write_text("t,v\n0,1\n")
+    return home
+
+
+@pytest.mark.parametrize("out", [".", "", "notes"])
+def test_force_never_deletes_what_is_not_a_bag(precious, monkeypatch, capsys, out) -> None:
+    monkeypatch.chdir(precious)
+    before = _tree(precious)
+    assert main(["simulate", "accel-stop", "--duration", "2", "--no-noise", "--out", out, "--force"]) == 2
+    assert _tree(precious) == before
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "refusing" in err[0]
+
+
+def test_force_replaces_a_bag_and_only_after_the_new_one_is_written(tmp_path) -> None:
+    bag = tmp_path / "trial"
+    assert main(["simulate", "accel-stop", "--duration", "2", "--no-noise", "--out", str(bag)]) == 0
+    old = _tree(bag)
+    assert main(["simulate", "accel-stop", "--duration", "3", "--no-noise", "--out", str(bag), "--force"]) == 0
+    assert _tree(bag) != old and (bag / "metadata.yaml").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["trial"]  # no temporary left behind
+
+
+def test_a_failure_after_the_check_keeps_the_old_bag(tmp_path) -> None:
+    bag = tmp_path / "trial"
+    assert main(["simulate", "accel-stop", "--duration", "2", "--no-noise", "--out", str(bag)]) == 0
+    old = _tree(bag)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as busy:
+        busy.bind(("127.0.0.1", 0))
+        port = busy.getsockname()[1]
+        code = main(["simulate", "--mavlink", f"udpin:127.0.0.1:{port}", "--duration", "1", "--out", str(bag),
+                     "--force"])
+    assert code == 2 and _tree(bag) == old
+
+
+def test_replace_output_swaps_in_the_new_and_removes_the_old(tmp_path) -> None:
+    target, new = tmp_path / "out.mcap", tmp_path / ".out.mcap.tmp"
+    target.write_bytes(b"old")
+    new.write_bytes(b"new")
+    prepare_output(target, force=True)
+    replace_output(new, target)
+    assert target.read_bytes() == b"new" and sorted(os.listdir(tmp_path)) == ["out.mcap"]
+
+
+def test_prepare_output_refuses_the_current_directory_and_its_parents(tmp_path, monkeypatch) -> None:
+    inner = tmp_path / "a" / "b"
+    inner.mkdir(parents=True)
+    monkeypatch.chdir(inner)
+    for path in (".", "..", str(tmp_path)):
+        with pytest.raises(InputError, match="refusing"):
+            prepare_output(Path(path), force=True)
