@@ -22,6 +22,8 @@ SENSOR_ROLES = ("gnss_fix", "gnss_vel", "imu")
 """Measured streams: GNSS fix (lat, lon, alt), GNSS velocity (east, north), IMU (yaw, yaw rate, ax, ay)."""
 GAP_TOLERANCE_PERIODS = 2.5
 """A sensor stream is interpolated only between samples at most this many nominal periods apart."""
+GRID_BLOCK = 65536
+"""Grid points interpolated (and converted to ENU) at a time: bounds the temporaries of a long trial."""
 
 
 @dataclass
@@ -127,7 +129,19 @@ def _hold(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray) -> np.nd
 
 
 def _interpolate(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray, max_gap_s: float) -> np.ndarray:
-    """Linear interpolation between samples at most ``max_gap_s`` apart; NaN elsewhere."""
+    """Linear interpolation between samples at most ``max_gap_s`` apart; NaN elsewhere.
+
+    Works through the grid :data:`GRID_BLOCK` points at a time, so its temporaries do not grow with the trial.
+    """
+    out = np.empty((grid_s.size, values.shape[1]))
+    for start in range(0, grid_s.size, GRID_BLOCK):
+        block = slice(start, start + GRID_BLOCK)
+        out[block] = _interpolate_block(stamps_s, values, grid_s[block], max_gap_s)
+    return out
+
+
+def _interpolate_block(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray, max_gap_s: float
+                       ) -> np.ndarray:
     right = np.clip(np.searchsorted(stamps_s, grid_s, side="left"), 1, stamps_s.size - 1)
     left = right - 1
     t0, t1 = stamps_s[left], stamps_s[right]
@@ -143,15 +157,21 @@ def _interpolate(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray, m
 
 
 def _sorted_stream(role: str, stream: Stream) -> Stream:
-    """Drop non-finite stamps, sort by time, drop duplicate stamps (keep the first)."""
+    """Drop non-finite stamps, sort by time, drop duplicate stamps (keep the first); no copy of a clean stream."""
     stamps = np.asarray(stream.stamps_s, dtype=float)
     values = np.asarray(stream.values, dtype=float).reshape(stamps.size, -1)
     keep = np.isfinite(stamps)
-    stamps, values = stamps[keep], values[keep]
-    order = np.argsort(stamps, kind="stable")
-    stamps, values = stamps[order], values[order]
-    first = np.concatenate([[True], np.diff(stamps) > 0])
-    return Stream(stamps[first], values[first])
+    if not keep.all():
+        stamps, values = stamps[keep], values[keep]
+    steps = np.diff(stamps)
+    if np.any(steps < 0):
+        order = np.argsort(stamps, kind="stable")
+        stamps, values = stamps[order], values[order]
+        steps = np.diff(stamps)
+    if not np.all(steps > 0):
+        first = np.concatenate([[True], steps > 0])
+        stamps, values = stamps[first], values[first]
+    return Stream(stamps, values)
 
 
 def build_trial(
@@ -214,7 +234,10 @@ def build_trial(
         valid = np.flatnonzero(np.all(np.isfinite(fix), axis=1))
         origin = tuple(float(x) for x in fix[valid[0]]) if valid.size else (0.0, 0.0, 0.0)
     meta.origin = origin
-    east, north, _ = pymap3d.geodetic2enu(fix[:, 0], fix[:, 1], fix[:, 2], *origin)
+    east, north = np.empty(grid_abs.size), np.empty(grid_abs.size)
+    for start in range(0, grid_abs.size, GRID_BLOCK):
+        block = slice(start, start + GRID_BLOCK)
+        east[block], north[block], _ = pymap3d.geodetic2enu(fix[block, 0], fix[block, 1], fix[block, 2], *origin)
     imu = columns["imu"]
     return Trial(
         t_s=grid_abs - t0,
@@ -224,8 +247,8 @@ def build_trial(
         angle_right_rad=columns["angle_right"],
         lat_deg=fix[:, 0],
         lon_deg=fix[:, 1],
-        east_m=np.asarray(east, dtype=float),
-        north_m=np.asarray(north, dtype=float),
+        east_m=east,
+        north_m=north,
         vel_east_mps=columns["gnss_vel"][:, 0],
         vel_north_mps=columns["gnss_vel"][:, 1],
         heading_rad=imu[:, 0],
