@@ -129,43 +129,45 @@ ROLE_WIDTHS = {"thrust_left": 1, "thrust_right": 1, "angle_left": 1, "angle_righ
 """Role → number of values per row after the stamp (the columns of its :class:`Stream`)."""
 
 BLOCK_ROWS = 4096
-"""Rows gathered as Python floats before they are packed into one float64 block (bounds the per-object cost)."""
+"""Rows gathered as Python floats before they are packed into the float64 array (bounds the per-object cost)."""
+MAX_PREALLOCATED_ROWS = 1 << 24
+"""At most this many rows are reserved up front from a bag's message count (a corrupt count reserves no more)."""
 
 
 class RowCollector:
-    """Rows of ``1 + width`` floats (stamp, values) packed into float64 blocks of :data:`BLOCK_ROWS` rows.
+    """Rows of ``1 + width`` floats (stamp, values) written into one float64 array, :data:`BLOCK_ROWS` at a time.
 
-    Holds 8 bytes per number (plus at most one block of Python floats), not a Python object per sample.
+    Holds 8 bytes per number, not a Python object per sample. ``capacity`` (the topic's message count in the
+    bag, when known) sizes the array up front; it grows if more rows arrive.
     """
 
-    def __init__(self, width: int) -> None:
+    def __init__(self, width: int, capacity: int = 0) -> None:
         self.width = width
+        self._rows = np.empty((min(max(capacity, BLOCK_ROWS), MAX_PREALLOCATED_ROWS), 1 + width))
+        self._count = 0
         self._pending: list[float] = []
-        self._blocks: list[np.ndarray] = []
 
     def append(self, row: tuple[float, ...]) -> None:
         """Add one row (stamp, ``width`` values)."""
         self._pending.extend(row)
         if len(self._pending) >= BLOCK_ROWS * (1 + self.width):
-            self._pack()
+            self._flush()
 
-    def _pack(self) -> None:
-        self._blocks.append(np.array(self._pending, dtype=float).reshape(-1, 1 + self.width))
+    def _flush(self) -> None:
+        block = np.array(self._pending, dtype=float).reshape(-1, 1 + self.width)
         self._pending = []
+        end = self._count + block.shape[0]
+        if end > self._rows.shape[0]:
+            grown = np.empty((max(end, 2 * self._rows.shape[0]), 1 + self.width))
+            grown[: self._count] = self._rows[: self._count]
+            self._rows = grown
+        self._rows[self._count : end] = block
+        self._count = end
 
     def stream(self) -> Stream:
-        """All rows as a :class:`Stream` (float64 views of one (n, 1 + width) array); empties the collector.
-
-        Blocks are freed as they are copied in, so the rows are held about once, not twice.
-        """
-        self._pack()
-        rows = np.empty((sum(block.shape[0] for block in self._blocks), 1 + self.width))
-        start = 0
-        self._blocks.reverse()
-        while self._blocks:
-            block = self._blocks.pop()
-            rows[start : start + block.shape[0]] = block
-            start += block.shape[0]
+        """The rows so far as a :class:`Stream`: float64 views, stamps (n,) and values (n, width)."""
+        self._flush()
+        rows = self._rows[: self._count]
         return Stream(rows[:, 0], rows[:, 1:])
 
 
@@ -210,8 +212,9 @@ def read_trial(
             available = {c.topic: c.msgtype for c in reader.connections}
             topics = resolve_topics(available, remap or {}, namespace, source)
             role_of = {topic: role for role, topic in topics.items()}
-            rows = {role: RowCollector(ROLE_WIDTHS[role]) for role in topics}
             wanted = [c for c in reader.connections if c.topic in role_of]
+            counts = {role: sum(c.msgcount for c in wanted if role_of[c.topic] == role) for role in topics}
+            rows = {role: RowCollector(ROLE_WIDTHS[role], counts[role]) for role in topics}
             for conn, log_ns, raw in reader.messages(connections=wanted):
                 role = role_of[conn.topic]
                 row = EXTRACTORS[role](reader.deserialize(raw, conn.msgtype), log_ns * 1e-9)
@@ -221,4 +224,5 @@ def read_trial(
         raise
     except Exception as err:  # rosbags raises several types for corrupt or truncated files
         raise InputError(f"{source}: cannot read bag ({type(err).__name__}: {err})") from None
-    return build_trial({role: rows[role].stream() for role in topics}, source, topics, origin)
+    streams = {role: rows.pop(role).stream() for role in topics}
+    return build_trial(streams, source, topics, origin, release=True)
