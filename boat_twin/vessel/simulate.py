@@ -19,6 +19,11 @@ INTEGRATION_RATE_HZ = 50.0
 """RK4 rate, Hz: the fastest mode here (yaw, T ≈ 1 s) is resolved with > 50 steps per time constant."""
 
 
+def output_ticks(duration_s: float) -> int:
+    """Number of output ticks of a run of ``duration_s`` seconds, both ends included (at least 0)."""
+    return max(int(np.floor(duration_s * OUTPUT_RATE_HZ + 1e-9)) + 1, 0)
+
+
 @dataclass(frozen=True)
 class SimulationRecord:
     """What happened, at the output ticks: ``t_s`` (n,), ``states`` (n, N, 6), ``commands`` (n, N, 4).
@@ -93,7 +98,7 @@ def simulate_chunks(
     else:
         states = np.array(initial_states, dtype=float)
     environments = np.tile(environment.as_vector(), (states.shape[0], 1))
-    n_ticks = int(np.floor(scenario.duration_s * OUTPUT_RATE_HZ + 1e-9)) + 1
+    n_ticks = output_ticks(scenario.duration_s)
     step = chunk_ticks if chunk_ticks is not None else max(n_ticks, 1)
     if step < 1:
         raise ValueError(f"chunk_ticks must be at least 1, got {chunk_ticks}")
