@@ -13,7 +13,6 @@ import yaml
 
 from boat_twin.errors import InputError
 
-
 BAG_FILE_SUFFIXES = (".mcap", ".db3", ".db3-shm", ".db3-wal", ".yaml")
 """What a rosbag2 directory holds (storage files and metadata.yaml); --force replaces no other directory."""
 

@@ -13,10 +13,11 @@ from boat_twin.cli.options import twin_config_from_args
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.files import to_json
-from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.twin.sea_trial import compact_trial_messages, run_compact_trial
 from boat_twin.vessel.params import describe
 from boat_twin.vessel.scenarios import SCENARIO_NAMES, CommandProfile, make_scenario, read_command_csv
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
+from boat_twin.vessel.truth import TruthSeries
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -88,16 +89,17 @@ def make_scenario_with_duration(profile: CommandProfile, duration_s: float) -> C
     return CommandProfile(profile.name, profile.times_s, profile.values, duration_s, profile.initial_surge_mps)
 
 
-def summarize(t_s: np.ndarray, states: np.ndarray) -> dict[str, float | None]:
+def summarize(truth: TruthSeries) -> dict[str, float | None]:
     """Figures of a simulated trial's truth: duration, top speed, extreme yaw rate, and the final steady
     turning diameter 2·U/|r| (averaged over the last 20 s; None unless the boat ends in a turn)."""
+    t_s = truth.t_s
     last = t_s >= t_s[-1] - 20.0
-    u, v, r = states[last, 0, 3], states[last, 0, 4], states[last, 0, 5]
+    u, v, r = truth.surge_mps[last], truth.sway_mps[last], truth.yaw_rate_radps[last]
     turning = bool(np.all(np.abs(r) > 0.02) and np.ptp(r) < 0.05 * np.mean(np.abs(r)))
     return {
         "duration_s": float(t_s[-1]),
-        "max_surge_mps": float(np.max(states[:, 0, 3])),
-        "max_abs_yaw_rate_radps": float(np.max(np.abs(states[:, 0, 5]))),
+        "max_surge_mps": float(np.max(truth.surge_mps)),
+        "max_abs_yaw_rate_radps": float(np.max(np.abs(truth.yaw_rate_radps))),
         "final_turn_diameter_m": float(np.mean(2.0 * np.hypot(u, v) / np.abs(r))) if turning else None,
         "final_turn_speed_mps": float(np.mean(np.hypot(u, v))) if turning else None,
     }
@@ -111,14 +113,14 @@ def run(args: argparse.Namespace) -> int:
     scenario = _scenario(args, config)
     if args.out is None and not args.json:
         raise InputError("nothing to do: give --out BAG (and/or --json)")
-    trial = run_sea_trial(config, scenario, args.seed, noise=not args.no_noise)
-    result = {"scenario": scenario.name, "seed": args.seed, **summarize(trial.record.t_s, trial.record.states),
+    trial = run_compact_trial(config, scenario, args.seed, noise=not args.no_noise)
+    result = {"scenario": scenario.name, "seed": args.seed, **summarize(trial.truth),
               "vessel": describe(config.vessel)}
     if args.out is not None:
         from boat_twin.io.bags import write_bag
 
         result["bag"] = str(args.out)
-        result["messages"] = write_bag(args.out, trial_messages(trial), args.storage, args.force)
+        result["messages"] = write_bag(args.out, compact_trial_messages(trial), args.storage, args.force)
     if args.json:
         print(to_json(result))
     else:

@@ -79,14 +79,14 @@ def _stamp_s(msg: Any) -> float:
     return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
 
 
-def _fix(msg: Any, log_s: float) -> tuple[float, list[float]] | None:
+def _fix(msg: Any, log_s: float) -> tuple[float, float, float, float] | None:
     if msg.status.status < 0:  # STATUS_NO_FIX
         return None
-    return _stamp_s(msg), [msg.latitude, msg.longitude, msg.altitude]
+    return _stamp_s(msg), msg.latitude, msg.longitude, msg.altitude
 
 
-def _vel(msg: Any, log_s: float) -> tuple[float, list[float]]:
-    return _stamp_s(msg), [msg.twist.linear.x, msg.twist.linear.y]
+def _vel(msg: Any, log_s: float) -> tuple[float, float, float]:
+    return _stamp_s(msg), msg.twist.linear.x, msg.twist.linear.y
 
 
 def _provided(covariance: Any) -> bool:
@@ -94,7 +94,7 @@ def _provided(covariance: Any) -> bool:
     return float(covariance[0]) != -1.0
 
 
-def _imu(msg: Any, log_s: float) -> tuple[float, list[float]]:
+def _imu(msg: Any, log_s: float) -> tuple[float, float, float, float, float]:
     q = msg.orientation
     yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
     if not _provided(msg.orientation_covariance):
@@ -102,14 +102,14 @@ def _imu(msg: Any, log_s: float) -> tuple[float, list[float]]:
     rate = msg.angular_velocity.z if _provided(msg.angular_velocity_covariance) else math.nan
     accel = msg.linear_acceleration
     ax, ay = (accel.x, accel.y) if _provided(msg.linear_acceleration_covariance) else (math.nan, math.nan)
-    return _stamp_s(msg), [yaw, rate, ax, ay]
+    return _stamp_s(msg), yaw, rate, ax, ay
 
 
-def _scalar(msg: Any, log_s: float) -> tuple[float, list[float]]:
-    return log_s, [msg.data]
+def _scalar(msg: Any, log_s: float) -> tuple[float, float]:
+    return log_s, msg.data
 
 
-EXTRACTORS: dict[str, Callable[[Any, float], tuple[float, list[float]] | None]] = {
+EXTRACTORS: dict[str, Callable[[Any, float], tuple[float, ...] | None]] = {
     "thrust_left": _scalar,
     "thrust_right": _scalar,
     "angle_left": _scalar,
@@ -118,8 +118,54 @@ EXTRACTORS: dict[str, Callable[[Any, float], tuple[float, list[float]] | None]] 
     "gnss_vel": _vel,
     "imu": _imu,
 }
-"""Role → function pulling (stamp in s, values) out of one message: header stamp for sensors, log time for
-commands (std_msgs/Float64 has no header)."""
+"""Role → function pulling one row (stamp in s, values...) out of one message: header stamp for sensors, log
+time for commands (std_msgs/Float64 has no header)."""
+
+ROLE_WIDTHS = {"thrust_left": 1, "thrust_right": 1, "angle_left": 1, "angle_right": 1, "gnss_fix": 3,
+               "gnss_vel": 2, "imu": 4}
+"""Role → number of values per row after the stamp (the columns of its :class:`Stream`)."""
+
+BLOCK_ROWS = 4096
+"""Rows gathered as Python floats before they are packed into the float64 array (bounds the per-object cost)."""
+MAX_PREALLOCATED_ROWS = 1 << 24
+"""At most this many rows are reserved up front from a bag's message count (a corrupt count reserves no more)."""
+
+
+class RowCollector:
+    """Rows of ``1 + width`` floats (stamp, values) written into one float64 array, :data:`BLOCK_ROWS` at a time.
+
+    Holds 8 bytes per number, not a Python object per sample. ``capacity`` (the topic's message count in the
+    bag, when known) sizes the array up front; it grows if more rows arrive.
+    """
+
+    def __init__(self, width: int, capacity: int = 0) -> None:
+        self.width = width
+        self._rows = np.empty((min(max(capacity, BLOCK_ROWS), MAX_PREALLOCATED_ROWS), 1 + width))
+        self._count = 0
+        self._pending: list[float] = []
+
+    def append(self, row: tuple[float, ...]) -> None:
+        """Add one row (stamp, ``width`` values)."""
+        self._pending.extend(row)
+        if len(self._pending) >= BLOCK_ROWS * (1 + self.width):
+            self._flush()
+
+    def _flush(self) -> None:
+        block = np.array(self._pending, dtype=float).reshape(-1, 1 + self.width)
+        self._pending = []
+        end = self._count + block.shape[0]
+        if end > self._rows.shape[0]:
+            grown = np.empty((max(end, 2 * self._rows.shape[0]), 1 + self.width))
+            grown[: self._count] = self._rows[: self._count]
+            self._rows = grown
+        self._rows[self._count : end] = block
+        self._count = end
+
+    def stream(self) -> Stream:
+        """The rows so far as a :class:`Stream`: float64 views, stamps (n,) and values (n, width)."""
+        self._flush()
+        rows = self._rows[: self._count]
+        return Stream(rows[:, 0], rows[:, 1:])
 
 
 def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: str, source: str) -> dict[str, str]:
@@ -163,18 +209,17 @@ def read_trial(
             available = {c.topic: c.msgtype for c in reader.connections}
             topics = resolve_topics(available, remap or {}, namespace, source)
             role_of = {topic: role for role, topic in topics.items()}
-            stamps: dict[str, list[float]] = {role: [] for role in topics}
-            values: dict[str, list[list[float]]] = {role: [] for role in topics}
             wanted = [c for c in reader.connections if c.topic in role_of]
+            counts = {role: sum(c.msgcount for c in wanted if role_of[c.topic] == role) for role in topics}
+            rows = {role: RowCollector(ROLE_WIDTHS[role], counts[role]) for role in topics}
             for conn, log_ns, raw in reader.messages(connections=wanted):
                 role = role_of[conn.topic]
-                sample = EXTRACTORS[role](reader.deserialize(raw, conn.msgtype), log_ns * 1e-9)
-                if sample is not None:
-                    stamps[role].append(sample[0])
-                    values[role].append(sample[1])
+                row = EXTRACTORS[role](reader.deserialize(raw, conn.msgtype), log_ns * 1e-9)
+                if row is not None:
+                    rows[role].append(row)
     except InputError:
         raise
     except Exception as err:  # rosbags raises several types for corrupt or truncated files
         raise InputError(f"{source}: cannot read bag ({type(err).__name__}: {err})") from None
-    streams = {role: Stream(np.array(stamps[role]), np.array(values[role])) for role in topics}
-    return build_trial(streams, source, topics, origin)
+    streams = {role: rows.pop(role).stream() for role in topics}
+    return build_trial(streams, source, topics, origin, release=True)

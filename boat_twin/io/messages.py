@@ -96,6 +96,9 @@ _GNSS_STATUS = _NavSatStatus(
 Message = Any
 """A rosbags message object (a dataclass of the typestore)."""
 
+MESSAGE_BLOCK_ROWS = 1000
+"""Samples turned into Python numbers at a time by the series iterators: bounds their memory, not their output."""
+
 
 def stamps_ns(t_s: np.ndarray) -> np.ndarray:
     """Seconds (float) to integer nanoseconds, rounded to the nearest ns (int64)."""
@@ -263,18 +266,28 @@ def _diagonal_covariances(diagonals: np.ndarray) -> np.ndarray:
     return cov
 
 
+def _blocks(n: int) -> Iterator[slice]:
+    """Consecutive row slices of at most :data:`MESSAGE_BLOCK_ROWS` covering ``range(n)``."""
+    for start in range(0, n, MESSAGE_BLOCK_ROWS):
+        yield slice(start, min(start + MESSAGE_BLOCK_ROWS, n))
+
+
 def gnss_messages(gnss: GnssMeasurements) -> Iterator[tuple[str, int, Message]]:
     """``gnss/fix`` and ``gnss/vel`` per fix, time-ordered."""
-    covariances = _diagonal_covariances(np.asarray(gnss.position_covariance_m2, dtype=float))
-    covariances.flags.writeable = False
-    velocities = np.column_stack([gnss.vel_east_mps, gnss.vel_north_mps, gnss.vel_up_mps]).tolist()
-    rows = zip(stamps_ns(gnss.stamp_s).tolist(), np.asarray(gnss.lat_deg).tolist(),
-               np.asarray(gnss.lon_deg).tolist(), np.asarray(gnss.alt_m).tolist(), covariances, velocities,
-               strict=True)
-    for stamp_ns, lat, lon, alt, cov, vel in rows:
-        shared = header(stamp_ns, FRAME_GNSS)
-        yield TOPIC_GNSS_FIX, stamp_ns, navsatfix(shared, lat, lon, alt, cov)
-        yield TOPIC_GNSS_VEL, stamp_ns, twist_stamped(shared, vel)
+    stamp_s, lat, lon, alt, vel_east, vel_north, vel_up = (np.asarray(a) for a in (
+        gnss.stamp_s, gnss.lat_deg, gnss.lon_deg, gnss.alt_m, gnss.vel_east_mps, gnss.vel_north_mps,
+        gnss.vel_up_mps))
+    variances = np.asarray(gnss.position_covariance_m2, dtype=float)
+    for rows in _blocks(stamp_s.size):
+        covariances = _diagonal_covariances(variances[rows])
+        covariances.flags.writeable = False
+        velocities = np.column_stack([vel_east[rows], vel_north[rows], vel_up[rows]]).tolist()
+        block = zip(stamps_ns(stamp_s[rows]).tolist(), lat[rows].tolist(), lon[rows].tolist(), alt[rows].tolist(),
+                    covariances, velocities, strict=True)
+        for stamp_ns, lat_deg, lon_deg, alt_m, cov, vel in block:
+            shared = header(stamp_ns, FRAME_GNSS)
+            yield TOPIC_GNSS_FIX, stamp_ns, navsatfix(shared, lat_deg, lon_deg, alt_m, cov)
+            yield TOPIC_GNSS_VEL, stamp_ns, twist_stamped(shared, vel)
 
 
 def imu_messages(imu_series: ImuMeasurements) -> Iterator[tuple[str, int, Message]]:
@@ -283,38 +296,40 @@ def imu_messages(imu_series: ImuMeasurements) -> Iterator[tuple[str, int, Messag
     gyro_cov = diagonal_covariance(imu_series.gyro_covariance_radps2)
     accel_cov = diagonal_covariance(imu_series.accel_covariance_mps2_2)
     mag_cov = diagonal_covariance(imu_series.mag_covariance_tesla2)
-    rows = zip(
-        stamps_ns(imu_series.stamp_s).tolist(), imu_series.quaternion_xyzw.tolist(),
-        imu_series.gyro_radps.tolist(), imu_series.accel_mps2.tolist(), imu_series.mag_tesla.tolist(),
-        imu_series.rpy_rad.tolist(), imu_series.temperature_celsius.tolist(), strict=True,
-    )
-    for stamp_ns, q, w, a, m, rpy, temperature in rows:
-        shared = header(stamp_ns, FRAME_IMU)  # one header for the three, as the driver does
-        yield TOPIC_IMU_DATA, stamp_ns, imu(shared, q, w, a, orientation_cov, gyro_cov, accel_cov)
-        yield TOPIC_IMU_MAG, stamp_ns, magnetic_field(shared, m, mag_cov)
-        yield TOPIC_IMU_RPY, stamp_ns, vector3_stamped(shared, rpy)
-        yield TOPIC_IMU_TEMPERATURE, stamp_ns, float32(temperature)
+    series = [np.asarray(a) for a in (
+        imu_series.quaternion_xyzw, imu_series.gyro_radps, imu_series.accel_mps2, imu_series.mag_tesla,
+        imu_series.rpy_rad, imu_series.temperature_celsius)]
+    stamp_s = np.asarray(imu_series.stamp_s)
+    for rows in _blocks(stamp_s.size):
+        block = zip(stamps_ns(stamp_s[rows]).tolist(), *(a[rows].tolist() for a in series), strict=True)
+        for stamp_ns, q, w, a, m, rpy, temperature in block:
+            shared = header(stamp_ns, FRAME_IMU)  # one header for the three, as the driver does
+            yield TOPIC_IMU_DATA, stamp_ns, imu(shared, q, w, a, orientation_cov, gyro_cov, accel_cov)
+            yield TOPIC_IMU_MAG, stamp_ns, magnetic_field(shared, m, mag_cov)
+            yield TOPIC_IMU_RPY, stamp_ns, vector3_stamped(shared, rpy)
+            yield TOPIC_IMU_TEMPERATURE, stamp_ns, float32(temperature)
 
 
 def truth_messages(truth: TruthSeries, with_tf: bool = True) -> Iterator[tuple[str, int, Message]]:
     """``odom/truth`` (and ``tf`` map -> base_link unless ``with_tf`` is False) per truth sample, in order."""
-    yaw = np.asarray(truth.yaw_rad, dtype=float)
-    zeros = np.zeros_like(yaw)
-    cos_yaw, sin_yaw = np.cos(yaw), np.sin(yaw)
-    body_velocity = np.column_stack([
-        cos_yaw * truth.vel_east_mps + sin_yaw * truth.vel_north_mps,
-        -sin_yaw * truth.vel_east_mps + cos_yaw * truth.vel_north_mps,
-    ]).tolist()
-    rows = zip(
-        stamps_ns(truth.t_s).tolist(), np.asarray(truth.east_m).tolist(), np.asarray(truth.north_m).tolist(),
-        quaternion_xyzw(zeros, zeros, yaw).tolist(), body_velocity, np.asarray(truth.yaw_rate_radps).tolist(),
-        strict=True,
-    )
-    for stamp_ns, east, north, q, v, r in rows:
-        shared = header(stamp_ns, FRAME_MAP)
-        yield TOPIC_ODOM_TRUTH, stamp_ns, odometry(shared, east, north, q, v, r)
-        if with_tf:
-            yield TOPIC_TF, stamp_ns, tf_message(shared, east, north, q)
+    t_s, east, north, vel_east, vel_north, yaw_rate = (np.asarray(a) for a in (
+        truth.t_s, truth.east_m, truth.north_m, truth.vel_east_mps, truth.vel_north_mps, truth.yaw_rate_radps))
+    yaw_rad = np.asarray(truth.yaw_rad, dtype=float)
+    for rows in _blocks(t_s.size):
+        yaw = yaw_rad[rows]
+        zeros = np.zeros_like(yaw)
+        cos_yaw, sin_yaw = np.cos(yaw), np.sin(yaw)
+        body_velocity = np.column_stack([
+            cos_yaw * vel_east[rows] + sin_yaw * vel_north[rows],
+            -sin_yaw * vel_east[rows] + cos_yaw * vel_north[rows],
+        ]).tolist()
+        block = zip(stamps_ns(t_s[rows]).tolist(), east[rows].tolist(), north[rows].tolist(),
+                    quaternion_xyzw(zeros, zeros, yaw).tolist(), body_velocity, yaw_rate[rows].tolist(), strict=True)
+        for stamp_ns, east_m, north_m, q, v, r in block:
+            shared = header(stamp_ns, FRAME_MAP)
+            yield TOPIC_ODOM_TRUTH, stamp_ns, odometry(shared, east_m, north_m, q, v, r)
+            if with_tf:
+                yield TOPIC_TF, stamp_ns, tf_message(shared, east_m, north_m, q)
 
 
 def command_messages(t_s: np.ndarray, commands: np.ndarray) -> Iterator[tuple[str, int, Message]]:
@@ -323,6 +338,8 @@ def command_messages(t_s: np.ndarray, commands: np.ndarray) -> Iterator[tuple[st
     values = np.asarray(commands, dtype=float)
     if values.ndim != 2 or values.shape[1] != 4 or values.shape[0] != np.size(t_s):
         raise ValueError(f"commands must have shape ({np.size(t_s)}, 4), got {values.shape}")
-    for stamp_ns, row in zip(stamps_ns(t_s).tolist(), values.tolist(), strict=True):
-        for topic, value in zip(COMMAND_TOPICS, row, strict=True):
-            yield topic, stamp_ns, float64(value)
+    stamp_s = np.asarray(t_s)
+    for rows in _blocks(values.shape[0]):
+        for stamp_ns, row in zip(stamps_ns(stamp_s[rows]).tolist(), values[rows].tolist(), strict=True):
+            for topic, value in zip(COMMAND_TOPICS, row, strict=True):
+                yield topic, stamp_ns, float64(value)

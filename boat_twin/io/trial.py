@@ -22,6 +22,8 @@ SENSOR_ROLES = ("gnss_fix", "gnss_vel", "imu")
 """Measured streams: GNSS fix (lat, lon, alt), GNSS velocity (east, north), IMU (yaw, yaw rate, ax, ay)."""
 GAP_TOLERANCE_PERIODS = 2.5
 """A sensor stream is interpolated only between samples at most this many nominal periods apart."""
+GRID_BLOCK = 8192
+"""Grid points interpolated (and converted to ENU) at a time: bounds the temporaries of a long trial."""
 
 
 @dataclass
@@ -126,8 +128,21 @@ def _hold(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray) -> np.nd
     return out
 
 
-def _interpolate(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray, max_gap_s: float) -> np.ndarray:
-    """Linear interpolation between samples at most ``max_gap_s`` apart; NaN elsewhere."""
+def _interpolate(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray, max_gap_s: float,
+                 out: np.ndarray | None = None) -> np.ndarray:
+    """Linear interpolation between samples at most ``max_gap_s`` apart; NaN elsewhere. Into ``out`` if given.
+
+    Works through the grid :data:`GRID_BLOCK` points at a time, so its temporaries do not grow with the trial.
+    """
+    out = np.empty((grid_s.size, values.shape[1])) if out is None else out
+    for start in range(0, grid_s.size, GRID_BLOCK):
+        block = slice(start, start + GRID_BLOCK)
+        out[block] = _interpolate_block(stamps_s, values, grid_s[block], max_gap_s)
+    return out
+
+
+def _interpolate_block(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray, max_gap_s: float
+                       ) -> np.ndarray:
     right = np.clip(np.searchsorted(stamps_s, grid_s, side="left"), 1, stamps_s.size - 1)
     left = right - 1
     t0, t1 = stamps_s[left], stamps_s[right]
@@ -143,15 +158,21 @@ def _interpolate(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray, m
 
 
 def _sorted_stream(role: str, stream: Stream) -> Stream:
-    """Drop non-finite stamps, sort by time, drop duplicate stamps (keep the first)."""
+    """Drop non-finite stamps, sort by time, drop duplicate stamps (keep the first); no copy of a clean stream."""
     stamps = np.asarray(stream.stamps_s, dtype=float)
     values = np.asarray(stream.values, dtype=float).reshape(stamps.size, -1)
     keep = np.isfinite(stamps)
-    stamps, values = stamps[keep], values[keep]
-    order = np.argsort(stamps, kind="stable")
-    stamps, values = stamps[order], values[order]
-    first = np.concatenate([[True], np.diff(stamps) > 0])
-    return Stream(stamps[first], values[first])
+    if not keep.all():
+        stamps, values = stamps[keep], values[keep]
+    steps = np.diff(stamps)
+    if np.any(steps < 0):
+        order = np.argsort(stamps, kind="stable")
+        stamps, values = stamps[order], values[order]
+        steps = np.diff(stamps)
+    if not np.all(steps > 0):
+        first = np.concatenate([[True], steps > 0])
+        stamps, values = stamps[first], values[first]
+    return Stream(stamps, values)
 
 
 def build_trial(
@@ -159,11 +180,15 @@ def build_trial(
     source: str,
     topics: dict[str, str],
     origin: tuple[float, float, float] | None = None,
+    *,
+    release: bool = False,
 ) -> Trial:
     """Put the streams of one trial on a common grid (see the module docstring).
 
     Requires a GNSS fix or velocity stream (it sets the grid) and at least one command overlapping it.
-    ``origin`` is the geodetic origin of the local ENU frame (default: the first fix).
+    ``origin`` is the geodetic origin of the local ENU frame (default: the first fix). With ``release`` the
+    caller hands the streams over: each is removed from ``streams`` once it is on the grid, so a long trial's
+    samples and its grid are not both held in full.
     """
     meta = TrialMetadata(source=source, topics=dict(topics))
     data = {}
@@ -185,6 +210,7 @@ def build_trial(
     period = _median_period_s(clock.stamps_s)
     t0, t1 = float(clock.stamps_s[0]), float(clock.stamps_s[-1])
     first_command = min(float(c.stamps_s[0]) for c in commands)
+    del clock, commands
     if first_command > t1:
         raise InputError(f"{source}: commands and GNSS do not overlap in time (first command after the last fix)")
     # The trial starts with the first command, or with GNSS if that comes more than the gap tolerance later.
@@ -195,6 +221,9 @@ def build_trial(
     for role in COMMAND_ROLES:
         columns[role] = _hold(data[role].stamps_s, data[role].values[:, 0], grid_abs) if role in data \
             else np.full(grid_abs.size, 0.0 if role.startswith("angle") else np.nan)
+        if release:
+            data.pop(role, None)
+            streams.pop(role, None)
     for role, width in (("gnss_fix", 3), ("gnss_vel", 2), ("imu", 4)):
         if role not in data:
             columns[role] = np.full((grid_abs.size, width), np.nan)
@@ -202,20 +231,28 @@ def build_trial(
         stream = data[role]
         max_gap = GAP_TOLERANCE_PERIODS / max(meta.rates_hz[role], 1e-9)
         if role == "imu":  # unwrap the heading before interpolating it
-            stream = Stream(stream.stamps_s, stream.values.copy())
-            yaw = stream.values[:, 0]
-            known = np.isfinite(yaw)  # a yaw not provided (NaN) must not poison the unwrap after it
-            yaw[known] = np.unwrap(yaw[known])
-        columns[role] = _interpolate(stream.stamps_s, stream.values, grid_abs, max_gap)
+            yaw = stream.values[:, :1].copy()
+            known = np.isfinite(yaw[:, 0])  # a yaw not provided (NaN) must not poison the unwrap after it
+            yaw[known, 0] = np.unwrap(yaw[known, 0])
+            columns[role] = np.empty((grid_abs.size, stream.values.shape[1]))
+            _interpolate(stream.stamps_s, yaw, grid_abs, max_gap, columns[role][:, :1])
+            _interpolate(stream.stamps_s, stream.values[:, 1:], grid_abs, max_gap, columns[role][:, 1:])
+        else:
+            columns[role] = _interpolate(stream.stamps_s, stream.values, grid_abs, max_gap)
         jumps = np.flatnonzero(np.diff(stream.stamps_s) > max_gap)
         meta.gaps += [(role, float(stream.stamps_s[j] - t0), float(stream.stamps_s[j + 1] - t0)) for j in jumps]
+        if release:
+            del data[role], streams[role], stream
     fix = columns["gnss_fix"]
     if origin is None:
         valid = np.flatnonzero(np.all(np.isfinite(fix), axis=1))
         lat, lon, alt = (float(x) for x in fix[valid[0]]) if valid.size else (0.0, 0.0, 0.0)
         origin = (lat, lon, alt)
     meta.origin = origin
-    east, north, _ = pymap3d.geodetic2enu(fix[:, 0], fix[:, 1], fix[:, 2], *origin)
+    east, north = np.empty(grid_abs.size), np.empty(grid_abs.size)
+    for start in range(0, grid_abs.size, GRID_BLOCK):
+        block = slice(start, start + GRID_BLOCK)
+        east[block], north[block], _ = pymap3d.geodetic2enu(fix[block, 0], fix[block, 1], fix[block, 2], *origin)
     imu = columns["imu"]
     return Trial(
         t_s=grid_abs - t0,
@@ -225,8 +262,8 @@ def build_trial(
         angle_right_rad=columns["angle_right"],
         lat_deg=fix[:, 0],
         lon_deg=fix[:, 1],
-        east_m=np.asarray(east, dtype=float),
-        north_m=np.asarray(north, dtype=float),
+        east_m=east,
+        north_m=north,
         vel_east_mps=columns["gnss_vel"][:, 0],
         vel_north_mps=columns["gnss_vel"][:, 1],
         heading_rad=imu[:, 0],

@@ -1,10 +1,16 @@
-"""A simulated sea trial end to end: scenario → dynamics → GNSS and UM7 models → time-ordered ROS 2 messages."""
+"""A simulated sea trial end to end: scenario → dynamics → GNSS and UM7 models → time-ordered ROS 2 messages.
+
+:func:`run_sea_trial` keeps the whole :class:`SimulationRecord` (every state, derivative and command).
+:func:`run_compact_trial` gives the same measurements and messages from a simulation run in chunks of
+:data:`CHUNK_S` that keeps only boat 0's truth and the published command rows; its messages are built a block
+at a time as the bag writer takes them, so a long trial holds its numeric arrays, not its messages.
+"""
 
 from __future__ import annotations
 
 import heapq
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -13,12 +19,15 @@ from boat_twin.io import messages
 from boat_twin.sensors.gnss import GnssMeasurements, GnssModel
 from boat_twin.sensors.um7 import ImuMeasurements, Um7Model
 from boat_twin.vessel.scenarios import Scenario
-from boat_twin.vessel.simulate import SimulationRecord, simulate
+from boat_twin.vessel.simulate import OUTPUT_RATE_HZ, SimulationRecord, output_ticks, simulate, simulate_chunks
 from boat_twin.vessel.tow import tow_drag_table
+from boat_twin.vessel.truth import TruthSeries
 
 COMMAND_HEARTBEAT_S = 1.0
 """Command topics are logged when a value changes and at least once per this period, s (as a helm or
 autopilot driver publishes them); the reader holds each value until the next message."""
+CHUNK_S = 60.0
+"""Simulated time per chunk of :func:`run_compact_trial`, s."""
 
 
 @dataclass(frozen=True)
@@ -26,6 +35,19 @@ class SeaTrial:
     """The truth and what the sensors measured during one simulated trial."""
 
     record: SimulationRecord
+    gnss: GnssMeasurements
+    imu: ImuMeasurements
+
+
+@dataclass(frozen=True)
+class CompactTrial:
+    """One simulated trial as the bag needs it: boat 0's truth, the published commands, the measurements."""
+
+    truth: TruthSeries
+    command_t_s: np.ndarray
+    """Times of the published command rows, s (see :class:`CommandLog`), shape (m,)."""
+    commands: np.ndarray
+    """Published command rows (m, 4): thrust_left_N, thrust_right_N, angle_left_rad, angle_right_rad."""
     gnss: GnssMeasurements
     imu: ImuMeasurements
 
@@ -41,14 +63,71 @@ def run_sea_trial(config: TwinConfig, scenario: Scenario, seed: int, noise: bool
     return SeaTrial(record, gnss, imu)
 
 
+def run_compact_trial(config: TwinConfig, scenario: Scenario, seed: int, noise: bool = True,
+                      chunk_s: float = CHUNK_S) -> CompactTrial:
+    """:func:`run_sea_trial` for a long trial: the same truth, commands and measurements (bit for bit), from a
+    simulation run ``chunk_s`` seconds at a time that keeps 88 bytes of truth per tick instead of the record
+    (filled in place, chunk by chunk).
+
+    The sensors then measure the whole truth at once, so their noise is drawn as in :func:`run_sea_trial`.
+    """
+    chunks = simulate_chunks(config.vessel, scenario, config.environment,
+                             extra_drag_N=tow_drag_table(config.tow, config.vessel),
+                             chunk_ticks=max(1, round(chunk_s * OUTPUT_RATE_HZ)))
+    log = CommandLog()
+    command_t_s, commands = [], []
+    columns = {f.name: np.empty(output_ticks(scenario.duration_s)) for f in fields(TruthSeries)}
+    start = 0
+    for chunk in chunks:
+        rows = chunk.commands[:, 0, :]
+        ticks = log.ticks(chunk.t_s, rows)
+        command_t_s.append(chunk.t_s[ticks])
+        commands.append(rows[ticks])
+        piece, stop = chunk.truth(), start + chunk.t_s.size
+        for name, column in columns.items():
+            column[start:stop] = getattr(piece, name)
+        start = stop
+    truth = TruthSeries(**columns)
+    rng = np.random.default_rng(seed)
+    gnss = GnssModel(config.gnss, rng, noise=noise).measure(truth)
+    imu = Um7Model(config.um7, rng, noise=noise).measure(truth)
+    return CompactTrial(truth, np.concatenate(command_t_s), np.concatenate(commands), gnss, imu)
+
+
+class CommandLog:
+    """Picks the command ticks to publish, chunk after chunk: on change, and at least every ``heartbeat_s``."""
+
+    def __init__(self, heartbeat_s: float = COMMAND_HEARTBEAT_S) -> None:
+        self.heartbeat_s = heartbeat_s
+        self._last_t = -np.inf
+        self._last_row: np.ndarray | None = None
+
+    def ticks(self, t_s: np.ndarray, commands: np.ndarray) -> np.ndarray:
+        """Indices into this chunk's ticks ``t_s`` (n,) and ``commands`` (n, 4) of the rows to publish."""
+        keep = []
+        for i, (t, row) in enumerate(zip(t_s, commands, strict=True)):
+            if (self._last_row is None or not np.array_equal(row, self._last_row)
+                    or t - self._last_t >= self.heartbeat_s - 1e-9):
+                keep.append(i)
+                self._last_t, self._last_row = t, row.copy()
+        return np.array(keep, dtype=int)
+
+
 def command_log_ticks(t_s: np.ndarray, commands: np.ndarray, heartbeat_s: float = COMMAND_HEARTBEAT_S) -> np.ndarray:
     """Indices of the ticks at which the commands are published: on change, and every ``heartbeat_s``."""
-    keep, last_t, last_row = [], -np.inf, None
-    for i, (t, row) in enumerate(zip(t_s, commands, strict=True)):
-        if last_row is None or not np.array_equal(row, last_row) or t - last_t >= heartbeat_s - 1e-9:
-            keep.append(i)
-            last_t, last_row = t, row
-    return np.array(keep, dtype=int)
+    return CommandLog(heartbeat_s).ticks(t_s, commands)
+
+
+def _merged(command_t_s: np.ndarray, commands: np.ndarray, gnss: GnssMeasurements, imu: ImuMeasurements,
+            truth: TruthSeries | None) -> Iterator[messages.Message]:
+    streams = [
+        messages.command_messages(command_t_s, commands),
+        messages.gnss_messages(gnss),
+        messages.imu_messages(imu),
+    ]
+    if truth is not None:
+        streams.append(messages.truth_messages(truth))
+    return heapq.merge(*streams, key=lambda m: m[1])
 
 
 def trial_messages(trial: SeaTrial, truth: bool = True) -> Iterator[messages.Message]:
@@ -56,11 +135,9 @@ def trial_messages(trial: SeaTrial, truth: bool = True) -> Iterator[messages.Mes
     record = trial.record
     commands = record.commands[:, 0, :]
     ticks = command_log_ticks(record.t_s, commands)
-    streams = [
-        messages.command_messages(record.t_s[ticks], commands[ticks]),
-        messages.gnss_messages(trial.gnss),
-        messages.imu_messages(trial.imu),
-    ]
-    if truth:
-        streams.append(messages.truth_messages(record.truth()))
-    return heapq.merge(*streams, key=lambda m: m[1])
+    return _merged(record.t_s[ticks], commands[ticks], trial.gnss, trial.imu, record.truth() if truth else None)
+
+
+def compact_trial_messages(trial: CompactTrial, truth: bool = True) -> Iterator[messages.Message]:
+    """:func:`trial_messages` of a :class:`CompactTrial`: the same messages, built a block at a time."""
+    return _merged(trial.command_t_s, trial.commands, trial.gnss, trial.imu, trial.truth if truth else None)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,6 +17,11 @@ OUTPUT_RATE_HZ = 10.0
 """Output (sensor and command) rate, Hz: the 10 Hz logging of Dyda & Chumakova (2021)."""
 INTEGRATION_RATE_HZ = 50.0
 """RK4 rate, Hz: the fastest mode here (yaw, T ≈ 1 s) is resolved with > 50 steps per time constant."""
+
+
+def output_ticks(duration_s: float) -> int:
+    """Number of output ticks of a run of ``duration_s`` seconds, both ends included (at least 0)."""
+    return max(int(np.floor(duration_s * OUTPUT_RATE_HZ + 1e-9)) + 1, 0)
 
 
 @dataclass(frozen=True)
@@ -66,6 +72,24 @@ def simulate(
     Unless ``initial_states`` (N, 6) is given, every boat starts at the origin heading east, moving ahead at
     the scenario's initial surge speed through the water.
     """
+    chunks = simulate_chunks(params, scenario, environment, n_boats, initial_states, extra_drag_N)
+    return next(chunks)
+
+
+def simulate_chunks(
+    params: VesselParams,
+    scenario: Scenario,
+    environment: Environment | None = None,
+    n_boats: int = 1,
+    initial_states: np.ndarray | None = None,
+    extra_drag_N: np.ndarray | None = None,  # noqa: N803
+    chunk_ticks: int | None = None,
+) -> Iterator[SimulationRecord]:
+    """:func:`simulate` as consecutive records of at most ``chunk_ticks`` output ticks each (None: one record).
+
+    The boats' states carry over from chunk to chunk, so the chunks together are exactly the one record of
+    :func:`simulate`, but only one chunk (128 bytes per boat and tick) is held at a time.
+    """
     environment = environment or Environment()
     dynamics = Dynamics(params, extra_drag_N)
     if initial_states is None:
@@ -74,22 +98,31 @@ def simulate(
     else:
         states = np.array(initial_states, dtype=float)
     environments = np.tile(environment.as_vector(), (states.shape[0], 1))
-    n_ticks = int(np.floor(scenario.duration_s * OUTPUT_RATE_HZ + 1e-9)) + 1
-    t_s = np.arange(n_ticks) / OUTPUT_RATE_HZ
+    n_ticks = output_ticks(scenario.duration_s)
+    step = chunk_ticks if chunk_ticks is not None else max(n_ticks, 1)
+    if step < 1:
+        raise ValueError(f"chunk_ticks must be at least 1, got {chunk_ticks}")
     substeps = int(round(INTEGRATION_RATE_HZ / OUTPUT_RATE_HZ))
     dt_s = 1.0 / INTEGRATION_RATE_HZ
-    if isinstance(scenario, CommandProfile):
-        index = np.searchsorted(scenario.times_s, t_s + 1e-9, side="right") - 1
-        rows = np.where(index[:, None] >= 0, scenario.values[np.maximum(index, 0)], 0.0)
-        commands = np.repeat(rows[:, None, :], states.shape[0], axis=1)
-        out_states, derivatives = dynamics.run(states, commands, environments, dt_s, substeps)
-    else:
-        commands = np.empty((n_ticks, states.shape[0], 4))
-        out_states = np.empty((n_ticks,) + states.shape)
-        derivatives = np.empty_like(out_states)
-        for i, t in enumerate(t_s):
-            commands[i] = scenario.command(float(t), states)
-            out_states[i : i + 1], derivatives[i : i + 1] = dynamics.run(
-                states, commands[i : i + 1], environments, dt_s, substeps
-            )
-    return SimulationRecord(t_s, out_states, commands, derivatives, environment)
+    start = 0
+    while True:
+        stop = min(start + step, n_ticks)
+        t_s = np.arange(start, stop) / OUTPUT_RATE_HZ
+        if isinstance(scenario, CommandProfile):
+            index = np.searchsorted(scenario.times_s, t_s + 1e-9, side="right") - 1
+            rows = np.where(index[:, None] >= 0, scenario.values[np.maximum(index, 0)], 0.0)
+            commands = np.repeat(rows[:, None, :], states.shape[0], axis=1)
+            out_states, derivatives = dynamics.run(states, commands, environments, dt_s, substeps)
+        else:
+            commands = np.empty((t_s.size, states.shape[0], 4))
+            out_states = np.empty((t_s.size,) + states.shape)
+            derivatives = np.empty_like(out_states)
+            for i, t in enumerate(t_s):
+                commands[i] = scenario.command(float(t), states)
+                out_states[i : i + 1], derivatives[i : i + 1] = dynamics.run(
+                    states, commands[i : i + 1], environments, dt_s, substeps
+                )
+        yield SimulationRecord(t_s, out_states, commands, derivatives, environment)
+        start = stop
+        if start >= n_ticks:
+            return
