@@ -19,6 +19,7 @@ $(STAMP): setup.py setup.cfg package.xml
 
 lint: $(STAMP)
 	$(RUFF) boat_twin test benchmarks launch setup.py
+	$(PY) -m mypy boat_twin  # configured in setup.cfg
 
 test: lint
 	$(PY) -m pytest -q test

@@ -50,6 +50,8 @@ setup(
             "catkin_pkg>=1.0",
             "hypothesis>=6",
             "ruff>=0.5",
+            "mypy>=1.8",
+            "types-PyYAML",
             "MoorPy>=1.0",
         ],
     },

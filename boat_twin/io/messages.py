@@ -80,8 +80,8 @@ _TwistStamped = TS.types["geometry_msgs/msg/TwistStamped"]
 _Vector3Stamped = TS.types["geometry_msgs/msg/Vector3Stamped"]
 _Transform = TS.types["geometry_msgs/msg/Transform"]
 _TransformStamped = TS.types["geometry_msgs/msg/TransformStamped"]
-_NavSatStatus = TS.types["sensor_msgs/msg/NavSatStatus"]
-_NavSatFix = TS.types["sensor_msgs/msg/NavSatFix"]
+_NavSatStatus: Any = TS.types["sensor_msgs/msg/NavSatStatus"]  # Any: its constants are class attributes
+_NavSatFix: Any = TS.types["sensor_msgs/msg/NavSatFix"]
 _Imu = TS.types["sensor_msgs/msg/Imu"]
 _MagneticField = TS.types["sensor_msgs/msg/MagneticField"]
 _Odometry = TS.types["nav_msgs/msg/Odometry"]
@@ -116,7 +116,7 @@ def header(stamp_ns: int, frame_id: str) -> Message:
     return _Header(stamp=time_msg(stamp_ns), frame_id=frame_id)
 
 
-def diagonal_covariance(diagonal: Sequence[float]) -> np.ndarray:
+def diagonal_covariance(diagonal: Sequence[float] | np.ndarray) -> np.ndarray:
     """A read-only row-major 3x3 covariance (9,) with ``diagonal`` on its diagonal (safe to share)."""
     cov = np.zeros(9)
     cov[[0, 4, 8]] = diagonal

@@ -79,7 +79,7 @@ class CommandProfile:
         return np.broadcast_to(row, (states.shape[0], 4)).copy()
 
 
-def steady_speed_mps(params: VesselParams, total_thrust_N: float) -> float:  # noqa: N803
+def steady_speed_mps(params: VesselParams, total_thrust_N: float) -> float:
     """Speed through water where the resistance equals ``total_thrust_N`` (straight course), m/s."""
     if total_thrust_N <= 0.0:
         return 0.0
@@ -90,7 +90,7 @@ def steady_speed_mps(params: VesselParams, total_thrust_N: float) -> float:  # n
 
 
 def thrust_steps(
-    params: VesselParams, levels_N: tuple[float, ...] | None = None, settle_time_constants: float = 6.0  # noqa: N803
+    params: VesselParams, levels_N: tuple[float, ...] | None = None, settle_time_constants: float = 6.0
 ) -> CommandProfile:
     """The paper's experiment: a staircase of total thrust levels, split equally between the outboards.
 
@@ -118,7 +118,7 @@ def accel_stop(params: VesselParams, run_s: float = 60.0, coast_s: float = 60.0)
     )
 
 
-def _approach_thrust_N(params: VesselParams, speed_mps: float) -> float:  # noqa: N802
+def _approach_thrust_N(params: VesselParams, speed_mps: float) -> float:
     """Thrust per outboard that holds ``speed_mps`` straight ahead (within the engine envelope), N."""
     need = float(params.resistance.force_N(speed_mps)) / 2.0
     return min(need, float(max_thrust_N(params, np.array(speed_mps))))

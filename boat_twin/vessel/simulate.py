@@ -65,7 +65,7 @@ def simulate(
     environment: Environment | None = None,
     n_boats: int = 1,
     initial_states: np.ndarray | None = None,
-    extra_drag_N: np.ndarray | None = None,  # noqa: N803
+    extra_drag_N: np.ndarray | None = None,
 ) -> SimulationRecord:
     """Simulate ``n_boats`` identical boats through ``scenario`` for its whole duration.
 
@@ -82,7 +82,7 @@ def simulate_chunks(
     environment: Environment | None = None,
     n_boats: int = 1,
     initial_states: np.ndarray | None = None,
-    extra_drag_N: np.ndarray | None = None,  # noqa: N803
+    extra_drag_N: np.ndarray | None = None,
     chunk_ticks: int | None = None,
 ) -> Iterator[SimulationRecord]:
     """:func:`simulate` as consecutive records of at most ``chunk_ticks`` output ticks each (None: one record).
