@@ -2,19 +2,32 @@
 power-series fits, mass from transients, the online (RLS) identifier shared by the ROS node and bag replay, the
 paper's table, and the pipelines that run them on a trial."""
 
-from boat_twin.ident.dynamic import DynamicWindow, identify_dynamic
-from boat_twin.ident.live import LiveIdentifier
-from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadyCriteria, detect_steady_segments
-from boat_twin.ident.pipeline import (
-    identify_arrays,
-    identify_table,
-    identify_trial,
-    model_dict,
-    trial_samples,
-    write_model_yaml,
-)
-from boat_twin.ident.resimulate import Resimulation, resimulate
-from boat_twin.ident.steady import FitResult, fit_power_series, select_order
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "DynamicWindow": "boat_twin.ident.dynamic",
+    "FitResult": "boat_twin.ident.steady",
+    "LiveIdentifier": "boat_twin.ident.live",
+    "OnlineThrustSpeedIdentifier": "boat_twin.ident.online",
+    "Resimulation": "boat_twin.ident.resimulate",
+    "SteadyCriteria": "boat_twin.ident.online",
+    "detect_steady_segments": "boat_twin.ident.online",
+    "fit_power_series": "boat_twin.ident.steady",
+    "identify_arrays": "boat_twin.ident.pipeline",
+    "identify_dynamic": "boat_twin.ident.dynamic",
+    "identify_table": "boat_twin.ident.pipeline",
+    "identify_trial": "boat_twin.ident.pipeline",
+    "model_dict": "boat_twin.ident.pipeline",
+    "resimulate": "boat_twin.ident.resimulate",
+    "select_order": "boat_twin.ident.steady",
+    "trial_samples": "boat_twin.ident.pipeline",
+    "write_model_yaml": "boat_twin.ident.pipeline",
+}
+"""Public name → its module. Imported on first use: importing one light module of the package (e.g. from a
+sensor model) must not load the compiled simulator."""
 
 __all__ = [
     "DynamicWindow",
@@ -35,3 +48,9 @@ __all__ = [
     "trial_samples",
     "write_model_yaml",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,26 +1,42 @@
 """The boat: parameters derived from physical facts, resistance models, the 3-DOF dynamics, the environment
 (current, wind) and the scenarios that command it. SI units inside; REP-103 frames (ENU world, FLU body)."""
 
-from boat_twin.vessel.environment import Environment
-from boat_twin.vessel.params import VesselParams, derive_coefficients, load_params, save_params
-from boat_twin.vessel.resistance import (
-    CorrectedResistance,
-    PowerSeriesResistance,
-    ResistanceModel,
-    TableResistance,
-    resistance_from_dict,
-)
-from boat_twin.vessel.scenarios import SCENARIO_NAMES, SCENARIOS, CommandProfile, Scenario, make_scenario, thrust_steps
-from boat_twin.vessel.simulate import SimulationRecord, simulate
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "CommandProfile": "boat_twin.vessel.scenarios",
+    "CorrectedResistance": "boat_twin.vessel.resistance",
+    "Environment": "boat_twin.vessel.environment",
+    "PowerSeriesResistance": "boat_twin.vessel.resistance",
+    "ResistanceModel": "boat_twin.vessel.resistance",
+    "SCENARIOS": "boat_twin.vessel.scenarios",
+    "SCENARIO_NAMES": "boat_twin.vessel.scenarios",
+    "Scenario": "boat_twin.vessel.scenarios",
+    "SimulationRecord": "boat_twin.vessel.simulate",
+    "TableResistance": "boat_twin.vessel.resistance",
+    "VesselParams": "boat_twin.vessel.params",
+    "derive_coefficients": "boat_twin.vessel.params",
+    "load_params": "boat_twin.vessel.params",
+    "make_scenario": "boat_twin.vessel.scenarios",
+    "resistance_from_dict": "boat_twin.vessel.resistance",
+    "save_params": "boat_twin.vessel.params",
+    "simulate": "boat_twin.vessel.simulate",
+    "thrust_steps": "boat_twin.vessel.scenarios",
+}
+"""Public name → its module. Imported on first use: importing one light module of the package (e.g. from a
+sensor model) must not load the compiled simulator."""
 
 __all__ = [
-    "SCENARIOS",
-    "SCENARIO_NAMES",
     "CommandProfile",
     "CorrectedResistance",
     "Environment",
     "PowerSeriesResistance",
     "ResistanceModel",
+    "SCENARIOS",
+    "SCENARIO_NAMES",
     "Scenario",
     "SimulationRecord",
     "TableResistance",
@@ -33,3 +49,9 @@ __all__ = [
     "simulate",
     "thrust_steps",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
