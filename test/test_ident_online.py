@@ -171,3 +171,18 @@ def test_seconds_one_ulp_apart_give_the_same_windows_and_the_same_model() -> Non
         assert count == fits[0][0]
         np.testing.assert_allclose(coef, fits[0][1], rtol=1e-6)
         assert mass == pytest.approx(fits[0][2], rel=1e-6)
+
+
+def test_a_negative_mass_is_refused_as_physically_impossible(monkeypatch) -> None:
+    """A transient fit that lands on a negative mass (seen on a recording whose GNSS stamps ran backwards) is
+    refused with the reason; the steady model stands."""
+    from dataclasses import replace
+
+    import boat_twin.ident.pipeline as pipeline
+
+    t, f, v = linear_trial((300.0, 700.0, 1150.0, 500.0), 90.0, 0.01, seed=2)
+    real = pipeline.identify_dynamic
+    monkeypatch.setattr(pipeline, "identify_dynamic", lambda *a: replace(real(*a), mass_kg=-860.0))
+    result = pipeline.identify_arrays(t, f, v, order=1)
+    assert "-860 kg: physically impossible" in result["dynamic"]["error"]
+    assert "effective_mass_kg" not in result["model"] and len(result["steady_points"]) == 4

@@ -10,7 +10,7 @@ model that the vessel loader accepts as an override.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 import yaml
@@ -30,6 +30,35 @@ SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
 """Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
 TWO_WAY_WARNING = 0.3
 """Below this share of the speed range crossed both ways, the report warns: the mass rests on Fc's form."""
+
+
+class IdentifyResult(TypedDict):
+    """What :func:`identify_arrays` returns: the ``--json`` contract of ``boat-twin identify`` (SI, JSON-ready)."""
+
+    steady_points: list[dict[str, float]]
+    """Accepted constant-thrust segments: speed_mps, thrust_N, duration_s, start_s, end_s, speed_stderr_mps."""
+    rejected_segments: list[dict[str, Any]]
+    """Segments refused by the steady-state detector, each with its reason."""
+    fits: list[dict[str, Any]]
+    """Steady power-series fits (FitResult.to_dict): coefficients N/(m/s)^i, intervals, RMSE, CV, BIC, ..."""
+    selected_order: int
+    selection_reason: str
+    dynamic: dict[str, Any]
+    """Mass + Fc from the transients (DynamicResult.to_dict), or ``{"error": why}``."""
+    online: dict[str, Any]
+    """The online identifier replayed over the same samples (snapshot) and its agreement with batch."""
+    model: dict[str, Any]
+    """The identified model the vessel loader accepts (:func:`model_dict`)."""
+    warnings: list[str]
+
+
+class TrialIdentifyResult(IdentifyResult, total=False):
+    """What :func:`identify_trial` returns: :class:`IdentifyResult` plus the trial and the re-simulation."""
+
+    trial: dict[str, Any]
+    """Source, summary line, gaps and missing roles of the trial."""
+    resimulation: dict[str, Any]
+    """Resimulation.to_dict(), or ``{"error": why}`` when the loop could not be closed."""
 
 
 def model_dict(fit: FitResult, effective_mass_kg: float | None = None) -> dict[str, Any]:
@@ -116,7 +145,7 @@ def identify_arrays(
     criteria: SteadyCriteria | None = None,
     window: DynamicWindow | None = None,
     memory_s: float = 3600.0,
-) -> dict[str, Any]:
+) -> IdentifyResult:
     """Identify a trial from its arrays: time (s), total thrust (N), speed through water or over ground (m/s).
 
     Steady points (detector), steady fits of N = 1..``max_order`` with CV/BIC selection (or ``order``),
@@ -170,6 +199,9 @@ def identify_arrays(
         )
     try:
         dyn = identify_dynamic(t, f, v, None, window)
+        if not dyn.mass_kg > 0.0:
+            raise InputError(f"the mass from the transients is {dyn.mass_kg:.0f} kg: physically impossible (time "
+                             "stamps out of order, or commands not aligned with the speed?); no mass identified")
         dynamic: dict[str, Any] = dyn.to_dict()
         if dyn.two_way_fraction < TWO_WAY_WARNING:
             warnings.append(
@@ -221,12 +253,13 @@ def identify_arrays(
 
 
 def identify_trial(trial: Trial, *, order: int | None = None, max_order: int = 6,
-                   monotone: bool = False) -> tuple[dict[str, Any], Resimulation | None]:
+                   monotone: bool = False) -> tuple[TrialIdentifyResult, Resimulation | None]:
     """A recorded trial: :func:`identify_arrays` on its known samples, then the trial re-simulated with the
     identified model (closing the loop). Returns the result (``trial`` and ``resimulation`` added; the latter
     ``{"error": why}`` when the loop cannot be closed) and the re-simulation, if any."""
     t_s, thrust, speed = trial_samples(trial)
-    result = identify_arrays(t_s, thrust, speed, order=order, max_order=max_order, monotone=monotone)
+    result = TrialIdentifyResult(**identify_arrays(t_s, thrust, speed, order=order, max_order=max_order,
+                                                   monotone=monotone))
     result["trial"] = {"source": str(trial.metadata.source), "metadata": trial.metadata.summary_line(),
                        "gaps": trial.metadata.gaps, "missing": trial.metadata.missing}
     try:
