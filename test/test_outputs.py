@@ -74,3 +74,22 @@ def test_prepare_output_refuses_the_current_directory_and_its_parents(tmp_path, 
     for path in (".", "..", str(tmp_path)):
         with pytest.raises(InputError, match="refusing"):
             prepare_output(Path(path), force=True)
+
+
+def test_identify_reports_are_not_overwritten_without_force(tmp_path, capsys) -> None:
+    out = tmp_path / "report"
+    assert main(["identify", "--table", "dyda2021", "--out", str(out)]) == 0
+    before = _tree(out)
+    (out / "report.txt").write_text("my notes")
+    assert main(["identify", "--table", "dyda2021", "--out", str(out)]) == 2
+    assert "identify.json exists; use --force" in capsys.readouterr().err
+    assert (out / "report.txt").read_text() == "my notes"
+    assert main(["identify", "--table", "dyda2021", "--out", str(out), "--force"]) == 0
+    assert _tree(out) == before
+
+
+def test_an_input_file_is_never_an_output_directory(tmp_path, capsys) -> None:
+    log = tmp_path / "trial.tlog"
+    log.write_bytes(b"raw log")
+    assert main(["identify", "--table", "dyda2021", "--out", str(log), "--force"]) == 2
+    assert log.read_bytes() == b"raw log" and "must be a directory" in capsys.readouterr().err

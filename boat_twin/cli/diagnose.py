@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from boat_twin.cli import verb_help
-from boat_twin.cli.options import TRIAL_HELP, add_trial_options, trial_from_args, twin_config_from_args
+from boat_twin.cli.options import TRIAL_HELP, add_trial_options, claim_out_dir, trial_from_args, twin_config_from_args
 from boat_twin.config import save_config
 from boat_twin.diagnose.pipeline import WINDOW_S, diagnose_paper_table, diagnose_trial
 from boat_twin.diagnose.report import (
@@ -26,20 +26,10 @@ from boat_twin.diagnose.report import (
     text_report,
 )
 from boat_twin.errors import InputError
-from boat_twin.files import atomic_save_figure, atomic_write_text, atomic_write_yaml, ensure_out_dir, to_json
+from boat_twin.files import atomic_save_figure, atomic_write_text, atomic_write_yaml, to_json
 
 EXTENDED_MODEL_NAME = "extended_model.yaml"
 """File name of the extended model in --out."""
-
-
-def _out_dir(args: argparse.Namespace, names: tuple[str, ...]) -> Path | None:
-    """--out, checked before any work: existing outputs are refused without --force (replaced atomically)."""
-    if args.out is None:
-        return None
-    for name in names:
-        if (args.out / name).exists() and not args.force:
-            raise InputError(f"{args.out / name} exists; use --force to overwrite it")
-    return ensure_out_dir(args.out)
 
 
 def _progress(message: str) -> None:
@@ -48,8 +38,8 @@ def _progress(message: str) -> None:
 
 
 def _run_trial(args: argparse.Namespace) -> int:
-    out = _out_dir(args, (EXTENDED_MODEL_NAME, "diagnosis_signals.png", "diagnosis_residuals.png",
-                          "diagnosis_evidence.png", "diagnosis.json"))
+    out = claim_out_dir(args.out, (EXTENDED_MODEL_NAME, "diagnosis_signals.png", "diagnosis_residuals.png",
+                                   "diagnosis_evidence.png", "diagnosis.json"), args.force)
     trial = trial_from_args(args.trial, args)
     done = diagnose_trial(trial, twin_config_from_args(args), args.window, None if args.json else _progress)
     if not args.json:
@@ -75,7 +65,7 @@ def _run_table(args: argparse.Namespace) -> int:
     if args.table != "dyda2021":
         raise InputError(f"--table {args.table!r}: the built-in table is 'dyda2021'")
     result, diag, resistance = diagnose_paper_table(args.model_order)
-    out = _out_dir(args, (EXTENDED_MODEL_NAME, "diagnosis_table.png"))
+    out = claim_out_dir(args.out, (EXTENDED_MODEL_NAME, "diagnosis_table.png"), args.force)
     result["extended_model"] = None
     if out is not None and resistance is not None:
         atomic_write_yaml(out / EXTENDED_MODEL_NAME, {"vessel": {"resistance": resistance.to_dict()}})

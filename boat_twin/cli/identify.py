@@ -12,19 +12,24 @@ from pathlib import Path
 from typing import Any
 
 from boat_twin.cli import verb_help
-from boat_twin.cli.options import TRIAL_HELP, add_trial_options, trial_from_args
+from boat_twin.cli.options import TRIAL_HELP, add_trial_options, claim_out_dir, trial_from_args
 from boat_twin.errors import InputError
-from boat_twin.files import atomic_save_figure, atomic_write_text, ensure_out_dir, to_json
+from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
 from boat_twin.ident.pipeline import identify_table, identify_trial, model_dict, trial_samples, write_model_yaml
 from boat_twin.ident.report import resimulation_line, table_figures, table_report, write_trial_report
 from boat_twin.ident.steady import MAX_ORDER
+
+TABLE_OUTPUTS = ("identify.json", "report.txt", "model.yaml", "fits.png", "residuals.png")
+"""What ``identify --table --out DIR`` writes."""
+TRIAL_OUTPUTS = ("identify.json", "model.yaml", "trial.png", "resistance.png", "resimulation.png")
+"""What ``identify TRIAL --out DIR`` writes."""
 
 
 def _run_table(args: argparse.Namespace) -> int:
     result, si_fit = identify_table(args.monotone, args.order, args.max_order, args.through_origin)
     report = table_report(result, si_fit)
-    if args.out is not None:
-        out = ensure_out_dir(args.out)
+    out = claim_out_dir(args.out, TABLE_OUTPUTS, args.force)
+    if out is not None:
         atomic_write_text(out / "identify.json", to_json(result) + "\n")
         atomic_write_text(out / "report.txt", report)
         write_model_yaml(
@@ -57,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
 def _run_trial(args: argparse.Namespace) -> int:
     """A recorded trial: replay it through the online identifier, batch fits, dynamic mass, re-simulation with
     the identified model (closing the loop), report."""
+    claim_out_dir(args.out, TRIAL_OUTPUTS, args.force)
     sys.stderr.write(f"reading {args.trial} ...\n")
     trial = trial_from_args(args.trial, args)
     sys.stderr.write(trial.metadata.summary_line() + "\n")
@@ -123,4 +129,5 @@ def register(subparsers: Any) -> None:
         metavar="DIR",
         help="write report.txt, identify.json, model.yaml (SI) and PNG plots here",
     )
+    p.add_argument("--force", action="store_true", help="overwrite existing reports in --out")
     p.set_defaults(handler=run)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from boat_twin.config import TwinConfig, load_twin_config
 from boat_twin.errors import InputError
+from boat_twin.files import ensure_out_dir
 from boat_twin.io.sources import TRIAL_ROLES, read_trial_file
 from boat_twin.io.trial import Trial
 
@@ -58,3 +59,16 @@ def twin_config_from_args(args: argparse.Namespace) -> TwinConfig:
     """:func:`~boat_twin.config.load_twin_config` from --config, --model and --current (where the verb has them)."""
     current = getattr(args, "current", None)
     return load_twin_config(args.config, args.model, tuple(current) if current else None)
+
+
+def claim_out_dir(out: Path | None, names: tuple[str, ...], force: bool) -> Path | None:
+    """--out DIR checked before any work: the report files ``names`` already there are refused without --force
+    (with it they are replaced one by one, atomically); an input file given as --out is refused too."""
+    if out is None:
+        return None
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out}: --out must be a directory for the reports, and this is a file")
+    for name in names:
+        if (out / name).exists() and not force:
+            raise InputError(f"{out / name} exists; use --force to overwrite it")
+    return ensure_out_dir(out)
