@@ -103,7 +103,8 @@ def text_report(result: dict[str, Any]) -> str:
         lines.append(f"  {c['effect']:18s} {c['delta_bic']:10.1f}  {gain}")
     if result["unexplained"]:
         for sig in result["signature"]:
-            lines.append(f"unexplained {sig['signal']}: held-out R² {sig['heldout_r2']:.2f}, correlated with "
+            lines.append(f"unexplained {sig['signal']}: residual {sig['misfit']:.1f}x its noise floor, held-out R² "
+                         f"{sig['heldout_r2']:.2f}, correlated with "
                          f"{', '.join(sig['correlated_with'])}; worst around t = {sig['worst_time_s']:.0f} s")
     if result["extended_model"]:
         lines.append(f"model       {result['extended_model']}")
