@@ -4,13 +4,20 @@ from __future__ import annotations
 
 import os
 import socket
+from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from boat_twin.cli import main
+from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.files import prepare_output, replace_output
+from boat_twin.io.bags import read_trial, write_bag
+from boat_twin.io.messages import header
+from boat_twin.twin import run_sea_trial, trial_messages
+from boat_twin.vessel import make_scenario
 
 
 def _tree(path) -> dict[str, bytes]:
@@ -93,3 +100,28 @@ def test_an_input_file_is_never_an_output_directory(tmp_path, capsys) -> None:
     log.write_bytes(b"raw log")
     assert main(["identify", "--table", "dyda2021", "--out", str(log), "--force"]) == 2
     assert log.read_bytes() == b"raw log" and "must be a directory" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["simulate", "accel-stop", "--duration", "1e7", "--out", "x"], "up to 604800 (7 days)"),
+    (["cable", "depth", "--case", str(Path(__file__).resolve().parents[1] / "config" / "cable" / "default.yaml"),
+      "--segment-length", "1e-6", "--json"], "more than 200000 links"),
+])
+def test_work_beyond_memory_is_refused_before_it_starts(tmp_path, monkeypatch, capsys, argv, message) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+
+
+def test_a_gnss_stamp_far_ahead_is_a_clock_error_not_a_huge_grid(tmp_path) -> None:
+
+
+    trial = run_sea_trial(TwinConfig(), make_scenario("accel-stop", TwinConfig().vessel, np.random.default_rng(0),
+                                                      duration_s=60.0), seed=0)
+    messages = list(trial_messages(trial, truth=False))
+    topic, stamp, msg = next(m for m in reversed(messages) if m[0] == "gnss/vel")
+    glitch = (topic, stamp, replace(msg, header=header(stamp + 3 * 10**15, msg.header.frame_id)))
+    write_bag(tmp_path / "glitch", sorted([m for m in messages if m[2] is not msg] + [glitch], key=lambda m: m[1]))
+    with pytest.raises(InputError, match="gnss_vel stamps jump by 3e\\+06 s"):
+        read_trial(tmp_path / "glitch")

@@ -143,9 +143,19 @@ def case_from_dict(data: Any, source: str = "case") -> CableCase:
     return check_case(case)
 
 
+MAX_LINKS = 200_000
+"""Most links a cable may be cut into (length / segment length): 0.25 s and ~50 MB per problem-1 solve here; a
+1e-6 m segment on a 300 m cable (3e8 links, 19 GB) is refused before any allocation."""
+
+
 def check_case(case: CableCase) -> CableCase:
-    """Cross-field checks: the length fits the winch, the flow never runs backwards past the vehicle."""
+    """Cross-field checks: the length fits the winch, the flow never runs backwards past the vehicle, the link
+    count stays within :data:`MAX_LINKS`."""
     cable = case.cable
+    longest = max(x for x in (cable.length_m, cable.winch_capacity_m, case.target_depth_m, 0.0) if x is not None)
+    if longest / cable.segment_length_m > MAX_LINKS:
+        raise InputError(f"{case.source}: cable.segment_length_m = {cable.segment_length_m:g} m cuts "
+                         f"{longest:g} m of cable into more than {MAX_LINKS} links; use a longer segment")
     capacity = cable.winch_capacity_m
     if cable.length_m is not None and capacity is not None and cable.length_m > capacity:
         raise InputError(f"{case.source}: cable length {cable.length_m:g} m exceeds the winch capacity "

@@ -17,6 +17,7 @@ import numpy as np
 
 from boat_twin.cable.current import CurrentProfile
 from boat_twin.errors import InputError
+from boat_twin.validation import number
 
 SPHERE_CX = 0.47
 """Drag coefficient (-) of the sphere lumped on each cable element, on the area d·l (the paper's eq. 6
@@ -90,10 +91,7 @@ def drag_from_spec(spec: Any, where: str = "cable.drag") -> DragModel:
     values = {}
     for key in fields:
         if key in spec:
-            value = spec[key]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0.0:
-                raise InputError(f"{where}.{key}: must be a number >= 0 (got {value!r})")
-            values[key] = float(value)
+            values[key] = number(f"{where}.{key}", spec[key], minimum=0.0)
     return SphereDrag(**values) if model == "sphere" else NormalTangentialDrag(**values)
 
 

@@ -175,6 +175,22 @@ def _sorted_stream(role: str, stream: Stream) -> Stream:
     return Stream(stamps, values)
 
 
+MAX_GRID_PER_SAMPLE = 20
+"""The trial grid may hold at most this many samples per GNSS sample (gaps included): more means a stamp far off
+the recording's time (a clock error), which would allocate a grid of the whole empty span."""
+
+
+def _check_span(source: str, role: str, stamps_s: np.ndarray, period_s: float) -> None:
+    """Refuse, before allocating, a GNSS clock whose stamps span far more time than its samples cover."""
+    n_grid = (stamps_s[-1] - stamps_s[0]) / period_s
+    if n_grid > MAX_GRID_PER_SAMPLE * stamps_s.size + 1000:
+        jump = int(np.argmax(np.diff(stamps_s)))
+        raise InputError(
+            f"{source}: {role} stamps jump by {stamps_s[jump + 1] - stamps_s[jump]:.3g} s after "
+            f"{stamps_s[jump] - stamps_s[0]:.1f} s ({stamps_s.size} samples would span {n_grid:.3g} grid steps): "
+            "a clock error in the recording; cut the bag before it or fix the stamps")
+
+
 def build_trial(
     streams: dict[str, Stream],
     source: str,
@@ -209,6 +225,7 @@ def build_trial(
         raise InputError(f"{source}: no command stream (thrusters/*/thrust or pos)")
     period = _median_period_s(clock.stamps_s)
     t0, t1 = float(clock.stamps_s[0]), float(clock.stamps_s[-1])
+    _check_span(source, "gnss_vel" if "gnss_vel" in data else "gnss_fix", clock.stamps_s, period)
     first_command = min(float(c.stamps_s[0]) for c in commands)
     del clock, commands
     if first_command > t1:

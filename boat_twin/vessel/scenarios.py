@@ -35,6 +35,10 @@ SETTLED_RECORD_S = 30.0
 """Time each thrust step is held after settling, s: the identifier's steady-state detector judges and averages
 the last 20 s of a segment (boat_twin.ident.online), with margin."""
 
+MAX_DURATION_S = 7 * 86400.0
+"""Longest scenario, s (7 days): a week at 10 Hz is 6 million ticks, about 1.3 GB of simulation and sensors
+(benchmarks/bench_memory.py measures 300 MB for 6 h); a longer run is refused before it allocates."""
+
 CSV_HEADER = ("t", "thrust_left_N", "thrust_right_N", "angle_left_rad", "angle_right_rad")
 """The header a command CSV file must have, in this order."""
 
@@ -224,8 +228,9 @@ def make_scenario(name: str, params: VesselParams, rng: np.random.Generator,
         raise InputError(f"unknown scenario {name!r} (choose from {', '.join(SCENARIO_NAMES)})")
     scenario = factory(params, rng)
     if duration_s is not None:
-        if not (math.isfinite(duration_s) and duration_s > 0.0):
-            raise InputError(f"--duration must be a positive number of seconds, got {duration_s!r}")
+        if not (math.isfinite(duration_s) and 0.0 < duration_s <= MAX_DURATION_S):
+            raise InputError(f"--duration must be a positive number of seconds up to {MAX_DURATION_S:g} "
+                             f"(7 days), got {duration_s!r}")
         scenario = replace(scenario, duration_s=duration_s)  # type: ignore[type-var]
     return scenario
 
