@@ -125,3 +125,18 @@ def test_a_gnss_stamp_far_ahead_is_a_clock_error_not_a_huge_grid(tmp_path) -> No
     write_bag(tmp_path / "glitch", sorted([m for m in messages if m[2] is not msg] + [glitch], key=lambda m: m[1]))
     with pytest.raises(InputError, match="gnss_vel stamps jump by 3e\\+06 s"):
         read_trial(tmp_path / "glitch")
+
+
+def test_stamps_running_backwards_are_dropped_and_reported_not_sorted_into_the_data(tmp_path) -> None:
+    trial = run_sea_trial(TwinConfig(), make_scenario("accel-stop", TwinConfig().vessel, np.random.default_rng(0),
+                                                      duration_s=60.0), seed=0)
+    messages = []
+    for topic, stamp, msg in trial_messages(trial, truth=False):
+        if topic == "gnss/vel" and 30e9 <= stamp < 32e9:  # a clock fault: 2 s of fixes stamped 20 s earlier
+            msg = replace(msg, header=header(stamp - 20 * 10**9, msg.header.frame_id))
+        messages.append((topic, stamp, msg))
+    write_bag(tmp_path / "faulty", messages)
+    read = read_trial(tmp_path / "faulty")
+    assert read.metadata.backward_stamps["gnss_vel"][0] == 20
+    assert "gnss_vel: 20 stamp(s) ran backwards" in read.metadata.summary_line()
+    assert np.all(np.diff(read.t_s) > 0)

@@ -262,6 +262,9 @@ def identify_trial(trial: Trial, *, order: int | None = None, max_order: int = 6
                                                    monotone=monotone))
     result["trial"] = {"source": str(trial.metadata.source), "metadata": trial.metadata.summary_line(),
                        "gaps": trial.metadata.gaps, "missing": trial.metadata.missing}
+    result["warnings"] += [f"{role}: {count} sample(s) whose stamp ran backwards (up to {back_s:.3g} s) were dropped: "
+                           "the recording's clock is faulty there" for role, (count, back_s) in
+                           trial.metadata.backward_stamps.items()]
     try:
         resim = resimulate(trial, result["model"])
     except InputError as err:  # the identification stands; say why the loop could not be closed

@@ -49,6 +49,8 @@ class TrialMetadata:
     """(role, start_s, end_s) of every interval longer than the gap tolerance without samples."""
     missing: list[str] = field(default_factory=list)
     """Roles with no samples at all."""
+    backward_stamps: dict[str, tuple[int, float]] = field(default_factory=dict)
+    """Role → (samples dropped because their stamp ran backwards, largest step back in s): a clock fault."""
     start_time_s: float = 0.0
     """Absolute time of t = 0 (e.g. Unix time of the first GNSS sample), s."""
     origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -62,6 +64,8 @@ class TrialMetadata:
             parts.append(f"{len(self.gaps)} gap(s), longest {max(g[2] - g[1] for g in self.gaps):.1f} s")
         if self.missing:
             parts.append("missing: " + ", ".join(self.missing))
+        for role, (count, back_s) in self.backward_stamps.items():
+            parts.append(f"{role}: {count} stamp(s) ran backwards (up to {back_s:.3g} s), dropped")
         return f"{self.source}: " + "; ".join(parts)
 
 
@@ -157,21 +161,22 @@ def _interpolate_block(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndar
     return out
 
 
-def _sorted_stream(role: str, stream: Stream) -> Stream:
-    """Drop non-finite stamps, sort by time, drop duplicate stamps (keep the first); no copy of a clean stream."""
+def _monotone_stream(role: str, stream: Stream, meta: TrialMetadata) -> Stream:
+    """Drop non-finite stamps and every sample whose stamp is not later than all before it (a duplicate, or a
+    stamp running backwards: recorded in ``meta.backward_stamps``, never reordered into the data); no copy of a
+    clean stream."""
     stamps = np.asarray(stream.stamps_s, dtype=float)
     values = np.asarray(stream.values, dtype=float).reshape(stamps.size, -1)
     keep = np.isfinite(stamps)
     if not keep.all():
         stamps, values = stamps[keep], values[keep]
-    steps = np.diff(stamps)
-    if np.any(steps < 0):
-        order = np.argsort(stamps, kind="stable")
-        stamps, values = stamps[order], values[order]
-        steps = np.diff(stamps)
-    if not np.all(steps > 0):
-        first = np.concatenate([[True], steps > 0])
-        stamps, values = stamps[first], values[first]
+    if stamps.size and not np.all(np.diff(stamps) > 0):
+        latest = np.concatenate([[-np.inf], np.maximum.accumulate(stamps)[:-1]])
+        back = stamps < latest
+        if np.any(back):
+            meta.backward_stamps[role] = (int(back.sum()), float(np.max(latest[back] - stamps[back])))
+        keep = stamps > latest
+        stamps, values = stamps[keep], values[keep]
     return Stream(stamps, values)
 
 
@@ -213,7 +218,7 @@ def build_trial(
         if stream is None or np.asarray(stream.stamps_s).size == 0:
             meta.missing.append(role)
             continue
-        data[role] = _sorted_stream(role, stream)
+        data[role] = _monotone_stream(role, stream, meta)
         meta.counts[role] = int(np.asarray(stream.stamps_s).size)
         period = _median_period_s(data[role].stamps_s)
         meta.rates_hz[role] = 1.0 / period if np.isfinite(period) and period > 0 else 0.0
