@@ -50,6 +50,17 @@ def prepare_output(path: Path, force: bool) -> None:
         raise InputError(f"{parent}: directory is not writable")
 
 
+def refuse_input_as_output(out: Path | None, *inputs: Path | None) -> None:
+    """An output path that is (or holds) one of the verb's inputs is refused: --force must never replace a raw
+    log, a config or a bag being read."""
+    if out is None:
+        return
+    target = out.resolve()
+    for item in inputs:
+        if item is not None and (item.resolve() == target or target in item.resolve().parents):
+            raise InputError(f"{out}: is also an input of this command ({item}); refusing to write over it")
+
+
 def replace_output(new: Path, path: Path) -> None:
     """Move the finished output ``new`` (a file or directory next to ``path``) to ``path``; an old ``path`` is
     moved aside first and removed only once the new one is in place."""

@@ -140,3 +140,15 @@ def test_stamps_running_backwards_are_dropped_and_reported_not_sorted_into_the_d
     assert read.metadata.backward_stamps["gnss_vel"][0] == 20
     assert "gnss_vel: 20 stamp(s) ran backwards" in read.metadata.summary_line()
     assert np.all(np.diff(read.t_s) > 0)
+
+
+def test_an_input_is_never_replaced_by_the_output(tmp_path, capsys) -> None:
+    bag = tmp_path / "trial"
+    assert main(["simulate", "accel-stop", "--duration", "2", "--no-noise", "--out", str(bag)]) == 0
+    before = _tree(bag)
+    assert main(["simulate", "--commands", str(bag), "--out", str(bag), "--force"]) == 2
+    assert "also an input" in capsys.readouterr().err and _tree(bag) == before
+    tlog = tmp_path / "t.tlog"
+    tlog.write_bytes(b"raw telemetry")
+    assert main(["simulate", "accel-stop", "--duration", "2", "--tlog", str(tlog), "--out", str(tlog), "--force"]) == 2
+    assert tlog.read_bytes() == b"raw telemetry"

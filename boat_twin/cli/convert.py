@@ -18,7 +18,7 @@ from typing import Any
 from boat_twin.cli import verb_help
 from boat_twin.cli.options import add_trial_options, parse_remap
 from boat_twin.errors import InputError
-from boat_twin.files import to_json
+from boat_twin.files import refuse_input_as_output, to_json
 from boat_twin.io.log_messages import log_messages
 from boat_twin.io.trial import COMMAND_ROLES
 
@@ -29,6 +29,7 @@ def run(args: argparse.Namespace) -> int:
     from boat_twin.io.mavlink import is_mavlink_log, read_mavlink_log, trial_from_log
 
     log_path: Path = args.log
+    refuse_input_as_output(args.out, log_path, args.calibration)
     if not is_mavlink_log(log_path):
         raise InputError(f"{log_path}: convert reads MAVLink logs (.tlog telemetry or .BIN DataFlash)")
     sys.stderr.write(f"reading {log_path} ...\n")

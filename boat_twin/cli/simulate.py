@@ -12,7 +12,7 @@ from boat_twin.cli import verb_help
 from boat_twin.cli.options import twin_config_from_args
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
-from boat_twin.files import to_json
+from boat_twin.files import refuse_input_as_output, to_json
 from boat_twin.twin.sea_trial import compact_trial_messages, run_compact_trial
 from boat_twin.vessel.params import describe
 from boat_twin.vessel.scenarios import SCENARIO_NAMES, CommandProfile, make_scenario, read_command_csv
@@ -107,6 +107,8 @@ def summarize(truth: TruthSeries) -> dict[str, float | None]:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``simulate``."""
+    refuse_input_as_output(args.out, args.commands, args.config, args.model, args.tlog)
+    refuse_input_as_output(args.tlog, args.commands, args.config, args.model)
     config = twin_config_from_args(args)
     if args.mavlink is not None or args.tlog is not None:
         return _run_mavlink(args, config)
