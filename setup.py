@@ -30,6 +30,7 @@ setup(
         "pymap3d>=3.0",
         "matplotlib>=3.6",
         "numba>=0.59",
+        "zstandard>=0.21",
     ],
     extras_require={
         # ROS 2 Jazzy's core as PyPI wheels (CPython 3.11), for a machine without a ROS install; on a Jazzy

@@ -21,6 +21,7 @@ from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 
 from boat_twin.errors import InputError
 from boat_twin.files import prepare_output, replace_output
+from boat_twin.io.mcap_crc import fill_chunk_crcs
 from boat_twin.io.messages import TOPICS, TS
 from boat_twin.io.trial import Stream, Trial, build_trial
 
@@ -69,6 +70,8 @@ def write_bag(path: Path, messages: Iterable[Message], storage: str = "mcap", fo
                     connections[topic] = conn
                 writer.write(conn, stamp_ns, TS.serialize_cdr(msg, TOPICS[topic]))
                 count += 1
+        for mcap_file in bag_dir.glob("*.mcap"):
+            fill_chunk_crcs(mcap_file)
         replace_output(bag_dir / f"{bag_dir.name}.mcap" if bare else bag_dir, path)
     finally:
         shutil.rmtree(tmp_root, ignore_errors=True)
