@@ -1,6 +1,6 @@
 """A towed-cable case (YAML): water, tow speed, current, cable and vehicle, with validation.
 
-Every bad value is an :class:`InputError` naming the file and the field. See README, "Towed cable".
+Every bad value is an :class:`InputError` naming the file and the field. See docs/cable.md.
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ from boat_twin.units import KGF_N, KNOT_MPS
 def dyda2021_table1() -> tuple[np.ndarray, np.ndarray]:
     """Table 1 of Dyda & Chumakova (2021) as printed: (speed in knots, thrust in kgf), 37 rows.
 
-    The paper prints no units; boat_twin reads speed in knots and thrust in kilogram-force (README explains why).
+    The paper prints no units; boat_twin reads speed in knots and thrust in kilogram-force (docs/model.md explains why).
     """
     text = resources.files(__package__).joinpath("dyda2021_table1.csv").read_text()
     table = np.loadtxt(text.splitlines(), delimiter=",", comments="#", skiprows=3)

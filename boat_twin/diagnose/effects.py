@@ -96,7 +96,7 @@ class EffectSpec:
     """The smallest size the diagnosis must detect (issue 5), in ``size_unit``: the tests and the accuracy study
     hide it at 1.2-2× this (``tow_load`` at 1-2.5×, see its draw)."""
     min_size: float
-    """The smallest size the diagnosis names, in ``size_unit``: half the threshold (README "Diagnosis").
+    """The smallest size the diagnosis names, in ``size_unit``: half the threshold (docs/diagnosis.md).
     Zero-mean errors of the replay's initial states (sensor noise carried through the hull's dynamics) leave
     spurious fits of up to ~0.02 m/s of current or ~3 % of mass on clean 10-minute trials: real, stable across
     the trial, but not a cause worth naming."""

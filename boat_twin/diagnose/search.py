@@ -1,6 +1,6 @@
 """Fit catalogue effects to a trial, judge them on held-out time, and name the ones the data support.
 
-Method (README "Diagnosis" states it with the numbers):
+Method (docs/diagnosis.md states it with the numbers):
 
 - Residuals are measured − predicted (:mod:`~boat_twin.diagnose.replay`) per signal, divided by the signal's
   white-noise level estimated from the data itself, so signals of different units weigh by their information.

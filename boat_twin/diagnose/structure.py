@@ -26,7 +26,7 @@ REGRESSOR_NAMES = ("cos_heading", "sin_heading", "speed", "yaw_rate", "thrust_su
 """What the residual may depend on: the commands and the model's prediction."""
 R2_THRESHOLD = 0.15
 """Held-out R² of a residual above this: structure the model does not explain (set above what clean trials
-of every kind give in the accuracy study, README 'Diagnosis')."""
+of every kind give in the accuracy study, docs/diagnosis.md)."""
 MISFIT_FACTOR = 2.0
 """A signal whose residual RMS, after the named effects, stays above this many times its measured noise floor is
 unexplained, whatever was named: on clean simulated trials (thrust steps, zigzag, random) the ratio is 0.97-1.3

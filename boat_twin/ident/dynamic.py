@@ -154,7 +154,7 @@ class DynamicResult:
     """How the order was chosen."""
     two_way_fraction: float
     """Share of the visited speed range crossed both accelerating and decelerating, 0..1. Only there is the
-    mass separable from the shape of Fc; elsewhere it rests on the polynomial form of Fc (see README)."""
+    mass separable from the shape of Fc; elsewhere it rests on Fc's polynomial form (docs/identification.md)."""
     n_windows: int
     """Windows used."""
     windows_skipped: int

@@ -82,7 +82,7 @@ def table_report(result: dict[str, Any], si_fit: FitResult) -> str:
     sel = result["selected_order"]
     lines = [
         "Dyda & Chumakova (2021), Table 1: 37 rows; v in knots, F in kgf (the paper prints no units; "
-        "see README).",
+        "see docs/model.md).",
         "",
         "Printed model values against the printed coefficients:",
     ]

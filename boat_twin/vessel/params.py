@@ -276,7 +276,7 @@ def save_params(params: VesselParams, path: Path) -> None:
 
 
 def describe(params: VesselParams) -> dict[str, float]:
-    """Derived figures a reader checks for plausibility (README: 'Vessel model')."""
+    """Derived figures a reader checks for plausibility (docs/model.md)."""
     coeff = derive_coefficients(params)
     top = _top_speed_mps(params)
     return {

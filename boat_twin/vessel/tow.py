@@ -37,7 +37,7 @@ class TowConfig:
     """What the boat tows (the twin configuration's optional ``tow`` section)."""
 
     case: str = ""
-    """Cable case YAML (see README 'Towed cable'); empty: the packaged Table 1 vehicle on 50 m of cable."""
+    """Cable case YAML (see docs/cable.md); empty: the packaged Table 1 vehicle on 50 m of cable."""
     cable_length_m: float = 50.0
     """Cable paid out, m."""
     drag_scale: float = 1.0
