@@ -22,7 +22,7 @@ lint: $(STAMP)
 	$(PY) -m mypy boat_twin  # configured in setup.cfg
 
 test: lint
-	$(PY) -m pytest -q test
+	$(PY) -m pytest -q -rs test  # -rs: say why anything is skipped
 
 demo: $(STAMP)
 	$(VENV)/bin/boat-twin demo --out $(OUT)/demo --force

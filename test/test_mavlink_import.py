@@ -1,7 +1,6 @@
 """MAVLink log import: real ArduSub logs, a synthetic .tlog of a simulated trial, convert, bad input, fuzzing."""
 
 import math
-import os
 import shutil
 import struct
 import tempfile
@@ -25,8 +24,8 @@ from boat_twin.vessel.scenarios import make_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 CALIBRATION = ROOT / "config" / "mavlink" / "ardupilot_two_outboards.yaml"
-LOGS = Path(os.environ.get("BOAT_TWIN_ARDUSUB_LOGS", ROOT.parent / "shared" / "data" / "ardusub_log_tools"))
-needs_logs = pytest.mark.skipif(not (LOGS / "small.tlog").is_file(), reason=f"ardusub logs not found at {LOGS}")
+LOGS = ROOT / "test" / "data" / "ardusub_log_tools"
+"""Real ArduSub logs (MIT licence, see SOURCE.md there), shipped so that a plain clone runs these tests."""
 
 UNIX0 = 1_700_000_000.0
 """Unix time of the synthetic log's sim time 0, s."""
@@ -168,7 +167,6 @@ def _independent_tlog_census(path: Path, types: set[str]) -> tuple[int, Counter,
 
 
 # ------------------------------------------------------------------------------------------ real logs
-@needs_logs
 def test_ardusub_tlog_imports_with_the_right_counts_time_span_and_conventions(calibration) -> None:
     path = LOGS / "small.tlog"
     trial = read_trial_file(path, calibration=CALIBRATION)
@@ -212,7 +210,6 @@ def test_ardusub_tlog_imports_with_the_right_counts_time_span_and_conventions(ca
     assert "\n" not in line and "35916 tlog messages over 263.4 s" in line
 
 
-@needs_logs
 def test_ardusub_joystick_and_rc_inputs_map_through_the_calibration() -> None:
     path = LOGS / "small.tlog"
     cal = calibration_from_dict({"commands": {
@@ -239,7 +236,6 @@ def test_ardusub_joystick_and_rc_inputs_map_through_the_calibration() -> None:
     assert seen <= {float(v - 1100) for v in rc} and len(seen) > 2
 
 
-@needs_logs
 def test_ardusub_bin_imports_and_reports_the_missing_gps() -> None:
     path = LOGS / "small.BIN"
     reader = mavutil.mavlink_connection(str(path))
@@ -356,7 +352,6 @@ def test_convert_writes_a_bag_that_read_trial_reads_back(tlog, calibration, tmp_
     assert '"thrusters/left/thrust"' not in capsys.readouterr().out  # no calibration: no thruster topics
 
 
-@needs_logs
 def test_convert_of_the_ardusub_bin_keeps_its_attitude(tmp_path, capsys) -> None:
     bag = tmp_path / "bin.mcap"
     assert main(["convert", str(LOGS / "small.BIN"), "--out", str(bag), "--json"]) == 0
@@ -471,7 +466,6 @@ def test_fuzzed_tlog_imports_or_fails_with_one_clean_line(small_tlog, cut, flips
     _import_or_clean_error(bytes(data[:at]) + junk + bytes(data[at:]), ".tlog")
 
 
-@needs_logs
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(cut=st.integers(0, 90_000), flips=_edits)
 def test_fuzzed_dataflash_imports_or_fails_with_one_clean_line(cut, flips) -> None:
