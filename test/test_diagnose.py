@@ -23,7 +23,7 @@ from boat_twin.diagnose.effects import EFFECTS, catalogue
 from boat_twin.diagnose.pipeline import diagnose_trial
 from boat_twin.diagnose.replay import cut_windows, predict
 from boat_twin.diagnose.table import runs_test_p
-from boat_twin.io.bags import read_trial
+from boat_twin.io.bags import read_trial, write_bag
 
 TRIAL_S = 300.0
 """Length of the test trials, s."""
@@ -154,6 +154,31 @@ def test_another_boat_far_off_the_model_is_never_an_all_clear(tmp_path: Path) ->
     result = _diagnose(tmp_path, replace(TwinConfig(), vessel=vessel), "random", 61)
     assert result["unexplained"], result
     assert max(sig["misfit"] for sig in result["signature"]) > 2.0
+
+
+def test_a_gyro_scale_error_outside_the_catalogue_is_unexplained_not_labelled(tmp_path: Path) -> None:
+    """An out-of-catalogue probe made by this test, not by the twin: the recorded gyro reads 5 % high."""
+    from dataclasses import replace as replace_msg
+
+    from rosbags.highlevel import AnyReader
+
+    from boat_twin.io import messages
+
+    clean = hidden.write_trial(tmp_path / "clean.mcap", TwinConfig(), "random", 71, TRIAL_S)
+    scaled = []
+    with AnyReader([clean]) as reader:
+        for connection, stamp, raw in reader.messages():
+            topic = connection.topic.lstrip("/")
+            msg = messages.deserialize(raw, messages.TOPICS[topic])
+            if topic == "imu/data":
+                msg = replace_msg(msg, angular_velocity=replace_msg(msg.angular_velocity,
+                                                                    z=1.05 * msg.angular_velocity.z))
+            scaled.append((topic, stamp, msg))
+    write_bag(tmp_path / "scaled.mcap", scaled)
+    result = diagnose_trial(read_trial(tmp_path / "scaled.mcap"), TwinConfig()).result
+    assert result["verdict"] == [] and result["unexplained"], result["verdict"]
+    worst = max(result["signature"], key=lambda sig: sig["misfit"])
+    assert worst["signal"] == "yaw_rate_radps" and worst["misfit"] > 2.0
 
 
 def test_two_effects_at_once_are_both_named(tmp_path: Path) -> None:
