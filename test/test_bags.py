@@ -211,3 +211,13 @@ def test_imu_fields_marked_not_provided_read_as_nan(sea_trial, tmp_path) -> None
     assert np.all(np.isnan(trial.heading_rad[inside])) and np.all(np.isnan(trial.yaw_rate_radps[inside]))
     assert np.all(np.isfinite(trial.accel_x_mps2[inside]))
     assert np.all(np.isfinite(trial.heading_rad[(t_abs > 1.0) & ~((t_abs > 19.95) & (t_abs < 25.05))]))
+
+
+def test_a_rosbag2_directory_named_dot_bag_reads(tmp_path) -> None:
+    """`simulate --out run.bag` writes a rosbag2 directory; it must read back whatever its name (rosbags'
+    AnyReader alone takes any .bag path for a ROS 1 file)."""
+    from boat_twin.cli import main
+
+    assert main(["simulate", "accel-stop", "--duration", "5", "--no-noise", "--out", str(tmp_path / "run.bag")]) == 0
+    trial = read_trial(tmp_path / "run.bag")
+    assert trial.metadata.source == str(tmp_path / "run.bag") and len(trial.t_s) > 40

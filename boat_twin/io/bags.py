@@ -10,7 +10,8 @@ from __future__ import annotations
 import math
 import shutil
 import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -194,6 +195,19 @@ def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: 
     return chosen
 
 
+@contextmanager
+def _rosbag2_alias(path: Path) -> Iterator[Path]:
+    """``path``, or for a rosbag2 directory named ``*.bag`` a symlink to it without the suffix: rosbags'
+    AnyReader takes any ``.bag`` path for a ROS 1 bag file."""
+    if not (path.is_dir() and path.suffix == ".bag"):
+        yield path
+        return
+    with tempfile.TemporaryDirectory(prefix="boat_twin_bag_") as tmp:
+        alias = Path(tmp) / path.stem
+        alias.symlink_to(path.resolve(), target_is_directory=True)
+        yield alias
+
+
 def read_trial(
     path: Path,
     remap: dict[str, str] | None = None,
@@ -208,7 +222,7 @@ def read_trial(
     if unknown:
         raise InputError(f"--topic: unknown role '{unknown[0]}' (roles: {', '.join(ROLE_TOPICS)})")
     try:
-        with AnyReader([path], default_typestore=TS) as reader:
+        with _rosbag2_alias(path) as readable, AnyReader([readable], default_typestore=TS) as reader:
             available = {c.topic: c.msgtype for c in reader.connections}
             topics = resolve_topics(available, remap or {}, namespace, source)
             role_of = {topic: role for role, topic in topics.items()}
