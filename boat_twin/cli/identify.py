@@ -112,7 +112,8 @@ def register(subparsers: Any) -> None:
         "--order", type=int, help="power-series order N (default: chosen by leave-one-out CV and BIC)"
     )
     p.add_argument(
-        "--max-order", type=int, default=8, help="highest order N tried by the selection (default 8)"
+        "--max-order", type=int, default=8,
+        help="highest order N tried by the selection (default 8; a recorded trial tries at most 6)",
     )
     p.add_argument(
         "--monotone",
@@ -127,7 +128,7 @@ def register(subparsers: Any) -> None:
         "--out",
         type=Path,
         metavar="DIR",
-        help="write report.txt, identify.json, model.yaml (SI) and PNG plots here",
+        help="write identify.json, model.yaml (SI) and PNG plots here (report.txt too with --table)",
     )
     p.add_argument("--force", action="store_true", help="overwrite existing reports in --out")
     p.set_defaults(handler=run)
