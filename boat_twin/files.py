@@ -41,13 +41,7 @@ def prepare_output(path: Path, force: bool) -> None:
         if path.is_dir() and not _is_bag_dir(path):
             raise InputError(f"{path}: is a directory that is not a rosbag2 bag (metadata.yaml and bag files "
                              "only); refusing to replace it")
-    parent = path.parent if str(path.parent) else Path(".")
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise InputError(f"{path}: cannot create its directory ({err.strerror})") from None
-    if not os.access(parent, os.W_OK):
-        raise InputError(f"{parent}: directory is not writable")
+    ensure_out_dir(path.parent if str(path.parent) else Path("."))
 
 
 def refuse_input_as_output(out: Path | None, *inputs: Path | None) -> None:

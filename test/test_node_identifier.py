@@ -70,14 +70,21 @@ def test_identifier_node_publishes_coefficients_and_diagnostics_and_serves_save_
                                 rosnodes.START_TIMEOUT_S)
         assert diagnostics[-1].status[0].message == f"waiting for steady points (0 of {ORDER + 2})"
 
+        def status(key: str):
+            """A value of the node's latest /diagnostics (published every second)."""
+            return {kv.key: json.loads(kv.value) for kv in diagnostics[-1].status[0].values}[key]
+
         # Feed the trial in stamp order at a pace the node keeps up with; a thrust change settles first.
         direct = LiveIdentifier(order=ORDER)
         sent = 0
         for topic, payload in trial_inputs():
             if topic in thrust:
+                # every fix sent so far is handled under the old command, then the new command is in force
+                assert probe.spin_until(lambda n=sent: status("n_samples") == n, 10.0)
+                index = messages.COMMAND_TOPICS.index(topic)
                 thrust[topic].publish(Float64(data=payload))
-                direct.set_command(messages.COMMAND_TOPICS.index(topic), payload)
-                probe.spin_for(0.1)
+                direct.set_command(index, payload)
+                assert probe.spin_until(lambda i=index, v=payload: status("held_commands")[i] == v, 10.0)
             else:
                 velocity.publish(velocity_msg(*payload))
                 direct.on_velocity(*payload)
@@ -85,11 +92,7 @@ def test_identifier_node_publishes_coefficients_and_diagnostics_and_serves_save_
                 time.sleep(0.001)
                 probe.executor.spin_once(timeout_sec=0.0)
 
-        def received() -> int:
-            values = {kv.key: kv.value for kv in diagnostics[-1].status[0].values}
-            return int(values["n_samples"])
-
-        assert probe.spin_until(lambda: received() == sent, 10.0), (received(), sent)
+        assert probe.spin_until(lambda: status("n_samples") == sent, 10.0), (status("n_samples"), sent)
         published = len(coefficients)
         probe.spin_for(2.5)  # at least two more 1 Hz publications, the last surely after the last sample
         assert len(coefficients) >= published + 2

@@ -176,3 +176,22 @@ def test_a_flipped_bit_inside_a_chunk_is_an_error_never_data(tmp_path, where) ->
     path.write_bytes(bytes(data))
     with pytest.raises(InputError, match="trial.mcap"):
         read_trial(path)
+
+
+def test_convert_refuses_to_write_over_its_log(tmp_path, capsys) -> None:
+    log = tmp_path / "small.tlog"
+    log.write_bytes((Path(__file__).parent / "data" / "ardusub_log_tools" / "small.tlog").read_bytes())
+    before = log.read_bytes()
+    assert main(["convert", str(log), "--out", str(log), "--force"]) == 2
+    assert "also an input" in capsys.readouterr().err and log.read_bytes() == before
+
+
+def test_a_drag_coefficient_must_be_finite(tmp_path, capsys) -> None:
+    case = Path(__file__).resolve().parents[1] / "config" / "cable" / "default.yaml"
+    text = case.read_text()
+    bad = tmp_path / "case.yaml"
+    assert "drag: {model: sphere, cx: 0.47}" in text
+    bad.write_text(text.replace("drag: {model: sphere, cx: 0.47}", "drag: {model: sphere, cx: .inf}"))
+    assert main(["cable", "depth", "--case", str(bad), "--json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cable.drag.cx: expected a finite number" in err[0], err

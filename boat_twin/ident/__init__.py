@@ -31,27 +31,7 @@ _EXPORTS = {
 """Public name → its module. Imported on first use: importing one light module of the package (e.g. from a
 sensor model) must not load the compiled simulator."""
 
-__all__ = [
-    "DynamicWindow",
-    "FitResult",
-    "IdentifyResult",
-    "LiveIdentifier",
-    "OnlineThrustSpeedIdentifier",
-    "Resimulation",
-    "SteadyCriteria",
-    "TrialIdentifyResult",
-    "detect_steady_segments",
-    "fit_power_series",
-    "identify_arrays",
-    "identify_dynamic",
-    "identify_table",
-    "identify_trial",
-    "model_dict",
-    "resimulate",
-    "select_order",
-    "trial_samples",
-    "write_model_yaml",
-]
+__all__ = sorted(_EXPORTS)
 
 
 def __getattr__(name: str) -> Any:

@@ -57,8 +57,10 @@ class LiveIdentifier:
         return [f"c{i}_N_per_mps{i}" for i in range(self.order + 1)] + ["effective_mass_kg"], coef + [mass]
 
     def status(self) -> dict[str, Any]:
-        """Fit quality and counters, for diagnostics (``steady_points_needed``: N + 2 for a curve of order N)."""
-        return {**self.core.snapshot(), "steady_points_needed": self.order + 2}
+        """Fit quality and counters, for diagnostics (``steady_points_needed``: N + 2 for a curve of order N;
+        ``held_commands``: thrust left/right N, angle left/right rad, null before the first)."""
+        held = [float(c) if math.isfinite(c) else None for c in self.commands]
+        return {**self.core.snapshot(), "steady_points_needed": self.order + 2, "held_commands": held}
 
     def model(self) -> dict[str, Any] | None:
         """The identified model as the simulator loads it (``--model``); None before N + 2 steady points."""

@@ -29,26 +29,7 @@ _EXPORTS = {
 """Public name → its module. Imported on first use: importing one light module of the package (e.g. from a
 sensor model) must not load the compiled simulator."""
 
-__all__ = [
-    "CommandProfile",
-    "CorrectedResistance",
-    "Environment",
-    "PowerSeriesResistance",
-    "ResistanceModel",
-    "SCENARIOS",
-    "SCENARIO_NAMES",
-    "Scenario",
-    "SimulationRecord",
-    "TableResistance",
-    "VesselParams",
-    "derive_coefficients",
-    "load_params",
-    "make_scenario",
-    "resistance_from_dict",
-    "save_params",
-    "simulate",
-    "thrust_steps",
-]
+__all__ = sorted(_EXPORTS)
 
 
 def __getattr__(name: str) -> Any:
