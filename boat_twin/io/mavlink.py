@@ -608,13 +608,39 @@ def _read_tlog(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[str, 
     info["time_base"] = "Unix time: autopilot boot time + the smallest tlog receive delay, per boot"
 
 
+CHANNEL_FIELDS = ("C{}", "Ch{}", "Chan{}")
+"""Names of output/input channel n in RCOU and RCIN, newest first: C<n> (2015 on), Ch<n> and Chan<n> (older)."""
+
+
+def _channel_field(m: Any, name: str, channel: int, path: Path) -> str:
+    """The field of ``m`` (an RCOU or RCIN message) that holds ``channel``; a missing channel is an error."""
+    for pattern in CHANNEL_FIELDS:
+        if pattern.format(channel) in m._fieldnames:
+            return pattern.format(channel)
+    raise InputError(f"{path}: {name} has no channel {channel} (its fields: {', '.join(m._fieldnames)}); the "
+                     f"calibration's {'SERVO' if name == 'RCOU' else 'RC'}{channel} is not in this log")
+
+
+def _dataflash_boot_s(m: Any) -> float | None:
+    """Time since boot of a DataFlash message, s: TimeUS (2015 on), or in older logs TimeMS — except in GPS,
+    where TimeMS is the GPS time of week and T is the time since boot. None: the message has no clock."""
+    time_us = getattr(m, "TimeUS", None)
+    if time_us is not None:
+        return float(time_us) * 1e-6
+    if m.get_type() in ("GPS", "GPS2"):
+        boot_ms = getattr(m, "T", None)
+        return None if boot_ms is None else float(boot_ms) * 1e-3
+    time_ms = getattr(m, "TimeMS", None)
+    return None if time_ms is None else float(time_ms) * 1e-3
+
+
 def _read_dataflash(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[str, Any]) -> None:
-    """Stream a DataFlash log into ``rows`` (first two columns: TimeUS in s, boot index 0)."""
+    """Stream a DataFlash log into ``rows`` (first two columns: time since boot in s, boot index 0)."""
     from pymavlink import DFReader
 
     reader = DFReader.DFReader_binary(str(path))
     base = float(getattr(reader.clock, "timebase", 0.0) or 0.0) \
-        if isinstance(reader.clock, DFReader.DFReaderClock_usec) else 0.0
+        if isinstance(reader.clock, (DFReader.DFReaderClock_usec, DFReader.DFReaderClock_msec)) else 0.0
     servo_channels = plan.numbered("SERVO")
     rc_channels = plan.numbered("RC")
     if plan.channels.get("MANUAL_CONTROL"):
@@ -636,8 +662,12 @@ def _read_dataflash(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[
             rows["IMU"].add((t, 0.0, m.GyrX, -m.GyrY, -m.GyrZ, m.AccX, -m.AccY, -m.AccZ))
 
     def channels(name: str, chans: list[int]) -> Callable[[Any, float], None]:
+        fields: list[str] = []
+
         def read(m: Any, t: float) -> None:
-            rows[name].add((t, 0.0, *(float(getattr(m, f"C{c}", -1)) for c in chans)))
+            if not fields:
+                fields.extend(_channel_field(m, name, c, path) for c in chans)
+            rows[name].add((t, 0.0, *(float(getattr(m, f)) for f in fields)))
         return read
 
     handlers: dict[str, Callable[[Any, float], None]] = {"GPS": gps, "ATT": att, "IMU": imu}
@@ -657,11 +687,11 @@ def _read_dataflash(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[
             if m is None:
                 break
             name = m.get_type()
-            time_us = getattr(m, "TimeUS", None)
-            if name not in handlers or time_us is None:
+            boot_s = _dataflash_boot_s(m)
+            if name not in handlers or boot_s is None:
                 continue
             counts[name] = counts.get(name, 0) + 1
-            t = time_us * 1e-6 + base
+            t = boot_s + base
             if not first <= t:
                 first = t
             if not last >= t:
@@ -676,8 +706,9 @@ def _read_dataflash(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[
     if odd:
         info["notes"].append(f"{odd} message(s) with unexpected fields skipped")
     info.update(message_counts=counts, corrupt=0, log_span_s=(first, last), reboots=0)
-    info["time_base"] = ("Unix time: TimeUS + the log's GPS time base" if base
-                         else "seconds since autopilot boot (TimeUS; no GPS time in the log)")
+    stamp = "TimeMS" if isinstance(reader.clock, DFReader.DFReaderClock_msec) else "TimeUS"
+    info["time_base"] = (f"Unix time: {stamp} + the log's GPS time base" if base
+                         else f"seconds since autopilot boot ({stamp}; no GPS time in the log)")
 
 
 def _time_spikes(t: np.ndarray) -> np.ndarray:
