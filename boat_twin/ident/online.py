@@ -1,8 +1,8 @@
 """Online identification: recursive least squares, a steady-state detector, and the one identifier class
 that the ROS node and bag replay both feed sample by sample (no ROS here).
 
-Steady-state criterion (stated): thrust is constant while it stays within max(5 N, 1 %) of the segment's
-first value. When the segment ends, its speed is tested over tails of growing length (``window_s`` = 20 s,
+Steady-state criterion (stated): thrust is constant while it stays within max(``thrust_tolerance_N``, 1 %) of the
+segment's first value. When the segment ends, its speed is tested over tails of growing length (``window_s``,
 then in steps of ``window_s``/2, up to the whole segment, at most its last ``max_segment_s``): a straight
 line v = a + b·t is fitted by least squares, and the tail passes when
 
@@ -16,6 +16,9 @@ line v = a + b·t is fitted by least squares, and the tail passes when
 The steady point is the mean over the longest tail whose shorter tails all pass and whose drift bound is no
 looser than the shortest tail's (so a slow approach is not averaged in). A segment whose shortest tail fails
 never settled: it is rejected with the reason, never averaged into a biased point.
+
+The defaults (window 20 s, tolerance 5 N) suit the 6 m boat and its GNSS, and are what the live identifier
+uses; ``boat-twin identify`` sizes both from the recording (:mod:`boat_twin.ident.settling`).
 """
 
 from __future__ import annotations
