@@ -124,9 +124,16 @@ class SteadyCriteria:
     """Only the last this-many seconds of a segment are kept and analysed (bounded memory online), s."""
     max_gap_s: float = 1.0
     """A sampling gap longer than this splits the analysable tail, s."""
+    noise_correlation_s: float = 0.0
+    """Time over which the speed's noise is correlated, s (0: white noise, as a receiver's velocity; a speed
+    smoothed from positions: the smoother's window). The trend's standard error counts one independent sample
+    per this much time."""
 
     def __post_init__(self) -> None:
-        if not all(math.isfinite(v) and v > 0.0 for v in asdict(self).values()):
+        values = asdict(self)
+        if not (math.isfinite(values.pop("noise_correlation_s")) and self.noise_correlation_s >= 0.0):
+            raise InputError("steady-state criteria: noise_correlation_s must be a number >= 0")
+        if not all(math.isfinite(v) and v > 0.0 for v in values.values()):
             raise InputError("steady-state criteria: every setting must be a positive number")
         if self.max_segment_s < self.window_s:
             raise InputError("steady-state criteria: max_segment_s must be at least window_s")
@@ -199,7 +206,7 @@ def analyse_segment(
     if held < criteria.window_s - EDGE_TOLERANCE_S or t.size - first < 4:
         after = " after a sampling gap" if gaps.size else ""
         return rejected(
-            f"held {held:.1f} s{after}, shorter than the {criteria.window_s:g} s test window",
+            f"held {held:.1f} s{after}, shorter than the {criteria.window_s:.3g} s test window",
             float(np.mean(speed[first:])),
         )
     starts = np.maximum(_tail_starts(t, first, criteria.window_s), first)
@@ -217,9 +224,12 @@ def analyse_segment(
     syy = svv - sv * sv / n
     slope = sxy / sxx
     spread = np.sqrt(np.maximum(syy - slope * sxy, 0.0) / (n - 2.0))
-    se = spread / np.sqrt(sxx)
     length = t[-1] - t[starts]
-    drift = (np.abs(slope) + stats.t.ppf(0.975, n - 2.0) * se) * length
+    # correlated noise: one independent sample per noise_correlation_s (at most n)
+    per_sample = np.maximum(criteria.noise_correlation_s * (n - 1.0) / np.maximum(length, 1e-9), 1.0)
+    se = spread / np.sqrt(sxx) * np.sqrt(per_sample)
+    dof = np.maximum(n / per_sample - 2.0, 1.0)
+    drift = (np.abs(slope) + stats.t.ppf(0.975, dof) * se) * length
     bound = np.maximum(criteria.max_drift_mps, criteria.max_drift_rel * np.abs(speed[-1] + sv / n))
     # a longer tail is used only while it bounds the drift at least as tightly as the shortest one
     ok = (drift <= bound) & (spread <= criteria.max_spread_mps) & (drift <= drift[0])
@@ -245,7 +255,7 @@ def analyse_segment(
         float(length[j]),
         float(drift[j]),
         float(spread[j]),
-        float(spread[j] / np.sqrt(n[j])),
+        float(spread[j] / np.sqrt(n[j] / per_sample[j])),
     )
 
 

@@ -197,16 +197,19 @@ def identify_recordings(
     criteria: SteadyCriteria | None = None,
     window_s: float | None = None,
     thrust_tolerance_N: float | None = None,
+    noise_correlation_s: float = 0.0,
+    speed_noise_mps: float | None = None,
     window: DynamicWindow | None = None,
     memory_s: float = 3600.0,
 ) -> IdentifyResult:
     """Identify a boat from one or more recordings of (time s, total thrust N, speed m/s), pooled in one fit.
 
     Steady points (detector, run on each recording; its criteria derived from the data by
-    :func:`~boat_twin.ident.settling.derive_criteria`, ``window_s`` / ``thrust_tolerance_N`` overriding, or
-    ``criteria`` taken as given), steady fits of N = 1..``max_order`` with CV/BIC selection (or ``order``),
-    mass + Fc from transients (own order selection), and the online identifier replayed over the same
-    samples with its agreement with batch. Steady fits impose Fc(0) = 0 unless ``through_origin`` is False
+    :func:`~boat_twin.ident.settling.derive_criteria`, ``window_s`` / ``thrust_tolerance_N`` overriding,
+    ``noise_correlation_s`` > 0 and ``speed_noise_mps`` for a speed smoothed from positions; or ``criteria``
+    taken as given), steady fits of N = 1..``max_order`` with CV/BIC selection (or ``order``), mass + Fc from
+    transients (own order selection), and the online identifier replayed over the same samples with its agreement
+    with batch. Steady fits impose Fc(0) = 0 unless ``through_origin`` is False
     (trial steady points start above rest: a free c_0 would be an extrapolation). Returns the ``--json``
     contract (SI): ``steady_points``, ``rejected_segments``, ``steady_criteria``, ``fits``, ``selected_order``,
     ``selection_reason``, ``dynamic``, ``online``, ``model`` (for :func:`write_model_yaml`) and ``warnings``.
@@ -215,7 +218,8 @@ def identify_recordings(
     segment names its ``recording`` (0-based).
     """
     pieces = pool(recordings)
-    derived = derive_criteria(pieces, criteria, window_s=window_s, thrust_tolerance_N=thrust_tolerance_N)
+    derived = derive_criteria(pieces, criteria, window_s=window_s, thrust_tolerance_N=thrust_tolerance_N,
+                              noise_correlation_s=noise_correlation_s, speed_noise_mps=speed_noise_mps)
     if criteria is not None and window_s is None and thrust_tolerance_N is None:
         derived = replace(derived, criteria=criteria, given=("all",))
     criteria = derived.criteria
@@ -337,9 +341,11 @@ def identify_trials(trials: list[Trial], *, order: int | None = None, max_order:
     samples = []
     for trial in trials:
         samples.append(trial_samples(trial))
-    result = TrialIdentifyResult(**identify_recordings(samples, order=order, max_order=max_order,
-                                                       monotone=monotone, window_s=window_s,
-                                                       thrust_tolerance_N=thrust_tolerance_N))
+    result = TrialIdentifyResult(**identify_recordings(
+        samples, order=order, max_order=max_order, monotone=monotone, window_s=window_s,
+        thrust_tolerance_N=thrust_tolerance_N,
+        noise_correlation_s=max(trial.metadata.speed_smoothing_s for trial in trials),
+        speed_noise_mps=max(trial.metadata.derived_speed_noise_mps for trial in trials) or None))
     result["warnings"] += [w for trial in trials for w in trial_warnings(trial)]
     entries: list[dict[str, Any]] = []
     resims: list[Resimulation | None] = []
@@ -370,7 +376,7 @@ def trial_warnings(trial: Trial) -> list[str]:
             + [f"{source}: {role}: {count} sample(s) with NaN values dropped as dropouts (gaps)"
                for role, count in meta.dropouts.items()]
             + [f"{source}: {role} {how}" for role, how in meta.derived.items()]
-            + [f"{source}: {note}" for note in meta.notes])
+            + [f"{source}: {note}" for note in meta.stream_choices])
 
 
 def identify_table(monotone: bool = False, order: int | None = None, max_order: int = 8,

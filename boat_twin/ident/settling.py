@@ -15,13 +15,16 @@ the recording shows:
   does not contain the sample it is paired with, so noise does not bias the numerator.
 - **Window.** A tail of length L over an approach still e^{-1} away shows a drift of 0.63 of the remaining
   gap, so with L ≥ τ a tail that passes the drift test is biased by at most ~1.6 drift bounds; and the drift
-  test's noise term, 2·σ·√(12/n) for n = L·rate samples, may use at most half the drift bound:
-  L ≥ 12·(4σ/bound)²/rate. The window is the larger of the two, and at least 10 samples. With the
-  catamaran's GNSS (σ = 0.05 m/s, 10 Hz, bound 0.05 m/s) the noise term alone gives 19.2 s, the 20 s the
-  fixed window had; a 15 kg boat with a 0.02 m/s speed noise gets about 3 s.
+  test's noise term, t₀.₉₇₅(n − 2)·σ·√(12/n) for n = L·rate samples, may use at most half the drift bound
+  (about L ≥ 12·(4σ/bound)²/rate). The window is the larger of the two, and at least 10 samples. With the
+  catamaran's GNSS (σ = 0.05 m/s, 10 Hz, bound 0.05 m/s) the noise term alone gives 18.6 s, close to the
+  20 s the fixed window had; a 15 kg boat with a 0.02 m/s speed noise gets about 3 s.
 
 σ is the white-noise standard deviation of speed from its second differences
-(:func:`boat_twin.signal_noise.white_noise_stdev`).
+(:func:`boat_twin.signal_noise.white_noise_stdev`). A speed smoothed from positions has noise correlated over the
+smoother's window: σ is then the smoother's own statement (or the second differences of samples one window apart),
+the noise rule counts one independent sample per window, and so does the detector
+(``SteadyCriteria.noise_correlation_s``).
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from scipy import stats
 
 from boat_twin.ident.online import SteadyCriteria
 from boat_twin.signal_noise import white_noise_stdev
@@ -134,25 +138,41 @@ def time_constant(pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], toler
     return den / num
 
 
+def noise_samples(sigma: float, budget: float) -> int:
+    """Fewest independent samples n for which the drift test's noise term t₀.₉₇₅(n − 2)·σ·√(12/n) (the 95 %
+    bound of a fitted trend times the tail length) stays within ``budget`` (same unit as ``sigma``)."""
+    n = 4
+    while stats.t.ppf(0.975, n - 2) * sigma * math.sqrt(12.0 / n) > budget:
+        n = n + 1 if n < 64 else int(n * 1.1)
+    return n
+
+
 def derive_criteria(pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
                     base: SteadyCriteria | None = None, *, window_s: float | None = None,
-                    thrust_tolerance_N: float | None = None) -> DerivedCriteria:
+                    thrust_tolerance_N: float | None = None, noise_correlation_s: float = 0.0,
+                    speed_noise_mps: float | None = None) -> DerivedCriteria:
     """Criteria for one or more recordings ``pieces`` of (t s, thrust N, speed m/s); ``window_s`` and
-    ``thrust_tolerance_N`` given override the derived values. The other settings come from ``base``."""
+    ``thrust_tolerance_N`` given override the derived values. ``noise_correlation_s``: the speed's noise is
+    correlated over this long (a speed smoothed from positions): its σ is then estimated from samples this far
+    apart (unless ``speed_noise_mps`` states it), and the noise rule counts one independent sample per this much
+    time. Other settings: ``base``."""
     base = base or SteadyCriteria()
     rate = float(np.median(np.concatenate([1.0 / np.diff(t) for t, _, _ in pieces if t.size > 1])))
-    noise = [white_noise_stdev(v) for _, _, v in pieces if v.size > 3]
+    stride = max(1, int(round(noise_correlation_s * rate)))
+    noise = [white_noise_stdev(v[::stride]) for _, _, v in pieces if v.size > 3 * stride]
     sigma = float(np.nanmedian(noise)) if noise and np.any(np.isfinite(noise)) else 0.0
+    if speed_noise_mps is not None:
+        sigma = speed_noise_mps
     tolerance, resolution, jitter = thrust_tolerance([f for _, f, _ in pieces])
     if thrust_tolerance_N is not None:
         tolerance = thrust_tolerance_N
     tau = time_constant(pieces, tolerance, base.thrust_tolerance_rel, sigma)
-    window = max(tau or 0.0, 12.0 * (2.0 * sigma / (NOISE_SHARE * base.max_drift_mps)) ** 2 / rate,
+    window = max(tau or 0.0, noise_samples(sigma, NOISE_SHARE * base.max_drift_mps) * stride / rate,
                  MIN_WINDOW_SAMPLES / rate)
     if window_s is not None:
         window = window_s
     given = tuple(name for name, value in (("window", window_s), ("thrust tolerance", thrust_tolerance_N))
                   if value is not None)
     criteria = replace(base, window_s=float(window), thrust_tolerance_N=float(tolerance),
-                       max_segment_s=max(base.max_segment_s, float(window)))
+                       max_segment_s=max(base.max_segment_s, float(window)), noise_correlation_s=noise_correlation_s)
     return DerivedCriteria(criteria, tau, sigma, rate, resolution, jitter, given)

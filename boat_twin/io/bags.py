@@ -287,5 +287,5 @@ def read_trial(
         raise InputError(f"{source}: cannot read bag ({type(err).__name__}: {err})") from None
     streams = {role: rows.pop(role).stream() for role in topics}
     trial = build_trial(streams, source, topics, origin, release=True)
-    trial.metadata.notes += notes
+    trial.metadata.stream_choices += notes
     return trial

@@ -55,7 +55,11 @@ class TrialMetadata:
     """GNSS role → samples dropped because a value they normally carry was NaN (dropouts, become gaps)."""
     derived: dict[str, str] = field(default_factory=dict)
     """Role → how it was derived from another stream (e.g. GNSS velocity from positions), in words."""
-    notes: list[str] = field(default_factory=list)
+    speed_smoothing_s: float = 0.0
+    """Window of the smoother that derived the velocity from positions, s (0: a measured velocity)."""
+    derived_speed_noise_mps: float = 0.0
+    """Noise of that derived speed, stated by the smoother from the positions' noise, m/s (0: not derived)."""
+    stream_choices: list[str] = field(default_factory=list)
     """How the reader chose streams it did not find by their default names, in words."""
     start_time_s: float = 0.0
     """Absolute time of t = 0 (e.g. Unix time of the first GNSS sample), s."""
@@ -74,7 +78,7 @@ class TrialMetadata:
             parts.append(f"{role}: {count} stamp(s) ran backwards (up to {back_s:.3g} s), dropped")
         parts += [f"{role}: {count} NaN sample(s) dropped" for role, count in self.dropouts.items()]
         parts += [f"{role} {how}" for role, how in self.derived.items()]
-        parts += self.notes
+        parts += self.stream_choices
         return f"{self.source}: " + "; ".join(parts)
 
 
@@ -212,8 +216,9 @@ SPEED_WINDOW_S = (1.0, 10.0)
 
 
 def velocity_from_positions(east_m: np.ndarray, north_m: np.ndarray, period_s: float
-                            ) -> tuple[np.ndarray, np.ndarray, str]:
-    """ENU velocity (m/s) from positions on a uniform grid, and how it was derived, in words.
+                            ) -> tuple[np.ndarray, np.ndarray, float, float, str]:
+    """ENU velocity (m/s) from positions on a uniform grid, the smoothing window (s), the speed noise it states
+    (m/s) and how it was derived, in words.
 
     Smoother: Savitzky–Golay, a local quadratic fitted over a centred window of N samples, differentiated at its
     centre — no lag for motion up to constant acceleration. For white position noise σ_p its velocity noise is
@@ -239,7 +244,7 @@ def velocity_from_positions(east_m: np.ndarray, north_m: np.ndarray, period_s: f
                 vel[start:stop, k] = savgol_filter(pos[start:stop], n, 2, deriv=1, delta=period_s, mode="interp")
     how = (f"derived from GNSS positions (no velocity stream): Savitzky-Golay local quadratic over "
            f"{n * period_s:.3g} s, no lag; position noise {sigma_p:.3g} m gives speed noise {sigma_v:.3g} m/s")
-    return vel[:, 0], vel[:, 1], how
+    return vel[:, 0], vel[:, 1], n * period_s, float(sigma_v), how
 
 
 def _nan_runs(role: str, t_s: np.ndarray, values: np.ndarray) -> list[tuple[str, float, float]]:
@@ -353,7 +358,8 @@ def build_trial(
         east[block], north[block], _ = pymap3d.geodetic2enu(fix[block, 0], fix[block, 1], fix[block, 2], *origin)
     vel = columns["gnss_vel"]
     if "gnss_vel" in meta.missing and "gnss_fix" in meta.counts:
-        vel_east, vel_north, how = velocity_from_positions(east, north, period)
+        vel_east, vel_north, meta.speed_smoothing_s, meta.derived_speed_noise_mps, how = velocity_from_positions(
+            east, north, period)
         vel = np.column_stack([vel_east, vel_north])
         meta.missing.remove("gnss_vel")
         meta.derived["gnss_vel"] = how
