@@ -1,5 +1,5 @@
-"""Recordings the twin did not make: a 15 kg survey boat from a small independent integrator, common driver topic
-layouts (``/fix``, ``/imu/data``, ``/vel``), a fix-only bag, and an older ArduPilot DataFlash log.
+"""Recordings the twin did not make (issue 14): a 15 kg survey boat from a small independent integrator, common
+driver topic layouts (``/fix``, ``/imu/data``, ``/vel``), a fix-only bag, and an older ArduPilot DataFlash log.
 
 The survey boat (written here, not the twin's simulator): effective surge mass 16.5 kg (a 15 kg hull + 10 % added
 mass), Fc(v) = 6·v + 12·v·|v| N, each thruster's delivered thrust lagging its command with a 0.2 s time constant,
@@ -17,6 +17,9 @@ import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from boat_twin.cli import main
+from boat_twin.cli.identify import rejected_summary
+from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, residual
+from boat_twin.diagnose.report import signal_rmse
 from boat_twin.errors import InputError
 from boat_twin.ident.online import SteadyCriteria
 from boat_twin.ident.pipeline import identify_arrays, identify_recordings
@@ -304,3 +307,30 @@ def test_an_older_dataflash_log_with_timems_and_rcou_ch_reads(tmp_path) -> None:
                                     "thrust_right": {"source": "SERVO9", "table": [[1500, 0.0], [1900, 20.0]]}}}
     with pytest.raises(InputError, match=r"RCOU has no channel 9 \(its fields: TimeMS, Ch1, Ch2, Ch3, Ch4\)"):
         read_mavlink_trial(tmp_path / "old.BIN", calibration_from_dict(missing_channel))
+
+
+# Smaller: heading residuals wrapped, rejected segments summarised (item 8).
+
+def test_a_heading_a_turn_apart_is_no_error() -> None:
+    """The measured heading is unwrapped (it may have run several turns); a prediction 2π·k away plus 0.01 rad is
+    0.01 rad off, in the RMSE the report prints and in the residuals the search fits."""
+    t = np.tile(np.arange(50.0)[:, None] * 0.1, (1, 3))
+    measured = {s: np.zeros_like(t) for s in SIGNALS}
+    measured["heading_rad"] = 2.0 * math.pi * np.array([1.0, 2.0, -3.0]) + 3.13 + 0.0 * t
+    predicted = {s: np.zeros_like(t) for s in SIGNALS}
+    predicted["heading_rad"] = np.full_like(t, -3.14)  # 3.13 and −3.14 are 0.0132 rad apart across ±π
+    position = np.zeros((*t.shape, 2))
+    windows = Windows(t, np.zeros((*t.shape, 4)), measured, position, None, np.arange(3))
+    rmse = signal_rmse(windows, Prediction(predicted, position))
+    assert rmse["heading_rad"] == pytest.approx(2.0 * math.pi - 6.27, abs=1e-9)
+    wrapped = residual("heading_rad", np.array([math.pi, -math.pi, 0.5]), np.zeros(3))
+    np.testing.assert_allclose(wrapped, [math.pi, math.pi, 0.5])  # (−π, π]
+    assert residual("vel_east_mps", np.array([7.0]), np.array([0.5]))[0] == 6.5
+
+
+def test_rejected_segments_are_counted_by_reason_in_the_text() -> None:
+    rejected = ([{"reason": f"held {x:.1f} s, shorter than the 20 s test window"} for x in range(100)]
+                + [{"reason": "speed never settled: trend +0.01 m/s²"}] * 5
+                + [{"reason": "speed unsteady: spread 0.3 m/s > 0.2 m/s"}] * 3)
+    assert rejected_summary(rejected) == ("rejected segments: 100 held shorter than the test window, 5 speed never "
+                                          "settled, 3 speed unsteady (each with its reason in --json / identify.json)")

@@ -30,11 +30,11 @@ boot, the smallest (receive − boot) seen, i.e. the least-delayed message (rece
 delay are corrupt and ignored): the receive jitter of the radio link is removed; clock drift (tens of ppm) is
 not modelled. A boot time that jumps back by more than :data:`REBOOT_BACKSTEP_S` starts a new boot (a reboot,
 counted). Messages without a clock of their own (MANUAL_CONTROL) keep the receive time. A DataFlash log's
-clock is TimeUS since boot, plus pymavlink's GPS time base when the log has GPS time (Unix time then). A stamp
-that leaps away from both neighbours and back (a corrupt time field) is dropped and counted; backward steps of
-a stream's stamps are counted (``non_monotone``) and the samples sorted; gaps and missing streams are reported
-as for bags, and a command read from periodic telemetry is NaN (unknown, reported as a gap) where that
-telemetry fell silent, not held.
+clock is TimeUS since boot (older logs: TimeMS; in GPS, T), plus pymavlink's GPS time base when the log has GPS
+time. A stamp that leaps away from both neighbours and back (a corrupt time field) is dropped and counted;
+backward steps of a stream's stamps are counted (``non_monotone``) and the samples sorted; gaps and missing
+streams are reported as for bags, and a command read from periodic telemetry is NaN (unknown, reported as a
+gap) where that telemetry fell silent, not held.
 
 Calibration. Commands are logged as PWM pulse widths (µs) or joystick axes; a YAML calibration map (see
 ``config/mavlink/``) turns them into per-engine thrust (N) and steering angle (rad)::
@@ -44,9 +44,10 @@ Calibration. Commands are logged as PWM pulse widths (µs) or joystick axes; a Y
       angle_left:   {source: SERVO2, table: [[1100, -0.5236], [1900, 0.5236]]}
       angle_right:  {value: 0.0}
 
-``source`` is ``SERVO<n>`` (SERVO_OUTPUT_RAW servo<n>_raw / RCOU C<n>), ``RC<n>`` (RC_CHANNELS chan<n>_raw /
-RCIN C<n>) or ``MANUAL_CONTROL.<x|y|z|r>`` (.tlog only, axis units −1000…1000); ``table`` lists [input, value]
-points with the input strictly increasing and the value monotone, linear in between and clamped beyond;
+``source`` is ``SERVO<n>`` (SERVO_OUTPUT_RAW servo<n>_raw / RCOU C<n>, or Ch<n>, Chan<n> in older logs), ``RC<n>``
+(RC_CHANNELS chan<n>_raw / RCIN C<n>) or ``MANUAL_CONTROL.<x|y|z|r>`` (.tlog only, axis units −1000…1000);
+``table`` lists [input, value] points with the input strictly increasing and the value monotone, linear in
+between and clamped beyond; a channel the log does not have is an error naming it.
 ``value`` gives a constant instead (e.g. outboards that do not steer). The steering angle is the twin's: the
 counter-clockwise (FLU) angle of the thrust vector, positive pushes the stern to port and turns the boat to
 starboard. A pulse width of 0 (no pulse) or 65535 (unused channel) and a MANUAL_CONTROL axis of 32767 (invalid)
@@ -971,8 +972,10 @@ def _check_grid_size(streams: dict[str, Stream], log: MavlinkLog) -> None:
                          f"(> {MAX_GRID_SAMPLES} samples): corrupt time fields?")
 
 
-def trial_from_log(log: MavlinkLog, origin: tuple[float, float, float] | None = None) -> Trial:
-    """Put a log's streams on the Trial grid with :func:`~boat_twin.io.trial.build_trial`.
+def trial_from_log(log: MavlinkLog, origin: tuple[float, float, float] | None = None, *,
+                   derive_velocity: bool = True) -> Trial:
+    """Put a log's streams on the Trial grid with :func:`~boat_twin.io.trial.build_trial` (``derive_velocity``:
+    a missing velocity is derived from the positions).
 
     A log without GNSS (a DataFlash log of a vehicle without GPS) is gridded on its attitude (or command)
     samples, with position and velocity NaN and reported missing; a log without mapped commands gives NaN
@@ -999,7 +1002,7 @@ def trial_from_log(log: MavlinkLog, origin: tuple[float, float, float] | None = 
         streams["thrust_left"] = Stream(np.array([start]), np.array([[np.nan]]))
         placeholders.append("thrust_left")
     _check_grid_size(streams, log)
-    trial = build_trial(streams, log.source, topics, origin)
+    trial = build_trial(streams, log.source, topics, origin, derive_velocity=derive_velocity)
     meta = trial.metadata
     for role in placeholders + list(log.constants):
         meta.counts.pop(role, None)
@@ -1024,7 +1027,8 @@ def read_mavlink_trial(
     origin: tuple[float, float, float] | None = None,
 ) -> Trial:
     """A .tlog or DataFlash .BIN as a :class:`Trial` (metadata: :class:`MavlinkTrialMetadata`)."""
-    return trial_from_log(read_mavlink_log(path, calibration, remap, namespace), origin)
+    return trial_from_log(read_mavlink_log(path, calibration, remap, namespace), origin,
+                          derive_velocity="gnss_vel" not in (remap or {}))  # a named velocity source stays missing
 
 
 def is_mavlink_log(path: Path) -> bool:

@@ -282,13 +282,16 @@ def build_trial(
     origin: tuple[float, float, float] | None = None,
     *,
     release: bool = False,
+    derive_velocity: bool = True,
 ) -> Trial:
     """Put the streams of one trial on a common grid (see the module docstring).
 
     Requires a GNSS fix or velocity stream (it sets the grid) and at least one command overlapping it.
     ``origin`` is the geodetic origin of the local ENU frame (default: the first fix). With ``release`` the
     caller hands the streams over: each is removed from ``streams`` once it is on the grid, so a long trial's
-    samples and its grid are not both held in full.
+    samples and its grid are not both held in full. Without a velocity stream, the velocity is derived from the
+    positions (:func:`velocity_from_positions`) unless ``derive_velocity`` is False (a velocity source was
+    named and is absent: it stays missing).
     """
     meta = TrialMetadata(source=source, topics=dict(topics))
     data = {}
@@ -357,7 +360,7 @@ def build_trial(
         block = slice(start, start + GRID_BLOCK)
         east[block], north[block], _ = pymap3d.geodetic2enu(fix[block, 0], fix[block, 1], fix[block, 2], *origin)
     vel = columns["gnss_vel"]
-    if "gnss_vel" in meta.missing and "gnss_fix" in meta.counts:
+    if derive_velocity and "gnss_vel" in meta.missing and "gnss_fix" in meta.counts:
         vel_east, vel_north, meta.speed_smoothing_s, meta.derived_speed_noise_mps, how = velocity_from_positions(
             east, north, period)
         vel = np.column_stack([vel_east, vel_north])
