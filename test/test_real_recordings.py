@@ -21,6 +21,7 @@ from boat_twin.cli.identify import rejected_summary
 from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, residual
 from boat_twin.diagnose.report import signal_rmse
 from boat_twin.errors import InputError
+from boat_twin.ident.live import LiveIdentifier
 from boat_twin.ident.online import SteadyCriteria
 from boat_twin.ident.pipeline import identify_arrays, identify_recordings
 from boat_twin.io import messages
@@ -334,3 +335,20 @@ def test_rejected_segments_are_counted_by_reason_in_the_text() -> None:
                 + [{"reason": "speed unsteady: spread 0.3 m/s > 0.2 m/s"}] * 3)
     assert rejected_summary(rejected) == ("rejected segments: 100 held shorter than the test window, 5 speed never "
                                           "settled, 3 speed unsteady (each with its reason in --json / identify.json)")
+
+
+def test_the_live_identifier_takes_the_window_and_tolerance() -> None:
+    """The node's ``steady_window_s`` / ``thrust_tolerance_N`` reach the detector the node feeds."""
+    t, f, _, v, *_ = survey_boat()
+    found = {}
+    for window in (20.0, 3.1):
+        live = LiveIdentifier(2, criteria=SteadyCriteria(window_s=window, thrust_tolerance_N=3.5))
+        live.set_command(0, 0.0)
+        live.set_command(1, 0.0)
+        for ti, fi, vi in zip(t, f, v, strict=True):
+            live.set_command(0, fi / 2.0)
+            live.set_command(1, fi / 2.0)
+            live.on_velocity(int(round(ti * 1e9)), vi * math.cos(COURSE_RAD), vi * math.sin(COURSE_RAD))
+        live.core.finish()
+        found[window] = len(live.core.steady_points)
+    assert found[20.0] == 0 and found[3.1] >= len(LEVELS_N) - 2
