@@ -203,7 +203,8 @@ def test_reports_get_the_umask_permissions_a_bag_gets(tmp_path, umask) -> None:
     previous = os.umask(umask)
     try:
         assert main(["identify", "--table", "dyda2021", "--out", str(tmp_path / "report")]) == 0
-        write_bag(tmp_path / "bag.mcap", iter([("gnss/vel", 1, twist_stamped(header(1, "gnss_link"), (1.0, 0.0, 0.0)))]))
+        velocity = twist_stamped(header(1, "gnss_link"), (1.0, 0.0, 0.0))
+        write_bag(tmp_path / "bag.mcap", iter([("gnss/vel", 1, velocity)]))
     finally:
         os.umask(previous)
     expected = 0o666 & ~umask
