@@ -109,7 +109,8 @@ def identification_summary(sample: Trial, out: Path) -> str:
     keep = np.isfinite(sample.surge_thrust_N) & np.isfinite(sample.speed_mps)
     t_s, thrust, speed = sample.t_s[keep], sample.surge_thrust_N[keep], sample.speed_mps[keep]
     result = identify_arrays(t_s, thrust, speed)
-    write_trial_report(out / "identify", result, t_s, thrust, speed)
+    write_trial_report(out / "identify", result, t_s, thrust, speed,
+                       true_resistance_N=TwinConfig().vessel.resistance.force_N)  # the sample's own boat
     fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
     dyn = result["dynamic"]
     paper = reproduce()
