@@ -7,6 +7,7 @@ import math
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter, MaxNLocator
 
 from boat_twin.cable.case import CableCase
 from boat_twin.cable.convergence import ConvergenceStudy
@@ -31,11 +32,19 @@ def shape_figure(case: CableCase, solution: CableSolution) -> Figure:
     ax_cur.plot(case.current.speed_at(depth), depth, color="tab:green")
     ax_cur.axvline(0.0, color="k", lw=0.5)
     ax_cur.set_xlabel("head current V_T, m/s")
+    ax_cur.xaxis.set_major_locator(MaxNLocator(4))
     ax_cur.set_title(f"tow {solution.tow_speed_mps:.2f} m/s")
     ax_cur.grid(True, alpha=0.3)
     ax.invert_yaxis()
     fig.tight_layout()
     return fig
+
+
+def _two_and_five(x: float, _: object = None) -> str:
+    """Minor tick label of a log axis: 2·10^k and 5·10^k written plainly, the others blank (no crowding)."""
+    if x <= 0:
+        return ""
+    return f"{x:g}" if round(x / 10 ** math.floor(math.log10(x)), 6) in (2.0, 5.0) else ""
 
 
 def convergence_figure(study: ConvergenceStudy) -> Figure:
@@ -48,6 +57,9 @@ def convergence_figure(study: ConvergenceStudy) -> Figure:
     ax.loglog(seg, [abs(row.length_error_m) for row in study.rows], "s-", label="|length error| (problem 2)")
     ax.axhline(study.tolerance * study.reference_depth_m, color="gray", ls="--",
                label=f"{study.tolerance:.1%} of depth")
+    for axis in (ax.xaxis, ax.yaxis):  # 0.1, 2, 5 — not 10^-1, 2×10^0
+        axis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
+        axis.set_minor_formatter(FuncFormatter(_two_and_five))
     ax.set_xlabel("link length l, m")
     ax.set_ylabel("error against the continuous cable, m")
     ax.set_title(f"{study.case_name}: observed order {study.depth_order or float('nan'):.3f}")
