@@ -70,8 +70,8 @@ def register(subparsers: Any) -> None:
         "convert",
         help=verb_help("convert"),
         description="Read an ArduPilot/MAVLink log (telemetry .tlog or DataFlash .BIN) and write its trial as a "
-        "rosbag2 (MCAP by default): gnss/fix, gnss/vel, imu/data (ENU/FLU, SI) and, with --calibration, the "
-        "thruster topics (N, rad). Samples keep the log's own time stamps.",
+        "rosbag2 (MCAP by default): gnss/fix, gnss/vel, imu/data (world east-north-up, body forward-left-up; SI "
+        "units) and, with --calibration, the thruster topics (N, rad). Samples keep the log's own time stamps.",
     )
     p.add_argument("log", type=Path, metavar="LOG", help="MAVLink telemetry log (.tlog) or DataFlash log (.BIN)")
     p.add_argument("--out", type=Path, required=True, metavar="BAG",

@@ -38,7 +38,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--model", type=Path, metavar="FILE",
                    help="identified model YAML overriding the vessel (resistance, mass): identify's model.yaml")
     p.add_argument("--current", type=float, nargs=2, metavar=("EAST", "NORTH"),
-                   help="water current over ground, m/s (ENU components)")
+                   help="water current over ground, m/s (its east and north components)")
     p.add_argument("--duration", type=float, metavar="S", help="trial length, s (default: the scenario's own)")
     p.add_argument("--seed", type=int, default=0, help="random seed: the same seed gives the same bag (default 0)")
     p.add_argument("--no-noise", action="store_true", help="exact measurements (no noise, dropouts or bias)")
