@@ -172,20 +172,21 @@ def table_figures(result: dict[str, Any]) -> tuple[Figure, Figure]:
     grid = np.linspace(0.0, speed.max(), 300)
     fits = {f["order"]: f for f in result["fits"]}
     orders = sorted(set(PAPER_ORDERS) | {result["selected_order"]})
-    fig = Figure(figsize=(11, 4.5))
+    fig = Figure(figsize=(11, 4.5), layout="constrained")
     ax_paper, ax_lsq = fig.subplots(1, 2, sharey=True)
-    res = Figure(figsize=(11, 4.5))
+    res = Figure(figsize=(11, 4.5), layout="constrained")
     rx_paper, rx_lsq = res.subplots(1, 2, sharey=True)
     for n in PAPER_ORDERS:
         ax_paper.plot(
             grid, np.polynomial.polynomial.polyval(grid, PAPER_COEFFICIENTS[n]), label=f"paper N = {n}"
         )
         rx_paper.plot(speed, thrust - paper_model_values(n), "o-", ms=3, label=f"paper N = {n}")
-    for n in orders:
+    for k, n in enumerate(orders):  # each order drawn thinner than the one before: close curves all show
         c = fits[n]["coefficients"]
-        ax_lsq.plot(grid, np.polynomial.polynomial.polyval(grid, c), label=f"LSQ N = {n}")
+        ax_lsq.plot(grid, np.polynomial.polynomial.polyval(grid, c), lw=1.0 + 1.0 * (len(orders) - 1 - k),
+                    alpha=0.8, label=f"least squares N = {n}")
         rx_lsq.plot(
-            speed, thrust - np.polynomial.polynomial.polyval(speed, c), "o-", ms=3, label=f"LSQ N = {n}"
+            speed, thrust - np.polynomial.polynomial.polyval(speed, c), "o-", ms=3, label=f"least squares N = {n}"
         )
     for ax, title in ((ax_paper, "paper's coefficients"), (ax_lsq, "least-squares optimum")):
         ax.plot(speed, thrust, "ko", ms=4, label="Table 1")
