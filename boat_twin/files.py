@@ -88,9 +88,14 @@ def ensure_out_dir(path: Path) -> Path:
 def _new_file_mode() -> int:
     """The permissions ``open()`` gives a new file under the process umask (0o644 for the usual 022): the
     temporary files of an atomic write are created 0o600 by :func:`tempfile.mkstemp` and get these before the
-    rename, like every other output (bags included)."""
-    umask = os.umask(0)
-    os.umask(umask)
+    rename, like every other output (bags included). The umask is read from /proc where it is shown (Linux ≥ 4.7),
+    since setting it to read it back would briefly change it for the node threads writing files."""
+    try:
+        with open("/proc/self/status") as status:
+            umask = next(int(line.split()[1], 8) for line in status if line.startswith("Umask:"))
+    except (OSError, StopIteration, ValueError, IndexError):
+        umask = os.umask(0)
+        os.umask(umask)
     return 0o666 & ~umask
 
 
