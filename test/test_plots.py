@@ -97,3 +97,31 @@ def test_evidence_figure_has_plain_ticks_and_no_empty_panel(judged: bool) -> Non
     assert ticks and not any("^" in t or "$" in t for t in ticks), ticks
     message = [t.get_text() for t in ax_gain.texts]
     assert bool(message) is not judged  # the panel explains itself when no bar can be drawn
+
+
+def _windows_and_predictions(same: bool):
+    from types import SimpleNamespace
+
+    from boat_twin.diagnose.replay import SIGNALS, Prediction
+
+    t = np.arange(200.0).reshape(100, 2, order="F")  # two windows of 100 samples
+    rng = np.random.default_rng(2)
+    measured = {s: rng.normal(size=t.shape) for s in SIGNALS}
+    baseline = Prediction({s: np.zeros(t.shape) for s in SIGNALS}, np.zeros((*t.shape, 2)))
+    extended = baseline if same else Prediction({s: np.full(t.shape, 0.5) for s in SIGNALS}, baseline.position)
+    return SimpleNamespace(t_s=t, measured=measured), baseline, extended
+
+
+@pytest.mark.parametrize("same", [True, False])
+def test_diagnosis_figures_never_draw_a_line_hidden_under_another(same: bool) -> None:
+    from boat_twin.diagnose.report import residual_figure, signal_figure
+
+    windows, baseline, extended = _windows_and_predictions(same)
+    for fig in (signal_figure(windows, baseline, extended, ["vel_east_mps"]),
+                residual_figure(windows, baseline, extended)):
+        models = [ln for ax in fig.axes for ln in ax.get_lines() if ln.get_linestyle() == "-" and
+                  np.size(ln.get_xdata()) > 2]  # model lines (not the measured dots, not the zero line)
+        per_axis = len(models) // len(fig.axes)
+        assert per_axis == (1 if same else 2)
+        if not same:  # the baseline underneath is wider than the extended model on top
+            assert models[0].get_linewidth() > models[1].get_linewidth()
