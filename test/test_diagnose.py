@@ -22,6 +22,7 @@ from boat_twin.diagnose import hidden
 from boat_twin.diagnose.effects import EFFECTS, catalogue
 from boat_twin.diagnose.pipeline import diagnose_trial
 from boat_twin.diagnose.replay import SIGNALS, cut_windows, predict
+from boat_twin.diagnose.report import text_report
 from boat_twin.diagnose.search import MIN_MISFIT_SHARE, WIND_ALIASES, Candidate, Fit, misfit_share
 from boat_twin.diagnose.table import runs_test_p
 from boat_twin.io.bags import read_trial, write_bag
@@ -231,6 +232,7 @@ def test_wind_on_a_trial_that_holds_one_heading_is_reported_with_its_alias_not_g
     assert not {"wind", alias} & set(_names(result))
     assert ambiguous["parameters"]["wind"]["east_mps"] == pytest.approx(-6.0, abs=1.0)
     assert result["unexplained"]
+    assert f"ambiguous   {' or '.join(ambiguous['effects'])}" in text_report(result)
 
 
 def test_two_effects_at_once_are_both_named(tmp_path: Path) -> None:

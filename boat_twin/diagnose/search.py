@@ -71,8 +71,8 @@ MIN_MISFIT_SHARE = 0.7
 """A named candidate removes at least this share of the held-out misfit's excess over the noise floor in its
 signals, (m_old − m_new) / (m_old − 1) with m the RMS over the noise floor (unless it leaves them within
 MISFIT_FACTOR of the floor). A wind taken for a thrust asymmetry (issue 17: velocity RMSE 20 % and 12 % lower,
-8× the noise left) removed 14-23 %; catalogue effects hidden in simulated trials remove 75-99 %; the
-out-of-catalogue probes of the accuracy study, 35-50 % (docs/diagnosis.md)."""
+8× the noise left) removes 18 %; in the accuracy study (docs/diagnosis.md) a hidden catalogue effect removes
+81-100 %, a catalogue effect standing in for an out-of-catalogue probe on random commands 5-48 %."""
 CLAIM_FRACTION = 0.1
 """A signal is one a candidate claims when it carries at least this fraction of the candidate's held-out SSE
 reduction."""
@@ -347,7 +347,7 @@ class Selection:
 
 
 def heading_spread_rad(windows: Windows) -> float:
-    """Circular standard deviation of the measured heading over the compared samples, rad."""
+    """Circular standard deviation of the measured heading over the windows, rad."""
     heading = windows.measured["heading_rad"]
     heading = heading[np.isfinite(heading)]
     resultant = float(np.hypot(np.mean(np.cos(heading)), np.mean(np.sin(heading))))
