@@ -17,7 +17,9 @@ fit works in ``x = (p − null) / scale``. Each effect has a *size* (:attr:`Effe
 *threshold* (the size the diagnosis promises to detect: what the tests and the accuracy study hide, at 1.2-2×)
 and a *minimum size* (the decision rule's floor, half the threshold), all in the effect's ``size_unit``.
 ``tow_load``'s size is its ``drag_scale`` (dimensionless: the towed system's drag relative to the packaged body
-on its 50 m cable, which stays 50 m): threshold 0.6, floor 0.3, towed at 1-2 m/s.
+on its 50 m cable, which stays 50 m): threshold 0.6, floor 0.3, towed at 1-2 m/s. ``wind``'s size is the length
+of the change of the wind's velocity, m/s: threshold 4 m/s, floor 2 m/s (its force is the twin's windage model,
+:mod:`boat_twin.vessel.dynamics`, quadratic in the apparent wind).
 
 Adding a diagnosis effect
 -------------------------
