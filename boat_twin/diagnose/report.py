@@ -44,7 +44,20 @@ def _candidate_dict(candidate: Candidate, round_index: int) -> dict[str, Any]:
             "delta_bic": candidate.delta_bic, "round": round_index + 1,
             # null: it failed the in-sample conditions, so it was not judged on held-out time
             "heldout_gain": candidate.heldout_gain if np.isfinite(candidate.heldout_gain) else None,
-            "named": candidate.named, "on_bound": candidate.at_bound, "takes_over": candidate.takes_over}
+            "named": candidate.named, "on_bound": candidate.at_bound, "takes_over": candidate.takes_over,
+            # the signals carrying its held-out gain and the share of their excess over the noise it removes
+            "claims": list(candidate.claims), "misfit_share": candidate.share if np.isfinite(candidate.share) else None}
+
+
+def ambiguity(selection: Selection) -> dict[str, Any] | None:
+    """The candidates this trial cannot tell apart (none of them named), with why; None when there are none."""
+    if not selection.ambiguous:
+        return None
+    return {"effects": [c.effect.name for c in selection.ambiguous],
+            "parameters": {c.effect.name: c.effect.named(c.fit.split()[-1][1]) for c in selection.ambiguous},
+            "round": len(selection.rounds),
+            "reason": "the trial holds one heading: a wind is a constant force in the body frame there, as the "
+                      "other cause is; a trial that turns through many headings tells them apart"}
 
 
 def verdict(selection: Selection) -> list[dict[str, Any]]:
@@ -77,6 +90,7 @@ def result_dict(windows: Windows, selection: Selection, baseline: Prediction, ex
         "extended": {"rmse": signal_rmse(windows, extended)},
         "candidates": candidates,
         "verdict": verdict(selection),
+        "ambiguous": ambiguity(selection),
         "unexplained": bool(signatures),
         "signature": [s.to_dict() for s in signatures],
         "extended_model": extended_model,
@@ -99,6 +113,10 @@ def text_report(result: dict[str, Any]) -> str:
         gains = ", ".join(f"{s} {g:+.0%}" for s, g in v["gain"].items() if abs(g) >= 0.005)
         lines.append(f"verdict     {v['effect']}: " + "; ".join(parts))
         lines.append(f"            held-out gain: {gains}")
+    if result["ambiguous"]:
+        amb = result["ambiguous"]
+        lines.append(f"ambiguous   {' or '.join(amb['effects'])} (round {amb['round']}, neither named): "
+                     f"{amb['reason']}")
     first = [c for c in result["candidates"] if c["round"] == 1]
     lines.append("candidates (round 1)  ΔBIC      held-out gain")
     for c in sorted(first, key=lambda c: c["delta_bic"]):
