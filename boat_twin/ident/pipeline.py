@@ -26,8 +26,10 @@ from boat_twin.ident.paper import reproduce
 from boat_twin.ident.resimulate import Resimulation, resimulate
 from boat_twin.ident.settling import derive_criteria
 from boat_twin.ident.steady import FitResult, fit_power_series, select_order
+from boat_twin.ident.twin_config import identified_vessel, thrust_seen
 from boat_twin.io.trial import COMMAND_ROLES, Trial
 from boat_twin.units import KGF_N, KNOT_MPS
+from boat_twin.vessel.params import VesselParams, params_to_dict
 
 SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
 """Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
@@ -67,6 +69,8 @@ class TrialIdentifyResult(IdentifyResult, total=False):
     """Resimulation.to_dict() of the (first) trial, or ``{"error": why}`` when the loop could not be closed."""
     trials: list[dict[str, Any]]
     """Every pooled trial: source, metadata line, gaps, missing, derived and its own ``resimulation``."""
+    twin: dict[str, Any]
+    """The identified twin's vessel (``vessel``: every fact; ``sources``: where each came from) or ``{"error"}``."""
 
 
 def model_dict(fit: FitResult, effective_mass_kg: float | None = None) -> dict[str, Any]:
@@ -327,17 +331,21 @@ def identify_recordings(
 
 def identify_trial(trial: Trial, **options: Any) -> tuple[TrialIdentifyResult, Resimulation | None]:
     """One recorded trial: :func:`identify_trials` with it alone; returns the result and its re-simulation."""
-    result, resims = identify_trials([trial], **options)
+    result, resims, _ = identify_trials([trial], **options)
     return result, resims[0]
 
 
 def identify_trials(trials: list[Trial], *, order: int | None = None, max_order: int = 6, monotone: bool = False,
                     window_s: float | None = None, thrust_tolerance_N: float | None = None,
-                    ) -> tuple[TrialIdentifyResult, list[Resimulation | None]]:
-    """Recorded trials pooled in one identification (:func:`identify_recordings` on their known samples), then
-    each trial re-simulated with the identified model (closing the loop). ``trial`` and ``resimulation`` (the
-    latter ``{"error": why}`` when the loop cannot be closed) describe the first trial; ``trials`` lists every
-    trial with its own re-simulation. Returns the result and the re-simulations (None where not done)."""
+                    boat: dict[str, float] | None = None,
+                    ) -> tuple[TrialIdentifyResult, list[Resimulation | None], VesselParams | None]:
+    """Recorded trials pooled in one identification (:func:`identify_recordings` on their known samples), the
+    identified twin's vessel built (:func:`~boat_twin.ident.twin_config.identified_vessel`: ``boat`` facts from
+    a boat file, the rest carried from the default boat), then each trial re-simulated with that vessel (closing
+    the loop). ``trial`` and ``resimulation`` (the latter ``{"error": why}`` when the loop cannot be closed)
+    describe the first trial; ``trials`` lists every trial with its own re-simulation; ``twin`` holds the vessel
+    (``vessel``, ``sources``) or ``{"error": why}``. Returns the result, the re-simulations (None where not done)
+    and the vessel (None when no mass is known)."""
     samples = []
     for trial in trials:
         samples.append(trial_samples(trial))
@@ -347,6 +355,13 @@ def identify_trials(trials: list[Trial], *, order: int | None = None, max_order:
         noise_correlation_s=max(trial.metadata.speed_smoothing_s for trial in trials),
         speed_noise_mps=max(trial.metadata.derived_speed_noise_mps for trial in trials) or None))
     result["warnings"] += [w for trial in trials for w in trial_warnings(trial)]
+    vessel: VesselParams | None = None
+    try:
+        vessel, sources = identified_vessel(result["model"], boat or {}, thrust_seen(trials))
+        result["twin"] = {"vessel": params_to_dict(vessel), "sources": sources}
+    except InputError as err:
+        result["twin"] = {"error": str(err)}
+        result["warnings"].append(f"no twin configuration: {err}")
     entries: list[dict[str, Any]] = []
     resims: list[Resimulation | None] = []
     for trial in trials:
@@ -355,7 +370,7 @@ def identify_trials(trials: list[Trial], *, order: int | None = None, max_order:
                                  "derived": trial.metadata.derived}
         resim: Resimulation | None = None
         try:
-            resim = resimulate(trial, result["model"])
+            resim = resimulate(trial, result["model"], vessel)
             entry["resimulation"] = resim.to_dict()
         except InputError as err:  # the identification stands; say why the loop could not be closed
             entry["resimulation"] = {"error": str(err)}
@@ -364,7 +379,7 @@ def identify_trials(trials: list[Trial], *, order: int | None = None, max_order:
     result["trial"] = {k: x for k, x in entries[0].items() if k != "resimulation"}
     result["resimulation"] = entries[0]["resimulation"]
     result["trials"] = entries
-    return result, resims
+    return result, resims, vessel
 
 
 def trial_warnings(trial: Trial) -> list[str]:
