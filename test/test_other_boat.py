@@ -27,6 +27,7 @@ from boat_twin.cli import main
 from boat_twin.config import TwinConfig, load_config, save_config
 from boat_twin.io import messages
 from boat_twin.io.bags import read_trial, write_bag
+from boat_twin.io.sources import read_trial_file
 from boat_twin.units import KGF_N, KNOT_MPS
 from boat_twin.vessel.params import VesselParams, derive_coefficients, params_from_dict, similar_boat
 from boat_twin.vessel.resistance import PowerSeriesResistance
@@ -45,6 +46,8 @@ HOLD_S = 25.0
 """Each level's hold, s: over 30 surge time constants of the Otter (m11/Xu ≈ 0.75 s), and long enough for the
 steady-state test to average a GNSS speed noise of 0.05 m/s."""
 ORIGIN = (59.43, 10.47, 0.0)
+COURSE = math.radians(20.0)
+"""The independent integrator's course, ENU (counter-clockwise from east), rad."""
 
 
 def otter_vessel() -> VesselParams:
@@ -126,9 +129,10 @@ def test_twin_made_otter_identifies_into_a_twin_that_simulates_and_diagnoses_cle
     assert diagnosis["verdict"] == [] and not diagnosis["unexplained"], diagnosis["signature"]
 
 
-def integrator_bag(path, seed=0):
-    """The independent Otter (module docstring) on a straight course 20° north of east, as a bag in the twin's
-    topic layout. Returns (t s, true speed m/s)."""
+def integrate(seed=0):
+    """The independent Otter (module docstring) on a straight course 20° north of east, measured at 10 Hz:
+    (t s, total thrust command N, true speed m/s, acceleration m/s², east m, north m, measured speed m/s,
+    yaw rad, yaw rate rad/s), with white noise on the measurements."""
     rng = np.random.default_rng(seed)
     mass, quadratic, lag = 1.10 * OTTER["mass_kg"], 4.0, 0.1
     dt, sub = 0.1, 10
@@ -150,14 +154,17 @@ def integrator_bag(path, seed=0):
             k4 = deriv(state + h * k3, u)
             state = state + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     speed, distance = rows[:, 0], rows[:, 2]
-    accel = np.gradient(speed, dt)
-    course = math.radians(20.0)
-    east = distance * math.cos(course) + rng.normal(0.0, 0.3, t.size)
-    north = distance * math.sin(course) + rng.normal(0.0, 0.3, t.size)
+    east = distance * math.cos(COURSE) + rng.normal(0.0, 0.3, t.size)
+    north = distance * math.sin(COURSE) + rng.normal(0.0, 0.3, t.size)
+    return (t, command, speed, np.gradient(speed, dt), east, north, speed + rng.normal(0.0, 0.05, t.size),
+            COURSE + rng.normal(0.0, 0.02, t.size), rng.normal(0.0, 0.005, t.size))
+
+
+def integrator_bag(path, seed=0):
+    """:func:`integrate` as a bag in the twin's topic layout. Returns (t s, true speed m/s)."""
+    t, command, speed, accel, east, north, vel, yaw, rate = integrate(seed)
+    course = COURSE
     lat, lon, alt = pymap3d.enu2geodetic(east, north, np.zeros(t.size), *ORIGIN)
-    vel = speed + rng.normal(0.0, 0.05, t.size)
-    yaw = course + rng.normal(0.0, 0.02, t.size)
-    rate = rng.normal(0.0, 0.005, t.size)
     cov = messages.diagonal_covariance([0.09, 0.09, 1.0])
     out = []
     for i, ns in enumerate(messages.stamps_ns(t + 50.0).tolist()):
@@ -198,3 +205,85 @@ def test_an_independently_integrated_otter_gives_a_twin_that_follows_it(tmp_path
     capsys.readouterr()
     assert main(["diagnose", str(tmp_path / "otter.mcap"), "--json"]) == 0  # the default 6 m twin: far off
     assert json.loads(capsys.readouterr().out)["unexplained"]
+    assert main(["identify", str(tmp_path / "otter.mcap"), "--out", str(tmp_path / "no_boat_file")]) == 0
+    guessed = load_config(tmp_path / "no_boat_file" / "twin.yaml").vessel  # the default boat carried to the mass
+    assert guessed.length_m == pytest.approx(6.0 * (guessed.mass_kg / 1300.0) ** (1 / 3))
+    assert 1.8 < guessed.length_m < 2.4 and guessed.bollard_thrust_N == pytest.approx(max(LEVELS_N))
+    assert main(["simulate", "--commands", str(tmp_path / "steps.csv"), "--config",
+                 str(tmp_path / "no_boat_file" / "twin.yaml"), "--out", str(tmp_path / "guessed.mcap")]) == 0
+    capsys.readouterr()
+    (tmp_path / "bad_boat.yaml").write_text("length_m: 2.0\nresistance: {model: power_series}\n")
+    assert main(["identify", str(tmp_path / "otter.mcap"), "--boat", str(tmp_path / "bad_boat.yaml")]) == 2
+    assert "'resistance' cannot be given in a boat file (it is what identify measures)" in \
+        capsys.readouterr().err.strip().splitlines()[-1]
+
+
+PWM_TABLE = [[1100, -13.6 * KGF_N / 2], [1500, 0.0], [1900, BOLLARD_N]]
+"""The CSV's thruster commands are PWM µs; this table (an ESC's, assumed) maps them to N per thruster."""
+
+
+def write_csv(path, seed=0):
+    """:func:`integrate` as a CSV a logger might write: NMEA-style lat/lon, speed and course over ground, compass
+    heading, yaw rate, PWM per thruster; the compass columns at 5 Hz (blank cells in between)."""
+    t, command, speed, _, east, north, vel, yaw, rate = integrate(seed)
+    lat, lon, _ = pymap3d.enu2geodetic(east, north, np.zeros(t.size), *ORIGIN)
+    pwm = np.interp(command / 2.0, [p[1] for p in PWM_TABLE], [p[0] for p in PWM_TABLE])
+    lines = ["time_s,latitude,longitude,sog_mps,cog_deg,hdg_deg,r_radps,pwm_l,pwm_r"]
+    for i in range(t.size):
+        compass = f"{90.0 - math.degrees(yaw[i]):.3f},{rate[i]:.5f}" if i % 2 == 0 else ","
+        lines.append(f"{t[i]:.2f},{lat[i]:.9f},{lon[i]:.9f},{vel[i]:.4f},{90.0 - math.degrees(COURSE):.2f},{compass},"
+                     f"{pwm[i]:.2f},{pwm[i]:.2f}")
+    path.write_text("\n".join(lines) + "\n")
+    return t, speed
+
+
+MAPPING = {"columns": {"time": "time_s", "lat": "latitude", "lon": "longitude", "speed": "sog_mps",
+                       "course": "cog_deg", "heading": "hdg_deg", "yaw_rate": "r_radps", "thrust_left": "pwm_l",
+                       "thrust_right": "pwm_r"},
+           "calibration": {"thrust_left": PWM_TABLE, "thrust_right": PWM_TABLE}}
+
+
+def test_a_csv_trial_identifies_and_diagnoses_like_a_bag(tmp_path, boat_file, capsys) -> None:
+    t, speed = write_csv(tmp_path / "otter.csv")
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump(MAPPING))
+    trial = read_trial_file(tmp_path / "otter.csv", columns=tmp_path / "map.yaml")
+    assert trial.metadata.rates_hz["imu"] == pytest.approx(5.0) and trial.metadata.rates_hz["gnss_vel"] == \
+        pytest.approx(10.0)
+    np.testing.assert_allclose(trial.heading_rad[:-1], COURSE, atol=0.1)  # the last row has no compass
+    truth = np.interp(trial.t_s, t - t[0], speed)
+    assert np.sqrt(np.nanmean((trial.speed_mps - truth) ** 2)) < 0.07
+    assert main(["identify", str(tmp_path / "otter.csv"), "--columns", str(tmp_path / "map.yaml"), "--json",
+                 "--boat", str(boat_file)]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["dynamic"]["mass_kg"] == pytest.approx(1.10 * 55.0, rel=0.15)
+    coef = next(f for f in result["fits"] if f["order"] == result["selected_order"])["coefficients"]
+    grid = np.linspace(0.5, 2.5, 9)
+    np.testing.assert_allclose(np.polynomial.polynomial.polyval(grid, coef), LINEAR_DAMPING * grid + 4.0 * grid**2,
+                               rtol=0.08)
+    capsys.readouterr()
+    assert main(["diagnose", str(tmp_path / "otter.csv"), "--columns", str(tmp_path / "map.yaml"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["unexplained"]  # the default 6 m twin is far off this boat
+    for columns, message in (("time=time_s,speed=sog_mps,thrust_left=pwm_l", "'speed' needs 'course', 'heading'"),
+                             ("time=time_s,lat=latitude,thrust_left=pwm_l", "'lat' and 'lon' go together"),
+                             ("time=time_s,sog=sog_mps", "unknown quantity 'sog'"), (None, "needs --columns")):
+        assert main(["identify", str(tmp_path / "otter.csv")] + (["--columns", columns] if columns else [])) == 2
+        assert message in capsys.readouterr().err.strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize(("edit", "message"), [
+    (lambda rows: rows[:5] + ["0.4,abc" + rows[5][rows[5].index(",", 5):]] + rows[6:],
+     "otter.csv: row 6, column 'latitude': not a number ('abc')"),
+    (lambda rows: rows[:4] + [rows[2]] + rows[5:], "otter.csv: row 5, column 'time_s': time 0.1 s does not increase"),
+    (lambda rows: [rows[0].replace("sog_mps", "speed")] + rows[1:],
+     "otter.csv: column 'sog_mps' (for speed) is not in the header; it has: time_s, latitude"),
+    (lambda rows: rows[:7] + [rows[7].replace(rows[7].split(",")[7], "1e999", 1)] + rows[8:],
+     "otter.csv: row 8, column 'pwm_l': infinite value"),
+])
+def test_a_bad_csv_is_one_line_naming_file_row_and_column(tmp_path, capsys, edit, message) -> None:
+    write_csv(tmp_path / "otter.csv")
+    rows = (tmp_path / "otter.csv").read_text().splitlines()
+    (tmp_path / "otter.csv").write_text("\n".join(edit(rows)) + "\n")
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump(MAPPING))
+    assert main(["identify", str(tmp_path / "otter.csv"), "--columns", str(tmp_path / "map.yaml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert message in err[-1] and "Traceback" not in "\n".join(err)
