@@ -146,11 +146,14 @@ VECTOR3 = messages.TS.types["geometry_msgs/msg/Vector3"]
 TWIST_TYPE = "geometry_msgs/msg/Twist"
 
 
-def write_driver_bag(path, *, velocity_topic=None, extra_fix=None, commands=True, seed=0, position_noise=0.008):
+def write_driver_bag(path, *, velocity_topic=None, extra_fix=None, commands=True, seed=0, position_noise=0.008,
+                     odometry_topic=None):
     """A rosbag2 of the survey boat as common drivers publish it: ``/fix`` (NavSatFix), ``/imu/data`` (Imu),
     optionally a velocity on ``velocity_topic`` (TwistWithCovarianceStamped, as nmea_navsat_driver's
     ``/fix_velocity`` or ``/vel``), a second NavSatFix topic ``extra_fix``, and the thruster commands. Positions
-    carry white noise ``position_noise`` m per axis (8 mm: an RTK fixed solution)."""
+    carry white noise ``position_noise`` m per axis (8 mm: an RTK fixed solution). ``odometry_topic``: a
+    nav_msgs/Odometry as a robot_localization EKF publishes it (pose in ``odom``, twist in ``base_link``: forward
+    speed along the heading)."""
     t, f, speed, _, _, east, north = survey_boat(seed=seed, position_noise=position_noise)
     lat, lon, alt = pymap3d.enu2geodetic(east, north, np.zeros_like(east), *ORIGIN)
     types = {"/fix": "sensor_msgs/msg/NavSatFix", "/imu/data": "sensor_msgs/msg/Imu"}
@@ -158,6 +161,8 @@ def write_driver_bag(path, *, velocity_topic=None, extra_fix=None, commands=True
         types[velocity_topic] = "geometry_msgs/msg/TwistWithCovarianceStamped"
     if extra_fix:
         types[extra_fix] = "sensor_msgs/msg/NavSatFix"
+    if odometry_topic:
+        types[odometry_topic] = "nav_msgs/msg/Odometry"
     if commands:
         types.update({f"/thrusters/{side}/thrust": "std_msgs/msg/Float64" for side in ("left", "right")})
     else:
@@ -172,6 +177,9 @@ def write_driver_bag(path, *, velocity_topic=None, extra_fix=None, commands=True
             out.append((extra_fix, ns, messages.navsatfix(hdr, lat[i], lon[i], alt[i], cov)))
         out.append(("/imu/data", ns, messages.imu(messages.header(ns, "imu"), q, (0.0, 0.0, 0.0), (0.0, 0.0, 9.81),
                                                    cov, cov, cov)))
+        if odometry_topic:
+            out.append((odometry_topic, ns, messages.odometry(messages.header(ns, "odom"), east[i], north[i], q,
+                                                              (speed[i], 0.0), 0.0)))
         if velocity_topic:
             v = VECTOR3(x=speed[i] * math.cos(COURSE_RAD), y=speed[i] * math.sin(COURSE_RAD), z=0.0)
             twist = TWIST(linear=v, angular=VECTOR3(x=0.0, y=0.0, z=0.0))
@@ -222,6 +230,21 @@ def test_a_driver_velocity_topic_is_found_by_type(tmp_path) -> None:
     assert trial.metadata.topics["gnss_vel"] == "/fix_velocity" and not trial.metadata.derived
     truth = np.interp(trial.t_s + trial.metadata.start_time_s - 100.0, t, speed)
     assert np.nanmax(np.abs(trial.speed_mps - truth)) < 1e-9
+
+
+def test_an_odometry_is_the_velocity_when_it_is_the_only_one(tmp_path) -> None:
+    """A robot_localization-style nav_msgs/Odometry (twist in the body frame) read as the ENU velocity, reported;
+    a Twist velocity topic, when there is one, is preferred to it."""
+    t, speed = write_driver_bag(tmp_path / "odom", odometry_topic="/odometry/filtered")
+    trial = read_trial(tmp_path / "odom")
+    assert trial.metadata.topics["gnss_vel"] == "/odometry/filtered" and not trial.metadata.derived
+    assert any("gnss_vel read from /odometry/filtered (nav_msgs/msg/Odometry)" in note and "body-frame twist" in note
+               for note in trial.metadata.stream_choices)
+    truth = np.interp(trial.t_s + trial.metadata.start_time_s - 100.0, t, speed)
+    np.testing.assert_allclose(trial.vel_east_mps, truth * math.cos(COURSE_RAD), atol=1e-9)
+    np.testing.assert_allclose(trial.vel_north_mps, truth * math.sin(COURSE_RAD), atol=1e-9)
+    write_driver_bag(tmp_path / "both", odometry_topic="/odometry/filtered", velocity_topic="/vel")
+    assert read_trial(tmp_path / "both").metadata.topics["gnss_vel"] == "/vel"
 
 
 def test_ambiguous_or_absent_streams_list_what_the_bag_holds(tmp_path, capsys) -> None:
