@@ -27,6 +27,7 @@ from boat_twin.ident.pipeline import identify_arrays, identify_recordings
 from boat_twin.io import messages
 from boat_twin.io.bags import read_trial
 from boat_twin.io.mavlink import calibration_from_dict, read_mavlink_trial
+from boat_twin.vessel.resistance import PowerSeriesResistance, resistance_from_dict
 
 MASS_KG = 16.5
 LINEAR_NS_PER_M, QUADRATIC_NS2_PER_M2 = 6.0, 12.0
@@ -135,6 +136,26 @@ def test_a_trial_far_above_its_steady_points_is_flagged() -> None:
     assert len(flagged) == 1
     assert f"the steady points span 0.00-{top_fit:.2f} m/s" in flagged[0]
     assert float(flagged[0].split("reaches ")[1].split(" m/s")[0]) > 1.3 * top_fit
+
+
+def test_the_transient_fit_carries_the_model_above_the_steady_points() -> None:
+    """Settled holds to 16 N (0.93 m/s), then 4 s bursts up to 60 N (2 m/s) that never settle: above the steady
+    points the model follows the transient fit, much closer to the boat than the quadratic law."""
+    levels = (5.0, 10.0, 16.0, 60.0, 16.0, 45.0, 10.0, 60.0, 5.0, 40.0, 16.0, 0.0)
+    holds = (14.0, 14.0, 14.0) + (4.0,) * 8 + (14.0,)
+    t, f, _, v, *_ = survey_boat(levels, holds)
+    result = identify_arrays(t, f, v)
+    assert any(w.startswith("extrapolation") for w in result["warnings"])
+    assert any("the model follows the transient fit" in w for w in result["warnings"]), result["warnings"]
+    fit = next(x for x in result["fits"] if x["order"] == result["selected_order"])
+    top = max(p["speed_mps"] for p in result["steady_points"])
+    steady_only = PowerSeriesResistance(tuple(fit["coefficients"]), top)  # the quadratic law above the top
+    model = resistance_from_dict(result["model"]["resistance"])
+    grid = np.linspace(1.0, 1.9, 10)
+    scale = np.sqrt(np.mean(resistance(grid) ** 2))
+    extended_error = np.sqrt(np.mean((model.force_N(grid) - resistance(grid)) ** 2)) / scale
+    quadratic_error = np.sqrt(np.mean((steady_only.force_N(grid) - resistance(grid)) ** 2)) / scale
+    assert extended_error < 0.03 and extended_error < 0.5 * quadratic_error
 
 
 # Bags in common driver layouts (items 3 and 4), written here with the drivers' names and types.

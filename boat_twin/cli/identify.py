@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     if args.table is not None:
         return _run_table(args)
     if not args.trial:
-        raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021")
+        raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN, .csv) or --table dyda2021")
     return _run_trial(args)
 
 
