@@ -287,3 +287,24 @@ def test_a_bad_csv_is_one_line_naming_file_row_and_column(tmp_path, capsys, edit
     assert main(["identify", str(tmp_path / "otter.csv"), "--columns", str(tmp_path / "map.yaml")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert message in err[-1] and "Traceback" not in "\n".join(err)
+
+
+def test_a_csv_with_local_positions_and_velocity_components_reads(tmp_path) -> None:
+    """Local x/y (m) from an origin given in the mapping, ENU velocity components, yaw in rad, thrust in N; the
+    inline mapping form."""
+    t, command, speed, _, east, north, vel, yaw, rate = integrate(seed=3)
+    lines = ["t,x,y,ve,vn,psi,tl,tr"] + [
+        f"{t[i]:.2f},{east[i]:.4f},{north[i]:.4f},{vel[i] * math.cos(COURSE):.4f},{vel[i] * math.sin(COURSE):.4f},"
+        f"{yaw[i]:.5f},{command[i] / 2:.3f},{command[i] / 2:.3f}" for i in range(t.size)]
+    (tmp_path / "local.csv").write_text("\n".join(lines) + "\n")
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump({
+        "columns": {"time": "t", "x": "x", "y": "y", "vel_east": "ve", "vel_north": "vn", "yaw": "psi",
+                    "thrust_left": "tl", "thrust_right": "tr"}, "origin": list(ORIGIN[:2])}))
+    trial = read_trial_file(tmp_path / "local.csv", columns=tmp_path / "map.yaml")
+    assert trial.metadata.origin == (ORIGIN[0], ORIGIN[1], 0.0)
+    np.testing.assert_allclose(trial.east_m, east, atol=1e-3)
+    np.testing.assert_allclose(trial.north_m, north, atol=1e-3)
+    np.testing.assert_allclose(trial.speed_mps, np.abs(vel), atol=1e-3)
+    np.testing.assert_allclose(trial.surge_thrust_N, command, atol=1e-3)
+    inline = read_trial_file(tmp_path / "local.csv", columns="time=t,x=x,y=y,thrust_left=tl,thrust_right=tr")
+    assert "derived from GNSS positions" in inline.metadata.derived["gnss_vel"]  # no velocity mapped
