@@ -27,6 +27,7 @@ from boat_twin.ident.pipeline import identify_arrays, identify_recordings
 from boat_twin.io import messages
 from boat_twin.io.bags import read_trial
 from boat_twin.io.mavlink import calibration_from_dict, read_mavlink_trial
+from boat_twin.vessel.resistance import PowerSeriesResistance, resistance_from_dict
 
 MASS_KG = 16.5
 LINEAR_NS_PER_M, QUADRATIC_NS2_PER_M2 = 6.0, 12.0
@@ -137,6 +138,26 @@ def test_a_trial_far_above_its_steady_points_is_flagged() -> None:
     assert float(flagged[0].split("reaches ")[1].split(" m/s")[0]) > 1.3 * top_fit
 
 
+def test_the_transient_fit_carries_the_model_above_the_steady_points() -> None:
+    """Settled holds to 16 N (0.93 m/s), then 4 s bursts up to 60 N (2 m/s) that never settle: above the steady
+    points the model follows the transient fit, much closer to the boat than the quadratic law."""
+    levels = (5.0, 10.0, 16.0, 60.0, 16.0, 45.0, 10.0, 60.0, 5.0, 40.0, 16.0, 0.0)
+    holds = (14.0, 14.0, 14.0) + (4.0,) * 8 + (14.0,)
+    t, f, _, v, *_ = survey_boat(levels, holds)
+    result = identify_arrays(t, f, v)
+    assert any(w.startswith("extrapolation") for w in result["warnings"])
+    assert any("the model follows the transient fit" in w for w in result["warnings"]), result["warnings"]
+    fit = next(x for x in result["fits"] if x["order"] == result["selected_order"])
+    top = max(p["speed_mps"] for p in result["steady_points"])
+    steady_only = PowerSeriesResistance(tuple(fit["coefficients"]), top)  # the quadratic law above the top
+    model = resistance_from_dict(result["model"]["resistance"])
+    grid = np.linspace(1.0, 1.9, 10)
+    scale = np.sqrt(np.mean(resistance(grid) ** 2))
+    extended_error = np.sqrt(np.mean((model.force_N(grid) - resistance(grid)) ** 2)) / scale
+    quadratic_error = np.sqrt(np.mean((steady_only.force_N(grid) - resistance(grid)) ** 2)) / scale
+    assert extended_error < 0.03 and extended_error < 0.5 * quadratic_error
+
+
 # Bags in common driver layouts (items 3 and 4), written here with the drivers' names and types.
 
 TWIST_COV = messages.TS.types["geometry_msgs/msg/TwistWithCovarianceStamped"]
@@ -146,11 +167,14 @@ VECTOR3 = messages.TS.types["geometry_msgs/msg/Vector3"]
 TWIST_TYPE = "geometry_msgs/msg/Twist"
 
 
-def write_driver_bag(path, *, velocity_topic=None, extra_fix=None, commands=True, seed=0, position_noise=0.008):
+def write_driver_bag(path, *, velocity_topic=None, extra_fix=None, commands=True, seed=0, position_noise=0.008,
+                     odometry_topic=None):
     """A rosbag2 of the survey boat as common drivers publish it: ``/fix`` (NavSatFix), ``/imu/data`` (Imu),
     optionally a velocity on ``velocity_topic`` (TwistWithCovarianceStamped, as nmea_navsat_driver's
     ``/fix_velocity`` or ``/vel``), a second NavSatFix topic ``extra_fix``, and the thruster commands. Positions
-    carry white noise ``position_noise`` m per axis (8 mm: an RTK fixed solution)."""
+    carry white noise ``position_noise`` m per axis (8 mm: an RTK fixed solution). ``odometry_topic``: a
+    nav_msgs/Odometry as a robot_localization EKF publishes it (pose in ``odom``, twist in ``base_link``: forward
+    speed along the heading)."""
     t, f, speed, _, _, east, north = survey_boat(seed=seed, position_noise=position_noise)
     lat, lon, alt = pymap3d.enu2geodetic(east, north, np.zeros_like(east), *ORIGIN)
     types = {"/fix": "sensor_msgs/msg/NavSatFix", "/imu/data": "sensor_msgs/msg/Imu"}
@@ -158,6 +182,8 @@ def write_driver_bag(path, *, velocity_topic=None, extra_fix=None, commands=True
         types[velocity_topic] = "geometry_msgs/msg/TwistWithCovarianceStamped"
     if extra_fix:
         types[extra_fix] = "sensor_msgs/msg/NavSatFix"
+    if odometry_topic:
+        types[odometry_topic] = "nav_msgs/msg/Odometry"
     if commands:
         types.update({f"/thrusters/{side}/thrust": "std_msgs/msg/Float64" for side in ("left", "right")})
     else:
@@ -172,6 +198,9 @@ def write_driver_bag(path, *, velocity_topic=None, extra_fix=None, commands=True
             out.append((extra_fix, ns, messages.navsatfix(hdr, lat[i], lon[i], alt[i], cov)))
         out.append(("/imu/data", ns, messages.imu(messages.header(ns, "imu"), q, (0.0, 0.0, 0.0), (0.0, 0.0, 9.81),
                                                    cov, cov, cov)))
+        if odometry_topic:
+            out.append((odometry_topic, ns, messages.odometry(messages.header(ns, "odom"), east[i], north[i], q,
+                                                              (speed[i], 0.0), 0.0)))
         if velocity_topic:
             v = VECTOR3(x=speed[i] * math.cos(COURSE_RAD), y=speed[i] * math.sin(COURSE_RAD), z=0.0)
             twist = TWIST(linear=v, angular=VECTOR3(x=0.0, y=0.0, z=0.0))
@@ -222,6 +251,21 @@ def test_a_driver_velocity_topic_is_found_by_type(tmp_path) -> None:
     assert trial.metadata.topics["gnss_vel"] == "/fix_velocity" and not trial.metadata.derived
     truth = np.interp(trial.t_s + trial.metadata.start_time_s - 100.0, t, speed)
     assert np.nanmax(np.abs(trial.speed_mps - truth)) < 1e-9
+
+
+def test_an_odometry_is_the_velocity_when_it_is_the_only_one(tmp_path) -> None:
+    """A robot_localization-style nav_msgs/Odometry (twist in the body frame) read as the ENU velocity, reported;
+    a Twist velocity topic, when there is one, is preferred to it."""
+    t, speed = write_driver_bag(tmp_path / "odom", odometry_topic="/odometry/filtered")
+    trial = read_trial(tmp_path / "odom")
+    assert trial.metadata.topics["gnss_vel"] == "/odometry/filtered" and not trial.metadata.derived
+    assert any("gnss_vel read from /odometry/filtered (nav_msgs/msg/Odometry)" in note and "body-frame twist" in note
+               for note in trial.metadata.stream_choices)
+    truth = np.interp(trial.t_s + trial.metadata.start_time_s - 100.0, t, speed)
+    np.testing.assert_allclose(trial.vel_east_mps, truth * math.cos(COURSE_RAD), atol=1e-9)
+    np.testing.assert_allclose(trial.vel_north_mps, truth * math.sin(COURSE_RAD), atol=1e-9)
+    write_driver_bag(tmp_path / "both", odometry_topic="/odometry/filtered", velocity_topic="/vel")
+    assert read_trial(tmp_path / "both").metadata.topics["gnss_vel"] == "/vel"
 
 
 def test_ambiguous_or_absent_streams_list_what_the_bag_holds(tmp_path, capsys) -> None:

@@ -19,7 +19,7 @@ from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
 
 TABLE_OUTPUTS = ("identify.json", "report.txt", "model.yaml", "fits.png", "residuals.png")
 """What ``identify --table --out DIR`` writes."""
-TRIAL_OUTPUTS = ("identify.json", "model.yaml", "trial.png", "resistance.png", "resimulation.png")
+TRIAL_OUTPUTS = ("identify.json", "model.yaml", "twin.yaml", "trial.png", "resistance.png", "resimulation.png")
 """What ``identify TRIAL --out DIR`` writes."""
 
 
@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     if args.table is not None:
         return _run_table(args)
     if not args.trial:
-        raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021")
+        raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN, .csv) or --table dyda2021")
     return _run_trial(args)
 
 
@@ -81,20 +81,29 @@ def _run_trial(args: argparse.Namespace) -> int:
     each with the identified model (closing the loop), report."""
     import numpy as np
 
+    from boat_twin.config import TwinConfig, save_config
     from boat_twin.ident.pipeline import identify_trials, pool, trial_samples
     from boat_twin.ident.report import resimulation_line, write_trial_report
+    from boat_twin.ident.twin_config import load_boat
 
     claim_out_dir(args.out, TRIAL_OUTPUTS, args.force)
+    boat = load_boat(args.boat) if args.boat is not None else None
     trials = []
     for path in args.trial:
         sys.stderr.write(f"reading {path} ...\n")
         trials.append(trial_from_args(path, args))
         sys.stderr.write(trials[-1].metadata.summary_line() + "\n")
     sys.stderr.write("identifying, then re-simulating the trial's commands with the identified model ...\n")
-    result, resims = identify_trials(trials, order=args.order, max_order=min(args.max_order, 6),
-                                     monotone=args.monotone, window_s=args.steady_window,
-                                     thrust_tolerance_N=args.thrust_tolerance)
+    result, resims, vessel = identify_trials(trials, order=args.order, max_order=min(args.max_order, 6),
+                                             monotone=args.monotone, window_s=args.steady_window,
+                                             thrust_tolerance_N=args.thrust_tolerance, boat=boat)
     if args.out is not None:
+        if vessel is not None:
+            save_config(TwinConfig(vessel=vessel), args.out / "twin.yaml",
+                        f"boat_twin twin of the boat identified from {', '.join(map(str, args.trial))}\n"
+                        f"geometry: {args.boat or 'the default boat carried to the identified mass'}; where each fact "
+                        "came from: identify.json 'twin'\n"
+                        f"load with: boat-twin simulate ... --config {args.out / 'twin.yaml'}")
         t_s, thrust, speed = (np.concatenate(column) for column in zip(*pool([trial_samples(tr) for tr in trials]),
                                                                        strict=True))
         write_trial_report(args.out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None)
@@ -117,6 +126,11 @@ def _run_trial(args: argparse.Namespace) -> int:
     ]
     if result.get("rejected_segments"):
         lines.append(rejected_summary(result["rejected_segments"]))
+    if vessel is not None:
+        lines.append(f"twin: {vessel.length_m:.3g} m x {vessel.beam_m:.3g} m, {vessel.mass_kg:.4g} kg, bollard "
+                     f"{vessel.bollard_thrust_N:.4g} N per engine (geometry from "
+                     f"{args.boat or 'the default boat carried to this mass'})"
+                     + (f"; written to {args.out / 'twin.yaml'}" if args.out is not None else ""))
     for entry in result["trials"]:
         prefix = f"{entry['source']}: " if len(trials) > 1 else ""
         lines.append(prefix + resimulation_line(entry["resimulation"]))
@@ -166,12 +180,18 @@ def register(subparsers: Any) -> None:
         "--thrust-tolerance", type=float, metavar="N",
         help="thrust counts as constant within this of a segment's start, N (default: derived from the commands: "
         "half their smallest step, or 4 sigma of their jitter)")
+    p.add_argument(
+        "--boat", type=Path, metavar="BOAT.yaml",
+        help="the boat's facts for the twin --out writes (twin.yaml): any vessel field but the resistance, e.g. "
+        "length_m, beam_m, draft_m, engine_y_m, bollard_thrust_N (SI; docs/identification.md); facts not given "
+        "are the default boat's carried to the identified mass")
     p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
     p.add_argument(
         "--out",
         type=Path,
         metavar="DIR",
-        help="write identify.json, model.yaml (SI) and PNG plots here (report.txt too with --table)",
+        help="write identify.json, model.yaml (SI), twin.yaml (a complete twin configuration of the boat, for "
+        "simulate/diagnose --config) and PNG plots here (report.txt too with --table)",
     )
     p.add_argument("--force", action="store_true", help="overwrite existing reports in --out")
     p.set_defaults(handler=run)

@@ -16,8 +16,8 @@ if TYPE_CHECKING:
     from boat_twin.config import TwinConfig
     from boat_twin.io.trial import Trial
 
-TRIAL_HELP = ("recorded trial: rosbag2 directory (MCAP or sqlite3), bare .mcap file, MAVLink telemetry log (.tlog) "
-              "or DataFlash log (.BIN)")
+TRIAL_HELP = ("recorded trial: rosbag2 directory (MCAP or sqlite3), bare .mcap file, MAVLink telemetry log (.tlog), "
+              "DataFlash log (.BIN) or CSV table (.csv, with --columns)")
 """Help text for a verb's TRIAL argument."""
 
 
@@ -50,6 +50,13 @@ def add_trial_options(parser: argparse.ArgumentParser, *, bags: bool = True) -> 
         "--calibration", type=Path, metavar="FILE",
         help="MAVLink logs: YAML map from logged PWM (SERVO/RC channels) or MANUAL_CONTROL axes to thrust (N) and "
         "steering angle (rad) per engine; examples in config/mavlink/. Without it, commands are missing.")
+    if bags:
+        parser.add_argument(
+            "--columns", metavar="MAP",
+            help="CSV trials: which column holds what, as QUANTITY=COLUMN,... (quantities: time s, lat/lon deg or "
+            "x/y m, vel_east/vel_north or speed m/s with course deg, heading deg or yaw rad, yaw_rate rad/s, "
+            "thrust_left/thrust_right N, angle_left/angle_right rad) or a YAML file with columns:, calibration: "
+            "(raw command → N or rad tables, e.g. PWM) and origin:; docs/bags-and-trial.md")
 
 
 def trial_from_args(path: Path | str, args: argparse.Namespace) -> Trial:
@@ -58,7 +65,7 @@ def trial_from_args(path: Path | str, args: argparse.Namespace) -> Trial:
 
     return read_trial_file(path, remap=parse_remap(getattr(args, "topic", None)),
                            namespace=getattr(args, "namespace", "") or "",
-                           calibration=getattr(args, "calibration", None))
+                           calibration=getattr(args, "calibration", None), columns=getattr(args, "columns", None))
 
 
 def twin_config_from_args(args: argparse.Namespace) -> TwinConfig:

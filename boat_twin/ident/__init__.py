@@ -1,6 +1,6 @@
 """Identification of the longitudinal model m·dv/dt = F − Fc(v) (Dyda & Chumakova 2021): steady points and
 power-series fits, mass from transients, the online (RLS) identifier shared by the ROS node and bag replay, the
-paper's table, and the pipelines that run them on a trial."""
+paper's table, the pipelines that run them on a trial, and the identified boat as a whole twin."""
 
 from __future__ import annotations
 
@@ -25,6 +25,8 @@ _EXPORTS = {
     "identify_recordings": "boat_twin.ident.pipeline",
     "identify_trial": "boat_twin.ident.pipeline",
     "identify_trials": "boat_twin.ident.pipeline",
+    "identified_vessel": "boat_twin.ident.twin_config",
+    "load_boat": "boat_twin.ident.twin_config",
     "model_dict": "boat_twin.ident.pipeline",
     "resimulate": "boat_twin.ident.resimulate",
     "select_order": "boat_twin.ident.steady",

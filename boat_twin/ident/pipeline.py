@@ -20,14 +20,17 @@ import yaml
 from boat_twin.data import dyda2021_table1_si
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_write_text
-from boat_twin.ident.dynamic import DynamicWindow, check_samples, identify_dynamic
+from boat_twin.ident.dynamic import DynamicResult, DynamicWindow, check_samples, identify_dynamic
 from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadyCriteria, detect_steady_segments
 from boat_twin.ident.paper import reproduce
 from boat_twin.ident.resimulate import Resimulation, resimulate
 from boat_twin.ident.settling import derive_criteria
 from boat_twin.ident.steady import FitResult, fit_power_series, select_order
+from boat_twin.ident.twin_config import identified_vessel, thrust_seen
 from boat_twin.io.trial import COMMAND_ROLES, Trial
 from boat_twin.units import KGF_N, KNOT_MPS
+from boat_twin.vessel.params import VesselParams, params_to_dict
+from boat_twin.vessel.resistance import TableResistance
 
 SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
 """Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
@@ -67,6 +70,8 @@ class TrialIdentifyResult(IdentifyResult, total=False):
     """Resimulation.to_dict() of the (first) trial, or ``{"error": why}`` when the loop could not be closed."""
     trials: list[dict[str, Any]]
     """Every pooled trial: source, metadata line, gaps, missing, derived and its own ``resimulation``."""
+    twin: dict[str, Any]
+    """The identified twin's vessel (``vessel``: every fact; ``sources``: where each came from) or ``{"error"}``."""
 
 
 def model_dict(fit: FitResult, effective_mass_kg: float | None = None) -> dict[str, Any]:
@@ -176,6 +181,33 @@ def _extrapolation_warning(pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray
             f"not data{dyn}: hold thrust levels up to the top speed")
 
 
+TRANSIENT_AGREEMENT = 0.1
+"""The transient fit extends the model above the steady points only if it agrees with the steady fit over the upper
+half of their span (where the two join) within this share (RMS difference over RMS force), -."""
+
+
+def _extended_by_transients(fit: FitResult, dyn: DynamicResult) -> TableResistance | str | None:
+    """Fc from the steady fit up to its top speed, then the transient fit's shape up to the top of the transients'
+    speeds (shifted to join the steady fit there), as a table; None when the transients reach no higher, or why
+    the transient fit is not used (it disagrees with the steady fit on their common span, or decreases)."""
+    low, top = fit.domain[1], dyn.speed_domain_mps[1]
+    if top <= low * (1.0 + EXTRAPOLATION_MARGIN) or abs(float(fit.predict(0.0))) > 1e-9:
+        return None
+    common = np.linspace(max(fit.domain[0], dyn.speed_domain_mps[0], low / 2.0), low, 50)
+    steady, transient = fit.predict(common), np.polynomial.polynomial.polyval(common, dyn.coefficients)
+    if _nrms(transient, steady) > TRANSIENT_AGREEMENT:
+        return (f"it differs from the steady fit by {_nrms(transient, steady):.0%} RMS over "
+                f"{common[0]:.2f}-{low:.2f} m/s (limit {TRANSIENT_AGREEMENT:.0%})")
+    speeds = np.concatenate([np.linspace(0.0, low, 25), np.linspace(low, top, 16)[1:]])
+    high = speeds > low
+    forces = fit.predict(speeds)
+    forces[high] = fit.predict(low) + np.polynomial.polynomial.polyval(speeds[high], dyn.coefficients) \
+        - np.polynomial.polynomial.polyval(low, dyn.coefficients)
+    if np.any(np.diff(forces) < 0.0):
+        return f"Fc would decrease with speed below {top:.2f} m/s"
+    return TableResistance(tuple(float(u) for u in speeds), tuple(float(f) for f in forces))
+
+
 def identify_arrays(
     t_s: Any,
     thrust_N: Any,
@@ -278,8 +310,17 @@ def identify_recordings(
         dynamic = {"error": str(err)}
     extrapolation = _extrapolation_warning(pieces, fit, dyn.speed_domain_mps if dyn else None,
                                            derived.speed_noise_mps)
+    model = model_dict(fit, dyn.mass_kg if dyn else None)
     if extrapolation:
         warnings.append(extrapolation)
+        extended = _extended_by_transients(fit, dyn) if dyn is not None else None
+        if isinstance(extended, str):
+            warnings.append(f"the transient fit is not used above the steady points: {extended}")
+        elif extended is not None:
+            model["resistance"] = extended.to_dict()
+            warnings.append(f"instead of the quadratic law, above {fit.domain[1]:.2f} m/s the model follows the "
+                            f"transient fit (joined to the steady fit there) up to {extended.max_speed_mps:.2f} m/s, "
+                            "the top of its data")
     online = OnlineThrustSpeedIdentifier(
         chosen,
         dyn.order if dyn else chosen,
@@ -320,24 +361,28 @@ def identify_recordings(
         "selection_reason": reason,
         "dynamic": dynamic,
         "online": snap,
-        "model": model_dict(fit, dyn.mass_kg if dyn else None),
+        "model": model,
         "warnings": warnings,
     }
 
 
 def identify_trial(trial: Trial, **options: Any) -> tuple[TrialIdentifyResult, Resimulation | None]:
     """One recorded trial: :func:`identify_trials` with it alone; returns the result and its re-simulation."""
-    result, resims = identify_trials([trial], **options)
+    result, resims, _ = identify_trials([trial], **options)
     return result, resims[0]
 
 
 def identify_trials(trials: list[Trial], *, order: int | None = None, max_order: int = 6, monotone: bool = False,
                     window_s: float | None = None, thrust_tolerance_N: float | None = None,
-                    ) -> tuple[TrialIdentifyResult, list[Resimulation | None]]:
-    """Recorded trials pooled in one identification (:func:`identify_recordings` on their known samples), then
-    each trial re-simulated with the identified model (closing the loop). ``trial`` and ``resimulation`` (the
-    latter ``{"error": why}`` when the loop cannot be closed) describe the first trial; ``trials`` lists every
-    trial with its own re-simulation. Returns the result and the re-simulations (None where not done)."""
+                    boat: dict[str, float] | None = None,
+                    ) -> tuple[TrialIdentifyResult, list[Resimulation | None], VesselParams | None]:
+    """Recorded trials pooled in one identification (:func:`identify_recordings` on their known samples), the
+    identified twin's vessel built (:func:`~boat_twin.ident.twin_config.identified_vessel`: ``boat`` facts from
+    a boat file, the rest carried from the default boat), then each trial re-simulated with that vessel (closing
+    the loop). ``trial`` and ``resimulation`` (the latter ``{"error": why}`` when the loop cannot be closed)
+    describe the first trial; ``trials`` lists every trial with its own re-simulation; ``twin`` holds the vessel
+    (``vessel``, ``sources``) or ``{"error": why}``. Returns the result, the re-simulations (None where not done)
+    and the vessel (None when no mass is known)."""
     samples = []
     for trial in trials:
         samples.append(trial_samples(trial))
@@ -347,6 +392,13 @@ def identify_trials(trials: list[Trial], *, order: int | None = None, max_order:
         noise_correlation_s=max(trial.metadata.speed_smoothing_s for trial in trials),
         speed_noise_mps=max(trial.metadata.derived_speed_noise_mps for trial in trials) or None))
     result["warnings"] += [w for trial in trials for w in trial_warnings(trial)]
+    vessel: VesselParams | None = None
+    try:
+        vessel, sources = identified_vessel(result["model"], boat or {}, thrust_seen(trials))
+        result["twin"] = {"vessel": params_to_dict(vessel), "sources": sources}
+    except InputError as err:
+        result["twin"] = {"error": str(err)}
+        result["warnings"].append(f"no twin configuration: {err}")
     entries: list[dict[str, Any]] = []
     resims: list[Resimulation | None] = []
     for trial in trials:
@@ -355,7 +407,7 @@ def identify_trials(trials: list[Trial], *, order: int | None = None, max_order:
                                  "derived": trial.metadata.derived}
         resim: Resimulation | None = None
         try:
-            resim = resimulate(trial, result["model"])
+            resim = resimulate(trial, result["model"], vessel)
             entry["resimulation"] = resim.to_dict()
         except InputError as err:  # the identification stands; say why the loop could not be closed
             entry["resimulation"] = {"error": str(err)}
@@ -364,7 +416,7 @@ def identify_trials(trials: list[Trial], *, order: int | None = None, max_order:
     result["trial"] = {k: x for k, x in entries[0].items() if k != "resimulation"}
     result["resimulation"] = entries[0]["resimulation"]
     result["trials"] = entries
-    return result, resims
+    return result, resims, vessel
 
 
 def trial_warnings(trial: Trial) -> list[str]:

@@ -62,7 +62,8 @@ class Resimulation:
             "initial_speed_mps": float(self.measured_mps[0]),
             "effective_mass_kg": self.effective_mass_kg,
             "mass_identified": self.mass_identified,
-            "conditions": "calm water and air; vessel parameters other than the identified ones: the default boat",
+            "conditions": "calm water and air; vessel parameters other than the identified ones: the identified twin's "
+                          "(twin.yaml), else the default boat",
         }
 
 

@@ -23,7 +23,7 @@ from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 from boat_twin.errors import InputError
 from boat_twin.files import prepare_output, replace_output
 from boat_twin.io.mcap_crc import fill_chunk_crcs
-from boat_twin.io.messages import TOPICS, TS
+from boat_twin.io.messages import TOPIC_ODOM_TRUTH, TOPICS, TS
 from boat_twin.io.trial import Stream, Trial, build_trial
 
 ROLE_TOPICS = {
@@ -89,8 +89,17 @@ def _fix(msg: Any, log_s: float) -> tuple[float, float, float, float] | None:
     return _stamp_s(msg), msg.latitude, msg.longitude, msg.altitude
 
 
+def _yaw(q: Any) -> float:
+    """ENU yaw of a quaternion (REP-103), rad."""
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
 def _vel(msg: Any, log_s: float) -> tuple[float, float, float]:
     twist = msg.twist.twist if hasattr(msg.twist, "twist") else msg.twist  # TwistWithCovarianceStamped
+    if hasattr(msg, "pose"):  # nav_msgs/Odometry: the twist is in the child (body) frame; rotate it by the pose's yaw
+        yaw = _yaw(msg.pose.pose.orientation)
+        u, v = twist.linear.x, twist.linear.y
+        return _stamp_s(msg), u * math.cos(yaw) - v * math.sin(yaw), u * math.sin(yaw) + v * math.cos(yaw)
     return _stamp_s(msg), twist.linear.x, twist.linear.y
 
 
@@ -100,8 +109,7 @@ def _provided(covariance: Any) -> bool:
 
 
 def _imu(msg: Any, log_s: float) -> tuple[float, float, float, float, float]:
-    q = msg.orientation
-    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    yaw = _yaw(msg.orientation)
     if not _provided(msg.orientation_covariance):
         yaw = math.nan
     rate = msg.angular_velocity.z if _provided(msg.angular_velocity_covariance) else math.nan
@@ -183,8 +191,14 @@ is found by type when exactly one topic of its types is in the bag. gnss_vel is 
 (as nmea_navsat_driver's ``/vel`` and ``/fix_velocity``)."""
 
 
+FALLBACK_TYPES = {"gnss_vel": ("nav_msgs/msg/Odometry",)}
+"""Sensor role → types read only when no topic of its :data:`ROLE_TYPES` is in the bag: an odometry (its twist in
+the body frame, rotated to ENU by its pose's yaw; its header frame taken as ENU-aligned) as the velocity when it is
+the bag's only velocity. The twin's own ground truth (``odom/truth``) is never taken for a measurement."""
+
+
 def _types(role: str) -> tuple[str, ...]:
-    return ROLE_TYPES.get(role, (TOPICS[ROLE_TOPICS[role]],))
+    return ROLE_TYPES.get(role, (TOPICS[ROLE_TOPICS[role]],)) + FALLBACK_TYPES.get(role, ())
 
 
 def holdings(available: dict[str, str]) -> str:
@@ -222,12 +236,17 @@ def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: 
     for role in ROLE_TYPES:
         if role in chosen:
             continue
-        taken = set(chosen.values())
+        taken = set(chosen.values()) | {"/" + TOPIC_ODOM_TRUTH}
         candidates = sorted(t for t, msgtype in available.items() if msgtype in ROLE_TYPES[role] and t not in taken)
+        fallback = not candidates and role in FALLBACK_TYPES
+        if fallback:
+            candidates = sorted(t for t, msgtype in available.items()
+                                if msgtype in FALLBACK_TYPES[role] and t not in taken)
         if len(candidates) == 1:
             chosen[role] = candidates[0]
             notes.append(f"{role} read from {candidates[0]} ({available[candidates[0]]}), the bag's only topic of "
-                         "that type")
+                         "that type" + (" and its only velocity (body-frame twist rotated to ENU by the pose's yaw)"
+                                        if fallback else ""))
         elif len(candidates) > 1:
             notes.append(f"{role}: several candidate topics ({', '.join(candidates)}); choose one with "
                          f"--topic {role}=TOPIC")

@@ -1,4 +1,4 @@
-"""Any recorded trial file into a Trial: MAVLink logs (.tlog, .BIN) or bags.
+"""Any recorded trial file into a Trial: MAVLink logs (.tlog, .BIN), CSV tables (.csv) or bags.
 
 Readers are imported when a file is read, so that importing this module stays cheap.
 """
@@ -23,12 +23,26 @@ def read_trial_file(
     namespace: str = "",
     calibration: Path | str | Calibration | None = None,
     origin: tuple[float, float, float] | None = None,
+    columns: str | Path | None = None,
 ) -> Trial:
     """Read ``path`` as a :class:`~boat_twin.io.trial.Trial`: .tlog/.BIN/.bin through
     :func:`boat_twin.io.mavlink.read_mavlink_trial` (``calibration`` maps PWM to N and rad; ``remap`` picks a
     sensor role's message), anything else through :func:`boat_twin.io.bags.read_trial` (``remap`` and
-    ``namespace`` pick topics; a calibration is refused there)."""
+    ``namespace`` pick topics; a calibration is refused there); a .csv through
+    :func:`boat_twin.io.csv_trial.read_csv_trial` with its ``columns`` mapping."""
     path = Path(path)
+    if path.suffix.lower() == ".csv":
+        if columns is None:
+            raise InputError(f"{path}: a CSV trial needs --columns (e.g. time=t,lat=lat,lon=lon,thrust_left=tl,"
+                             "thrust_right=tr; docs/bags-and-trial.md)")
+        if remap:
+            raise InputError(f"{path}: --topic applies to bags and MAVLink logs; a CSV's columns are named by "
+                             "--columns")
+        from boat_twin.io.csv_trial import read_csv_trial
+
+        return read_csv_trial(path, columns)
+    if columns is not None:
+        raise InputError(f"{path}: --columns applies to CSV trials (.csv), not to bags or MAVLink logs")
     from boat_twin.io.mavlink import is_mavlink_log
 
     if is_mavlink_log(path):

@@ -23,6 +23,7 @@ _EXPORTS = {
     "make_scenario": "boat_twin.vessel.scenarios",
     "resistance_from_dict": "boat_twin.vessel.resistance",
     "save_params": "boat_twin.vessel.params",
+    "similar_boat": "boat_twin.vessel.params",
     "simulate": "boat_twin.vessel.simulate",
     "thrust_steps": "boat_twin.vessel.scenarios",
 }

@@ -224,6 +224,44 @@ def max_thrust_N(params: VesselParams, speed_mps: np.ndarray) -> np.ndarray:
     return np.minimum(params.bollard_thrust_N, power_limited)
 
 
+SCALED_LENGTHS = ("draft_m", "radius_of_gyration_yaw_m", "lateral_centre_x_m", "engine_x_m", "turn_diameter_m",
+                  "windage_centre_x_m")
+"""Facts that are lengths along or under the hull: proportional to the hull length in a similar boat."""
+BEAM_FRACTIONS = ("engine_y_m", "frontal_windage_area_m2")
+"""Facts proportional to the beam (the outboards' offset; the frontal windage, beam × freeboard ∝ length)."""
+
+
+def similar_boat(resistance: ResistanceModel, mass_kg: float, given: dict[str, Any] | None = None) -> VesselParams:
+    """A boat of ``mass_kg`` geometrically and Froude-similar to the default one, with its own resistance.
+
+    Facts in ``given`` (field → value, as a boat YAML's ``vessel`` section) are kept; every other fact is the
+    default boat's carried to this size: the length L from the mass at the same density (L ∝ m^(1/3)) unless
+    given, lengths ∝ L (draft, yaw radius of gyration, positions, turn diameter), beam ∝ L unless given and the
+    outboards' offset and frontal windage ∝ beam, lateral windage ∝ L², the reference turn's speed Froude-scaled
+    (∝ √L: the same Fr = 0.78, so its hull damping derives at the same flow regime; but not above the top speed
+    of the resistance model's data, ``max_speed_mps``: a turn is derived where Fc is known), forces ∝ mass (bollard
+    thrust), power ∝ mass·√L; ratios and angles unchanged. So the turning coefficients of
+    :func:`derive_coefficients` follow the boat instead of the 6 m boat's turn at 6 m/s.
+    """
+    base = VesselParams()
+    given = dict(given or {})
+    length = float(given.get("length_m", base.length_m * (mass_kg / base.mass_kg) ** (1.0 / 3.0)))
+    scale = length / base.length_m
+    beam = float(given.get("beam_m", base.beam_m * scale))
+    facts: dict[str, Any] = {f.name: getattr(base, f.name) for f in fields(base)}
+    facts.update({name: getattr(base, name) * scale for name in SCALED_LENGTHS})
+    facts.update({name: getattr(base, name) * (beam / base.beam_m) for name in BEAM_FRACTIONS})
+    facts.update(
+        mass_kg=mass_kg, length_m=length, beam_m=beam, resistance=resistance,
+        lateral_windage_area_m2=base.lateral_windage_area_m2 * scale**2,
+        turn_speed_mps=min(base.turn_speed_mps * math.sqrt(scale), resistance.max_speed_mps),
+        bollard_thrust_N=base.bollard_thrust_N * mass_kg / base.mass_kg,
+        engine_power_W=base.engine_power_W * mass_kg / base.mass_kg * math.sqrt(scale),
+    )
+    facts.update(given)
+    return VesselParams(**facts)
+
+
 def params_to_dict(params: VesselParams) -> dict[str, Any]:
     """Plain data for YAML: every fact plus the resistance model's description."""
     data = {f.name: getattr(params, f.name) for f in fields(params) if f.name != "resistance"}

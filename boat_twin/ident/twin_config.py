@@ -1,0 +1,96 @@
+"""The identified boat as a complete twin: resistance and mass from the identification, thrust limits from what the
+trials commanded, geometry from the user's boat file or carried from the default boat (:func:`similar_boat`).
+
+``boat-twin identify TRIAL --boat BOAT.yaml --out DIR`` writes it as ``DIR/twin.yaml``, which ``simulate --config``
+and ``diagnose --config`` load; identify re-simulates the trials with the same vessel.
+"""
+
+from __future__ import annotations
+
+from dataclasses import fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from boat_twin.errors import InputError
+from boat_twin.files import load_yaml
+from boat_twin.io.trial import Trial
+from boat_twin.vessel.params import VesselParams, params_from_dict, similar_boat
+from boat_twin.vessel.resistance import resistance_from_dict
+
+BOAT_FIELDS = tuple(f.name for f in fields(VesselParams) if f.name != "resistance")
+"""What a boat file may state: any vessel fact but the resistance (that is what identify measures)."""
+THRUST_LIMITS = ("bollard_thrust_N", "reverse_thrust_ratio", "engine_power_W")
+"""Facts raised to what the trials commanded when the boat file does not state them."""
+
+
+def load_boat(path: Path) -> dict[str, float]:
+    """The facts of a boat file (``--boat``): a mapping of vessel fields (optionally under ``vessel:``), checked
+    as the vessel loader checks them (units in the names; docs/model.md)."""
+    data = load_yaml(path)
+    if isinstance(data, dict) and "vessel" in data:
+        data = data["vessel"]
+    if not isinstance(data, dict):
+        raise InputError(f"{path}: expected a mapping of vessel facts (length_m, beam_m, ...)")
+    for key in data:
+        if key not in BOAT_FIELDS:
+            why = "it is what identify measures" if key in ("resistance", "effective_mass_kg") else "unknown field"
+            raise InputError(f"{path}: '{key}' cannot be given in a boat file ({why}); fields: "
+                             + ", ".join(BOAT_FIELDS))
+    params_from_dict(data, str(path))  # numbers, signs and the reference turn's limits
+    return {key: float(value) for key, value in data.items()}
+
+
+def thrust_seen(trials: list[Trial]) -> dict[str, float]:
+    """The largest thrust per engine ahead and astern (N) and the largest thrust power T·|u| per engine (W) the
+    trials commanded, over their known samples."""
+    ahead = astern = power = 0.0
+    for trial in trials:
+        speed = np.abs(trial.speed_mps)
+        for thrust in (trial.thrust_left_N, trial.thrust_right_N):
+            known = np.isfinite(thrust)
+            if np.any(known):
+                ahead = max(ahead, float(np.max(thrust[known])))
+                astern = max(astern, float(-np.min(thrust[known])))
+            both = known & np.isfinite(speed)
+            if np.any(both):
+                power = max(power, float(np.max(thrust[both] * speed[both])))
+    return {"ahead_N": ahead, "astern_N": astern, "power_W": power}
+
+
+def identified_vessel(model: dict[str, Any], given: dict[str, float], seen: dict[str, float]
+                      ) -> tuple[VesselParams, dict[str, str]]:
+    """The vessel of the identified twin and where each of its key facts came from.
+
+    Resistance: the identified fit. Mass: the identified effective mass over (1 + surge added-mass ratio), else the
+    boat file's ``mass_kg``. Geometry: the boat file, the rest :func:`similar_boat`. Thrust limits not in the boat
+    file: the similar boat's, raised to the largest commands and thrust power the trials held (so no recorded
+    command is clipped at the speed it was recorded at: the recording shows the boat had at least that much).
+    """
+    base_ratio = given.get("surge_added_mass_ratio", VesselParams().surge_added_mass_ratio)
+    if "effective_mass_kg" in model:
+        mass, mass_from = float(model["effective_mass_kg"]) / (1.0 + base_ratio), "identified (transients)"
+    elif "mass_kg" in given:
+        mass, mass_from = given["mass_kg"], "boat file"
+    else:
+        raise InputError("no mass: the transients gave none and no boat file (--boat) states mass_kg")
+    resistance = resistance_from_dict(model["resistance"], "identified model: resistance")
+    facts = {k: v for k, v in given.items() if k != "mass_kg"}
+    similar = similar_boat(resistance, mass, facts)
+    limits: dict[str, float] = {}
+    if "bollard_thrust_N" not in given:
+        limits["bollard_thrust_N"] = max(similar.bollard_thrust_N, seen["ahead_N"])
+    bollard = limits.get("bollard_thrust_N", similar.bollard_thrust_N)
+    if "reverse_thrust_ratio" not in given:
+        limits["reverse_thrust_ratio"] = max(similar.reverse_thrust_ratio, seen["astern_N"] / bollard)
+    if "engine_power_W" not in given:
+        limits["engine_power_W"] = max(similar.engine_power_W, seen["power_W"] / similar.propulsive_efficiency)
+    vessel = similar_boat(resistance, mass, {**facts, **limits})
+    sources = {"resistance": "identified (steady points)", "mass_kg": mass_from}
+    sources.update({k: "boat file" for k in facts})
+    sources.update({k: "seen in the trials" if v > getattr(similar, k) else "similar boat"
+                    for k, v in limits.items()})
+    for name in BOAT_FIELDS:
+        sources.setdefault(name, "similar boat (the default boat carried to this size)")
+    return vessel, sources
