@@ -1,11 +1,24 @@
-"""Safe outputs: never overwrite without --force, write atomically (temp file + rename)."""
+"""Safe outputs: never overwrite without --force, one writer per output, write atomically (temporary + rename).
+
+Every output (a bag, a bag file, a .tlog, a report file) is written through an :class:`OutputClaim`:
+
+- ``.NAME.lock`` next to ``NAME`` is locked (``flock``, exclusive) for the whole write: a second writer of the
+  same output is refused at once. The kernel drops the lock when its holder dies, even by SIGKILL.
+- The new output is written into the scratch directory ``.NAME.partial-PID`` and renamed into place when
+  complete; an old ``NAME`` is first moved to ``.NAME.old-PID`` and removed only once the new one is in place.
+- Leftovers of a killed writer (``.NAME.partial-PID``, ``.NAME.old-PID``) are provably stale once the lock is
+  held again: the next writer of ``NAME`` removes them, restores an old output the killed run had moved aside
+  but not yet replaced, and names each on stderr.
+"""
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
+import re
 import shutil
-import tempfile
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -23,12 +36,31 @@ def _is_bag_dir(path: Path) -> bool:
     return (path / "metadata.yaml").is_file() and all(e.is_file() and e.suffix in BAG_FILE_SUFFIXES for e in entries)
 
 
+def _lock_path(path: Path) -> Path:
+    return path.with_name(f".{path.name}.lock")
+
+
+def _held_elsewhere(lock: Path) -> bool:
+    """Whether another open file description holds the lock ``lock`` now (a live writer)."""
+    try:
+        fd = os.open(lock, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    finally:
+        os.close(fd)
+    return False
+
+
 def prepare_output(path: Path, force: bool) -> None:
     """Check that ``path`` may be written, before any work; nothing is deleted here.
 
-    Refused: the current directory or one that contains it, an existing path without ``force``, and with
-    ``force`` a directory that is not a rosbag2 bag. The new output goes to a temporary next to ``path`` and
-    :func:`replace_output` swaps it in, so a failure or an interrupt leaves the old output as it was.
+    Refused: the current directory or one that contains it, an existing path without ``force``, with ``force`` a
+    directory that is not a rosbag2 bag, and an output another run is writing now. :class:`OutputClaim` checks
+    again under the lock when the output is written.
     """
     resolved = path.resolve()
     cwd = Path.cwd().resolve()
@@ -42,6 +74,9 @@ def prepare_output(path: Path, force: bool) -> None:
             raise InputError(f"{path}: is a directory that is not a rosbag2 bag (metadata.yaml and bag files "
                              "only); refusing to replace it")
     ensure_out_dir(path.parent if str(path.parent) else Path("."))
+    if _held_elsewhere(_lock_path(path)):
+        raise InputError(f"{path}: another run is writing it now (lock {_lock_path(path)}); refusing to write "
+                         "it too")
 
 
 def refuse_input_as_output(out: Path | None, *inputs: Path | None) -> None:
@@ -55,23 +90,111 @@ def refuse_input_as_output(out: Path | None, *inputs: Path | None) -> None:
             raise InputError(f"{out}: is also an input of this command ({item}); refusing to write over it")
 
 
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    else:
+        path.unlink()
+
+
 def replace_output(new: Path, path: Path) -> None:
-    """Move the finished output ``new`` (a file or directory next to ``path``) to ``path``; an old ``path`` is
-    moved aside first and removed only once the new one is in place."""
+    """Move the finished output ``new`` (a file or directory next to ``path``) to ``path``. A file replaces a
+    file in one atomic rename; otherwise the old ``path`` is moved to ``.NAME.old-PID`` first and removed only
+    once the new one is in place (a run killed in between leaves it there for :class:`OutputClaim` to restore)."""
     if not (path.exists() or path.is_symlink()):
         os.rename(new, path)
         return
-    old = path.with_name(f".{path.name}.old.{os.getpid()}")
+    if not new.is_dir() and not path.is_dir():
+        os.replace(new, path)
+        return
+    old = path.with_name(f".{path.name}.old-{os.getpid()}")
     os.rename(path, old)
     try:
         os.rename(new, path)
     except BaseException:
         os.rename(old, path)
         raise
-    if old.is_dir() and not old.is_symlink():
-        shutil.rmtree(old)
-    else:
-        old.unlink()
+    _remove(old)
+
+
+class OutputClaim:
+    """The exclusive right to write the output ``path`` until :meth:`release` (or the end of a ``with``).
+
+    Taking it checks ``path`` as :func:`prepare_output` does, locks ``.NAME.lock`` (refused at once if another
+    run holds it), cleans the stale leftovers of killed writers of ``path`` and creates :attr:`scratch`, an
+    empty directory next to ``path`` for the new output; :meth:`commit` moves it into place. Leaving a ``with``
+    by an exception (Ctrl-C included) removes the scratch: ``path`` stays as it was.
+    """
+
+    def __init__(self, path: Path, force: bool) -> None:
+        prepare_output(path, force)
+        self.path = path
+        self._lock = _lock_path(path)
+        self._fd: int | None = None
+        self._acquire()
+        try:
+            self._clean_stale()
+            if not force and (path.exists() or path.is_symlink()):  # written by a run that just finished
+                raise InputError(f"{path}: already exists (use --force to overwrite)")
+            self.scratch = path.with_name(f".{path.name}.partial-{os.getpid()}")
+            self.scratch.mkdir()
+        except BaseException:
+            self._unlock()
+            raise
+
+    def _acquire(self) -> None:
+        for _ in range(3):  # a retry when the holder finished between our open and our lock
+            try:
+                fd = os.open(self._lock, os.O_RDWR | os.O_CREAT, 0o644)
+            except OSError as err:
+                raise InputError(f"{self.path}: cannot create the lock {self._lock} ({err.strerror})") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                os.close(fd)
+                break
+            if os.path.exists(self._lock) and os.stat(self._lock).st_ino == os.fstat(fd).st_ino:
+                self._fd = fd
+                return
+            os.close(fd)  # locked an inode its holder had already unlinked
+        raise InputError(f"{self.path}: another run is writing it now (lock {self._lock}); refusing to write it "
+                         "too")
+
+    def _clean_stale(self) -> None:
+        """Leftovers of writers of ``path`` killed before they finished: stale, since the lock is ours."""
+        pattern = re.compile(rf"\.{re.escape(self.path.name)}\.(partial|old)-\d+")
+        found = [(m.group(1), self.path.parent / m.group(0))
+                 for m in map(pattern.fullmatch, os.listdir(self.path.parent)) if m]
+        for kind, item in sorted(found, key=lambda f: f[0] != "old"):  # an old output to restore first
+            if kind == "old" and not (self.path.exists() or self.path.is_symlink()):
+                os.rename(item, self.path)
+                sys.stderr.write(f"boat-twin: restored {self.path} from {item.name} (a run replacing it was "
+                                 "killed)\n")
+            else:
+                _remove(item)
+                sys.stderr.write(f"boat-twin: removed {item} (left by a run killed while writing {self.path})\n")
+
+    def commit(self, new: Path) -> None:
+        """Move the complete new output ``new`` (inside :attr:`scratch`) to ``path``."""
+        replace_output(new, self.path)
+
+    def _unlock(self) -> None:
+        if self._fd is not None:
+            self._lock.unlink(missing_ok=True)  # before the lock drops: a waiting opener sees another inode
+            os.close(self._fd)
+            self._fd = None
+
+    def release(self) -> None:
+        """Remove the scratch directory and drop the lock (idempotent)."""
+        if self._fd is not None:
+            shutil.rmtree(self.scratch, ignore_errors=True)
+        self._unlock()
+
+    def __enter__(self) -> OutputClaim:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
 
 
 def ensure_out_dir(path: Path) -> Path:
@@ -80,21 +203,19 @@ def ensure_out_dir(path: Path) -> Path:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise InputError(f"{path}: cannot create output directory ({err.strerror})") from None
+    if not path.is_dir():
+        raise InputError(f"{path}: output directory is a file")
     if not os.access(path, os.W_OK):
         raise InputError(f"{path}: output directory is not writable")
     return path
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same directory and a rename."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """Write ``data`` to ``path`` (replacing a file there) through an :class:`OutputClaim`."""
+    with OutputClaim(path, force=True) as claim:
+        new = claim.scratch / path.name
+        new.write_bytes(data)
+        claim.commit(new)
 
 
 def atomic_write_text(path: Path, text: str) -> None:
@@ -109,22 +230,20 @@ def atomic_write_yaml(path: Path, data: Any) -> None:
 
 def atomic_save_figure(path: Path, figure: Any) -> None:
     """Save a matplotlib figure as PNG to ``path`` atomically."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
-    os.close(fd)
-    try:
-        figure.savefig(tmp, dpi=110)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with OutputClaim(path, force=True) as claim:
+        new = claim.scratch / path.name
+        figure.savefig(new, dpi=110, format="png")
+        claim.commit(new)
 
 
 def load_yaml(path: Path) -> Any:
-    """Read a YAML file; a missing or malformed file is an :class:`InputError` naming it."""
+    """Read a YAML file; a missing, binary or malformed file is an :class:`InputError` naming it."""
     try:
-        text = path.read_text()
+        text = path.read_bytes().decode("utf-8")
     except OSError as err:
         raise InputError(f"{path}: cannot read ({err.strerror})") from None
+    except UnicodeDecodeError as err:
+        raise InputError(f"{path}: not a UTF-8 text file (byte {err.start}); expected YAML") from None
     try:
         return yaml.safe_load(text)
     except yaml.YAMLError as err:

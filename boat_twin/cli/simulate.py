@@ -150,7 +150,7 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
     if duration is not None and not duration > 0.0:
         raise InputError(f"--duration must be a positive number of seconds, got {duration!r}")
     if args.out is not None:
-        prepare_output(args.out, args.force)  # refuse an existing bag before the link starts
+        prepare_output(args.out, args.force)  # refuse an existing bag (or one being written) before the link starts
     twin = LiveTwin(config, seed=args.seed, noise=not args.no_noise, epoch_s=round(time.time(), 3))
     stopping: list[bool] = []
     with MavlinkBoat(twin, args.mavlink, allow_remote=args.allow_remote, tlog=args.tlog, overwrite=args.force,
@@ -160,10 +160,12 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
         sys.stderr.write(f"MAVLink boat (system {link.system_id}) -> {where}, "
                          f"{'as fast as possible' if speed == 0 else f'{speed:g}x real time'}"
                          f"{'' if duration is not None else '; Ctrl-C to stop'}\n")
-        try:  # Ctrl-C ends the run cleanly (the .tlog and the bag are completed)
-            previous = signal.signal(signal.SIGINT, lambda *_: stopping.append(True))
+        previous = {}
+        try:  # Ctrl-C or SIGTERM ends a live run cleanly (the .tlog and the bag are completed)
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                previous[signum] = signal.signal(signum, lambda *_: stopping.append(True))
         except ValueError:  # not the main thread: no handler
-            previous = None
+            pass
         try:
             ticks = link.ticks(duration, speed, stop=lambda: bool(stopping), progress=progress_to_stderr)
             if args.out is not None:
@@ -175,8 +177,8 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
                 for _ in ticks:
                     pass
         finally:
-            if previous is not None:
-                signal.signal(signal.SIGINT, previous)
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)
         progress_to_stderr(link.summary_line())
         result = {"scenario": scenario.name if scenario is not None else None, "seed": args.seed,
                   "mavlink": args.mavlink, "speed": speed,
