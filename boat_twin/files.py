@@ -40,19 +40,22 @@ def _lock_path(path: Path) -> Path:
     return path.with_name(f".{path.name}.lock")
 
 
-def _held_elsewhere(lock: Path) -> bool:
-    """Whether another open file description holds the lock ``lock`` now (a live writer)."""
+def _probe_lock(path: Path) -> None:
+    """Refuse ``path`` now if its directory takes no new file or another run holds its lock."""
+    lock = _lock_path(path)
+    existed = lock.exists()
     try:
-        fd = os.open(lock, os.O_RDONLY)
-    except OSError:
-        return False
+        fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as err:
+        raise InputError(f"{path}: cannot write in {path.parent} ({err.strerror})") from None
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
-        return True
+        raise InputError(f"{path}: another run is writing it now (lock {lock}); refusing to write it too") from None
     finally:
+        if not existed:
+            lock.unlink(missing_ok=True)
         os.close(fd)
-    return False
 
 
 def prepare_output(path: Path, force: bool) -> None:
@@ -74,9 +77,7 @@ def prepare_output(path: Path, force: bool) -> None:
             raise InputError(f"{path}: is a directory that is not a rosbag2 bag (metadata.yaml and bag files "
                              "only); refusing to replace it")
     ensure_out_dir(path.parent if str(path.parent) else Path("."))
-    if _held_elsewhere(_lock_path(path)):
-        raise InputError(f"{path}: another run is writing it now (lock {_lock_path(path)}); refusing to write "
-                         "it too")
+    _probe_lock(path)
 
 
 def refuse_input_as_output(out: Path | None, *inputs: Path | None) -> None:
@@ -147,7 +148,7 @@ class OutputClaim:
             try:
                 fd = os.open(self._lock, os.O_RDWR | os.O_CREAT, 0o644)
             except OSError as err:
-                raise InputError(f"{self.path}: cannot create the lock {self._lock} ({err.strerror})") from None
+                raise InputError(f"{self.path}: cannot write in {self.path.parent} ({err.strerror})") from None
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:

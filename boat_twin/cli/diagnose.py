@@ -27,6 +27,7 @@ from boat_twin.diagnose.report import (
 )
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_save_figure, atomic_write_text, atomic_write_yaml, to_json
+from boat_twin.validation import number
 
 EXTENDED_MODEL_NAME = "extended_model.yaml"
 """File name of the extended model in --out."""
@@ -84,8 +85,7 @@ def run(args: argparse.Namespace) -> int:
         return _run_table(args)
     if args.trial is None:
         raise InputError("give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021")
-    if args.window <= 0:
-        raise InputError(f"--window must be a positive number of seconds, got {args.window}")
+    number("--window", args.window, above=0.0)
     return _run_trial(args)
 
 

@@ -12,12 +12,16 @@ from boat_twin.cli import verb_help
 from boat_twin.cli.options import twin_config_from_args
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
-from boat_twin.files import refuse_input_as_output, to_json
+from boat_twin.files import prepare_output, refuse_input_as_output, to_json
 from boat_twin.twin.sea_trial import compact_trial_messages, run_compact_trial
+from boat_twin.validation import integer
 from boat_twin.vessel.params import describe
 from boat_twin.vessel.scenarios import SCENARIO_NAMES, CommandProfile, make_scenario, read_command_csv
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 from boat_twin.vessel.truth import TruthSeries
+
+SEED_MAX = 2**63 - 1
+"""Largest --seed: the int64 range of a ROS 2 integer parameter (the simulator node's ``seed``)."""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -37,7 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--current", type=float, nargs=2, metavar=("EAST", "NORTH"),
                    help="water current over ground, m/s (ENU components)")
     p.add_argument("--duration", type=float, help="trial length, s (default: the scenario's own)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the one random generator (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the one random generator, 0 to 2^63-1 (default 0)")
     p.add_argument("--no-noise", action="store_true", help="exact measurements (no noise, dropouts or bias)")
     p.add_argument("--out", type=Path, help="output bag: a directory, or a file ending in .mcap")
     p.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap", help="rosbag2 storage (default mcap)")
@@ -107,8 +111,12 @@ def summarize(truth: TruthSeries) -> dict[str, float | None]:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``simulate``."""
+    integer("--seed", args.seed, minimum=0, maximum=SEED_MAX)
     refuse_input_as_output(args.out, args.commands, args.config, args.model, args.tlog)
     refuse_input_as_output(args.tlog, args.commands, args.config, args.model)
+    for output in (args.out, args.tlog):
+        if output is not None:
+            prepare_output(output, args.force)  # refused before the simulation, checked again when written
     config = twin_config_from_args(args)
     if args.mavlink is not None or args.tlog is not None:
         return _run_mavlink(args, config)
@@ -139,7 +147,6 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
     import signal
     import time
 
-    from boat_twin.files import prepare_output
     from boat_twin.link.mavlink_boat import MavlinkBoat, parse_stream_rates, progress_to_stderr
     from boat_twin.twin.live import LiveTwin
 
@@ -149,8 +156,6 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
     duration = scenario.duration_s if scenario is not None else args.duration
     if duration is not None and not duration > 0.0:
         raise InputError(f"--duration must be a positive number of seconds, got {duration!r}")
-    if args.out is not None:
-        prepare_output(args.out, args.force)  # refuse an existing bag (or one being written) before the link starts
     twin = LiveTwin(config, seed=args.seed, noise=not args.no_noise, epoch_s=round(time.time(), 3))
     stopping: list[bool] = []
     with MavlinkBoat(twin, args.mavlink, allow_remote=args.allow_remote, tlog=args.tlog, overwrite=args.force,
