@@ -19,6 +19,7 @@ import os
 import re
 import shutil
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -30,10 +31,35 @@ BAG_FILE_SUFFIXES = (".mcap", ".db3", ".db3-shm", ".db3-wal", ".yaml")
 """What a rosbag2 directory holds (storage files and metadata.yaml); --force replaces no other directory."""
 
 
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+"""The first 8 bytes of an MCAP file (mcap.dev specification)."""
+MAVLINK_MAGICS = (0xFD, 0xFE)
+"""First byte of a MAVLink 2 or 1 packet: in a .tlog, after the 8-byte time stamp."""
+
+
 def _is_bag_dir(path: Path) -> bool:
     """A rosbag2 directory: metadata.yaml and nothing but bag files."""
     entries = list(path.iterdir())
     return (path / "metadata.yaml").is_file() and all(e.is_file() and e.suffix in BAG_FILE_SUFFIXES for e in entries)
+
+
+def _starts_with(path: Path, test: Callable[[bytes], bool], size: int) -> bool:
+    """A regular file that is empty or whose first ``size`` bytes pass ``test``."""
+    if not path.is_file():
+        return False
+    with path.open("rb") as fh:
+        head = fh.read(size)
+    return not head or (len(head) == size and test(head))
+
+
+REPLACEABLE: dict[str, tuple[str, Callable[[Path], bool]]] = {
+    "bag": ("rosbag2 bag (metadata.yaml and bag files) or MCAP file",
+            lambda p: _is_bag_dir(p) if p.is_dir() else _starts_with(p, lambda h: h == MCAP_MAGIC, 8)),
+    "tlog": ("MAVLink telemetry log", lambda p: _starts_with(p, lambda h: h[8] in MAVLINK_MAGICS, 9)),
+    "file": ("file", lambda p: p.is_file()),
+}
+"""Kind of output → (what it is, whether an existing path is one): --force replaces nothing else (an empty file
+is always replaceable)."""
 
 
 def _lock_path(path: Path) -> Path:
@@ -58,12 +84,12 @@ def _probe_lock(path: Path) -> None:
         os.close(fd)
 
 
-def prepare_output(path: Path, force: bool) -> None:
+def prepare_output(path: Path, force: bool, kind: str = "file") -> None:
     """Check that ``path`` may be written, before any work; nothing is deleted here.
 
-    Refused: the current directory or one that contains it, an existing path without ``force``, with ``force`` a
-    directory that is not a rosbag2 bag, and an output another run is writing now. :class:`OutputClaim` checks
-    again under the lock when the output is written.
+    Refused: the current directory or one that contains it, an existing path without ``force``, with ``force``
+    a path that is not an output of this ``kind`` (:data:`REPLACEABLE`), and an output another run is writing
+    now. :class:`OutputClaim` checks again under the lock when the output is written.
     """
     resolved = path.resolve()
     cwd = Path.cwd().resolve()
@@ -73,9 +99,9 @@ def prepare_output(path: Path, force: bool) -> None:
     if path.exists() or path.is_symlink():
         if not force:
             raise InputError(f"{path}: already exists (use --force to overwrite)")
-        if path.is_dir() and not _is_bag_dir(path):
-            raise InputError(f"{path}: is a directory that is not a rosbag2 bag (metadata.yaml and bag files "
-                             "only); refusing to replace it")
+        what, replaceable = REPLACEABLE[kind]
+        if not replaceable(path):
+            raise InputError(f"{path}: is not a {what}; refusing to replace it")
     ensure_out_dir(path.parent if str(path.parent) else Path("."))
     _probe_lock(path)
 
@@ -121,14 +147,15 @@ def replace_output(new: Path, path: Path) -> None:
 class OutputClaim:
     """The exclusive right to write the output ``path`` until :meth:`release` (or the end of a ``with``).
 
-    Taking it checks ``path`` as :func:`prepare_output` does, locks ``.NAME.lock`` (refused at once if another
-    run holds it), cleans the stale leftovers of killed writers of ``path`` and creates :attr:`scratch`, an
-    empty directory next to ``path`` for the new output; :meth:`commit` moves it into place. Leaving a ``with``
-    by an exception (Ctrl-C included) removes the scratch: ``path`` stays as it was.
+    Taking it checks ``path`` as :func:`prepare_output` does (an output of ``kind``), locks ``.NAME.lock``
+    (refused at once if another run holds it), cleans the stale leftovers of killed writers of ``path`` and
+    creates :attr:`scratch`, an empty directory next to ``path`` for the new output; :meth:`commit` moves it
+    into place. Leaving a ``with`` by an exception (Ctrl-C included) removes the scratch: ``path`` stays as it
+    was.
     """
 
-    def __init__(self, path: Path, force: bool) -> None:
-        prepare_output(path, force)
+    def __init__(self, path: Path, force: bool, kind: str = "file") -> None:
+        prepare_output(path, force, kind)
         self.path = path
         self._lock = _lock_path(path)
         self._fd: int | None = None

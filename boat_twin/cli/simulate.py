@@ -114,9 +114,9 @@ def run(args: argparse.Namespace) -> int:
     integer("--seed", args.seed, minimum=0, maximum=SEED_MAX)
     refuse_input_as_output(args.out, args.commands, args.config, args.model, args.tlog)
     refuse_input_as_output(args.tlog, args.commands, args.config, args.model)
-    for output in (args.out, args.tlog):
+    for output, kind in ((args.out, "bag"), (args.tlog, "tlog")):
         if output is not None:
-            prepare_output(output, args.force)  # refused before the simulation, checked again when written
+            prepare_output(output, args.force, kind)  # refused before the simulation, checked again when written
     config = twin_config_from_args(args)
     if args.mavlink is not None or args.tlog is not None:
         return _run_mavlink(args, config)

@@ -55,7 +55,7 @@ def write_bag(path: Path, messages: Iterable[Message], storage: str = "mcap", fo
     if bare and storage != "mcap":
         raise InputError(f"{path}: a bare .mcap file needs --storage mcap")
     count = 0
-    with OutputClaim(path, force) as claim:
+    with OutputClaim(path, force, "bag") as claim:
         bag_dir = claim.scratch / (path.stem if bare else path.name)
         writer = Writer(bag_dir, version=8, storage_plugin=STORAGES[storage])
         if storage == "mcap":

@@ -20,8 +20,8 @@ from pathlib import Path
 import zstandard
 
 from boat_twin.errors import InputError
+from boat_twin.files import MCAP_MAGIC as MAGIC
 
-MAGIC = b"\x89MCAP0\r\n"
 CHUNK_OPCODE = 0x06
 FOOTER_OPCODE = 0x02
 _CRC_OFFSET = 1 + 8 + 24

@@ -376,7 +376,7 @@ class MavlinkBoat:
             self._sock = self._open_socket(self.endpoint)
         if tlog is not None:
             try:
-                self._tlog_claim = OutputClaim(Path(tlog), overwrite)
+                self._tlog_claim = OutputClaim(Path(tlog), overwrite, "tlog")
                 self._tlog = (self._tlog_claim.scratch / Path(tlog).name).open("wb")
             except BaseException:
                 self.close(complete=False)
