@@ -19,7 +19,8 @@ import os
 import re
 import shutil
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -223,6 +224,22 @@ class OutputClaim:
 
     def __exit__(self, *exc: object) -> None:
         self.release()
+
+
+@contextmanager
+def locked_directory(path: Path) -> Iterator[Path]:
+    """Hold an exclusive lock (``flock`` on the directory itself) while a run writes its reports into ``path``:
+    a second run writing there is refused at once; the kernel drops the lock when the holder dies."""
+    fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(f"{path}: another run is writing its reports into it now; refusing to write there "
+                             "too") from None
+        yield path
+    finally:
+        os.close(fd)
 
 
 def ensure_out_dir(path: Path) -> Path:

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig
-from boat_twin.files import OutputClaim
+from boat_twin.files import OutputClaim, locked_directory
 from boat_twin.io.bags import write_bag
 from boat_twin.link.mavlink_boat import MavlinkBoat
 from boat_twin.twin import run_sea_trial, trial_messages
@@ -92,6 +92,17 @@ def test_two_concurrent_simulate_runs_cannot_both_succeed(tmp_path) -> None:
     line = _one_error_line(results[1][1])
     assert "another run is writing it now" in line or "already exists" in line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["same.mcap"]
+
+
+def test_a_second_run_writing_reports_into_one_directory_is_refused(tmp_path, capsys) -> None:
+    out = tmp_path / "report"
+    out.mkdir()
+    with locked_directory(out):  # another identify or diagnose writing there now
+        for verb in ("identify", "diagnose"):
+            assert main([verb, "--table", "dyda2021", "--out", str(out)]) == 2
+            assert "another run is writing its reports into it" in _one_error_line(capsys.readouterr().err)
+    assert list(out.iterdir()) == []
+    assert main(["identify", "--table", "dyda2021", "--out", str(out)]) == 0
 
 
 def test_leftovers_of_a_killed_writer_are_restored_or_removed_and_named(tmp_path, capsys) -> None:

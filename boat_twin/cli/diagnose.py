@@ -38,9 +38,14 @@ def _progress(message: str) -> None:
     sys.stderr.flush()
 
 
-def _run_trial(args: argparse.Namespace) -> int:
-    out = claim_out_dir(args.out, (EXTENDED_MODEL_NAME, "diagnosis_signals.png", "diagnosis_residuals.png",
-                                   "diagnosis_evidence.png", "diagnosis.json"), args.force)
+TRIAL_OUTPUTS = (EXTENDED_MODEL_NAME, "diagnosis_signals.png", "diagnosis_residuals.png", "diagnosis_evidence.png",
+                 "diagnosis.json")
+"""What ``diagnose TRIAL --out DIR`` writes."""
+TABLE_OUTPUTS = (EXTENDED_MODEL_NAME, "diagnosis_table.png")
+"""What ``diagnose --table dyda2021 --out DIR`` writes."""
+
+
+def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     trial = trial_from_args(args.trial, args)
     done = diagnose_trial(trial, twin_config_from_args(args), args.window, None if args.json else _progress)
     if not args.json:
@@ -62,11 +67,8 @@ def _run_trial(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_table(args: argparse.Namespace) -> int:
-    if args.table != "dyda2021":
-        raise InputError(f"--table {args.table!r}: the built-in table is 'dyda2021'")
+def _run_table(args: argparse.Namespace, out: Path | None) -> int:
     result, diag, resistance = diagnose_paper_table(args.model_order)
-    out = claim_out_dir(args.out, (EXTENDED_MODEL_NAME, "diagnosis_table.png"), args.force)
     result["extended_model"] = None
     if out is not None and resistance is not None:
         atomic_write_yaml(out / EXTENDED_MODEL_NAME, {"vessel": {"resistance": resistance.to_dict()}})
@@ -82,11 +84,15 @@ def run(args: argparse.Namespace) -> int:
     if args.table is not None:
         if args.trial is not None:
             raise InputError("give either a TRIAL or --table, not both")
-        return _run_table(args)
+        if args.table != "dyda2021":
+            raise InputError(f"--table {args.table!r}: the built-in table is 'dyda2021'")
+        with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as out:
+            return _run_table(args, out)
     if args.trial is None:
         raise InputError("give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021")
     number("--window", args.window, above=0.0)
-    return _run_trial(args)
+    with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force) as out:
+        return _run_trial(args, out)
 
 
 def register(subparsers: Any) -> None:

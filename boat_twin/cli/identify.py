@@ -25,10 +25,9 @@ TRIAL_OUTPUTS = ("identify.json", "model.yaml", "trial.png", "resistance.png", "
 """What ``identify TRIAL --out DIR`` writes."""
 
 
-def _run_table(args: argparse.Namespace) -> int:
+def _run_table(args: argparse.Namespace, out: Path | None) -> int:
     result, si_fit = identify_table(args.monotone, args.order, args.max_order, args.through_origin)
     report = table_report(result, si_fit)
-    out = claim_out_dir(args.out, TABLE_OUTPUTS, args.force)
     if out is not None:
         atomic_write_text(out / "identify.json", to_json(result) + "\n")
         atomic_write_text(out / "report.txt", report)
@@ -53,16 +52,17 @@ def run(args: argparse.Namespace) -> int:
     if args.table is not None and args.trial is not None:
         raise InputError("give a TRIAL or --table, not both")
     if args.table is not None:
-        return _run_table(args)
+        with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as out:
+            return _run_table(args, out)
     if args.trial is None:
         raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021")
-    return _run_trial(args)
+    with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force):
+        return _run_trial(args)
 
 
 def _run_trial(args: argparse.Namespace) -> int:
     """A recorded trial: replay it through the online identifier, batch fits, dynamic mass, re-simulation with
-    the identified model (closing the loop), report."""
-    claim_out_dir(args.out, TRIAL_OUTPUTS, args.force)
+    the identified model (closing the loop), report (into --out, claimed by the caller)."""
     sys.stderr.write(f"reading {args.trial} ...\n")
     trial = trial_from_args(args.trial, args)
     sys.stderr.write(trial.metadata.summary_line() + "\n")
