@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows
+from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, residual
 from boat_twin.diagnose.search import BIC_THRESHOLD, MIN_HELDOUT_GAIN, Candidate, Fit, Selection, ci95
 from boat_twin.diagnose.structure import Signature
 from boat_twin.diagnose.table import TableDiagnosis
@@ -18,10 +18,10 @@ UNITS = {"vel_east_mps": "m/s", "vel_north_mps": "m/s", "yaw_rate_radps": "rad/s
 
 
 def signal_rmse(windows: Windows, prediction: Prediction) -> dict[str, float]:
-    """RMS of measured − predicted per signal, speed over ground and horizontal position, SI."""
+    """RMS of measured − predicted per signal (heading wrapped), speed over ground and horizontal position, SI."""
     out = {}
     for s in SIGNALS:
-        out[s] = float(np.sqrt(np.nanmean((windows.measured[s] - prediction.signals[s]) ** 2)))
+        out[s] = float(np.sqrt(np.nanmean(residual(s, windows.measured[s], prediction.signals[s]) ** 2)))
     measured_speed = np.hypot(windows.measured["vel_east_mps"], windows.measured["vel_north_mps"])
     predicted_speed = np.hypot(prediction.signals["vel_east_mps"], prediction.signals["vel_north_mps"])
     out["speed_mps"] = float(np.sqrt(np.nanmean((measured_speed - predicted_speed) ** 2)))
@@ -135,8 +135,9 @@ def residual_figure(windows: Windows, baseline: Prediction, extended: Prediction
     """Residuals (measured − predicted) of every signal before and after the extension."""
     fig = Figure(figsize=(10, 9), layout="constrained")
     for ax, s in zip(fig.subplots(len(SIGNALS), 1)[:], SIGNALS, strict=True):
-        ax.plot(*_concatenated(windows, windows.measured[s] - baseline.signals[s]), lw=0.6, label="baseline")
-        ax.plot(*_concatenated(windows, windows.measured[s] - extended.signals[s]), lw=0.6, label="extended")
+        for prediction, label in ((baseline, "baseline"), (extended, "extended")):
+            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], prediction.signals[s])), lw=0.6,
+                    label=label)
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_ylabel(f"Δ{s} [{UNITS[s]}]", fontsize=8)
     ax.set_xlabel("trial time [s]")

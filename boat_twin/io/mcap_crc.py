@@ -11,11 +11,11 @@ uncompressed_crc u32, compression (u32 length + UTF-8), records (u64 length + by
 
 from __future__ import annotations
 
-import mmap
 import struct
 from binascii import crc32
 from collections.abc import Iterator
 from pathlib import Path
+from typing import BinaryIO
 
 import zstandard
 
@@ -37,42 +37,44 @@ def _uncompressed(compression: str, records: bytes, size: int) -> bytes | None:
     return None
 
 
-def _chunks(data: mmap.mmap, path: Path) -> Iterator[tuple[int, int, bytes | None]]:
-    """Each chunk of the MCAP bytes ``data``: (byte offset of its record, its stored CRC, its uncompressed
-    records, or None if compressed otherwise than zstd or none). A chunk that does not decompress, or overruns
-    the file, is an :class:`InputError` naming it."""
-    if data[:8] != MAGIC:
+def _chunks(fh: BinaryIO, path: Path) -> Iterator[tuple[int, int, bytes | None]]:
+    """Each chunk of the open MCAP file ``fh``: (byte offset of its record, its stored CRC, its uncompressed
+    records, or None if compressed otherwise than zstd or none). Reads one record header, and one chunk, at a
+    time (a mapped file would count every page of a long recording in the process's resident memory). A chunk
+    that does not decompress, or overruns the file, is an :class:`InputError` naming it."""
+    if fh.read(len(MAGIC)) != MAGIC:
         raise InputError(f"{path}: not an MCAP file")
     pos = len(MAGIC)
-    while pos + 9 <= len(data):
-        opcode = data[pos]
-        (length,) = struct.unpack_from("<Q", data, pos + 1)
-        if opcode == CHUNK_OPCODE:
-            try:
-                body = pos + 9
-                (size, crc, name_length) = struct.unpack_from("<QII", data, body + 16)
-                compression = bytes(data[body + 32:body + 32 + name_length]).decode()
-                records_at = body + 32 + name_length
-                (records_length,) = struct.unpack_from("<Q", data, records_at)
-                if records_at + 8 + records_length > len(data):
-                    raise ValueError("it runs past the end of the file: truncated")
-                records = bytes(data[records_at + 8:records_at + 8 + records_length])
-                yield pos, crc, _uncompressed(compression, records, size)
-            except (ValueError, struct.error, zstandard.ZstdError) as err:
-                raise InputError(f"{path}: MCAP chunk at byte {pos} is corrupt ({err})") from None
+    while len(header := fh.read(9)) == 9:
+        opcode, length = header[0], struct.unpack_from("<Q", header, 1)[0]
         if opcode == FOOTER_OPCODE:
             break
+        if opcode == CHUNK_OPCODE:
+            try:
+                body = fh.read(length)
+                if len(body) < length:
+                    raise ValueError("it runs past the end of the file: truncated")
+                size, crc, name_length = struct.unpack_from("<QII", body, 16)
+                compression = body[32:32 + name_length].decode()
+                (records_length,) = struct.unpack_from("<Q", body, 32 + name_length)
+                records = body[40 + name_length:40 + name_length + records_length]
+                uncompressed = _uncompressed(compression, records, size)
+            except (ValueError, struct.error, zstandard.ZstdError) as err:
+                raise InputError(f"{path}: MCAP chunk at byte {pos} is corrupt ({err})") from None
+            yield pos, crc, uncompressed
         pos += 9 + length
+        fh.seek(pos)
 
 
 def fill_chunk_crcs(path: Path) -> int:
     """Write the CRC-32 of every chunk of the MCAP file ``path`` in place; returns the number of chunks."""
     count = 0
-    with path.open("r+b") as fh, mmap.mmap(fh.fileno(), 0) as data:
-        for pos, _, records in _chunks(data, path):
+    with path.open("r+b") as fh:
+        for pos, _, records in _chunks(fh, path):
             if records is None:
                 raise InputError(f"{path}: MCAP chunk at byte {pos}: only zstd and uncompressed chunks are written")
-            struct.pack_into("<I", data, pos + _CRC_OFFSET, crc32(records))
+            fh.seek(pos + _CRC_OFFSET)  # the iterator seeks on to the next record itself
+            fh.write(struct.pack("<I", crc32(records)))
             count += 1
     return count
 
@@ -80,10 +82,8 @@ def fill_chunk_crcs(path: Path) -> int:
 def check_chunk_crcs(path: Path) -> None:
     """Raise an :class:`InputError` naming the byte offset of the first chunk of the MCAP file ``path`` that
     does not decompress or whose records do not match their stored CRC (a CRC of 0 means "not computed")."""
-    if path.stat().st_size < len(MAGIC):
-        raise InputError(f"{path}: not an MCAP file ({path.stat().st_size} bytes)")
-    with path.open("rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as data:
-        for pos, stored, records in _chunks(data, path):
+    with path.open("rb") as fh:
+        for pos, stored, records in _chunks(fh, path):
             if records is not None and stored != 0 and crc32(records) != stored:
                 raise InputError(f"{path}: MCAP chunk at byte {pos} is corrupt (CRC-32 of its records "
                                  f"{crc32(records):#010x}, stored {stored:#010x})")
