@@ -246,6 +246,13 @@ def test_a_recorded_latitude_beyond_90_is_refused_not_mapped(tmp_path, messages,
     assert f"gnss_fix latitude 500 deg at sample {len(fixes) // 2} is outside [-90, 90] deg" in line
 
 
+def test_thrust_that_is_all_nan_is_named_not_called_a_time_mismatch(tmp_path, messages, capsys) -> None:
+    nan = [(t, s, replace(m, data=float("nan")) if t.endswith("/thrust") else m) for t, s, m in messages]
+    write_bag(tmp_path / "nan.mcap", nan)
+    assert main(["identify", str(tmp_path / "nan.mcap")]) == 2
+    assert "every thrust value is NaN" in capsys.readouterr().err.strip().splitlines()[-1]
+
+
 def test_a_cable_shorter_than_one_link_is_one_short_link(capsys) -> None:
     assert main(["cable", "depth", "--case", str(CASE), "--segment-length", "1e9", "--length", "0.001",
                  "--json"]) == 0
