@@ -281,7 +281,11 @@ VERB_FLAGS: dict[tuple[str, ...], dict[str, st.SearchStrategy[str] | None]] = {
                          "--json": None},
     ("cable", "length"): {"--case": FILES, "--depth": NUMBERS, "--segment-length": NUMBERS, "--json": None},
     ("cable", "speed"): {"--case": FILES, "--depth": NUMBERS, "--length": NUMBERS, "--json": None},
+    ("cable", "convergence"): {"--case": FILES, "--segments": NUMBERS, "--tolerance": NUMBERS, "--json": None},
 }
+"""Each verb's flags and the values they are given ("" is the positional argument; None: a switch)."""
+
+
 @st.composite
 def command_lines(draw: st.DrawFn) -> list[str]:
     verb = draw(st.sampled_from(sorted(VERB_FLAGS)))
@@ -289,7 +293,7 @@ def command_lines(draw: st.DrawFn) -> list[str]:
     argv = list(verb)
     for flag in draw(st.lists(st.sampled_from(sorted(flags)), min_size=1, max_size=4, unique=True)):
         values = flags[flag]
-        value = [] if values is None else [draw(values)] * (2 if flag == "--current" else 1)
+        value = [] if values is None else [draw(values)] * (2 if flag in ("--current", "--segments") else 1)
         argv += ([flag] if flag else []) + value
     if verb[0] == "simulate" and "--duration" not in argv:
         argv += ["--duration", "2"]  # cheap runs
