@@ -33,7 +33,7 @@ CALIBRATION = ROOT / "config" / "mavlink" / "ardupilot_two_outboards.yaml"
 TLOG = ROOT / "test" / "data" / "ardusub_log_tools" / "small.tlog"
 BOAT_TWIN = str(Path(sys.executable).parent / "boat-twin") if (Path(sys.executable).parent / "boat-twin").exists() \
     else (shutil.which("boat-twin") or "boat-twin")
-"""The console script, as a user runs it (``python -m`` exits by SIGINT after a handled Ctrl-C)."""
+"""The console script, as a user runs it."""
 
 
 def _tree(path: Path) -> dict[str, bytes]:
