@@ -12,22 +12,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from boat_twin.cli import verb_help
 from boat_twin.cli.options import TRIAL_HELP, add_trial_options, claim_out_dir, trial_from_args
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
-from boat_twin.ident.pipeline import (
-    identify_table,
-    identify_trials,
-    model_dict,
-    pool,
-    trial_samples,
-    write_model_yaml,
-)
-from boat_twin.ident.report import resimulation_line, table_figures, table_report, write_trial_report
-from boat_twin.ident.steady import MAX_ORDER
 
 TABLE_OUTPUTS = ("identify.json", "report.txt", "model.yaml", "fits.png", "residuals.png")
 """What ``identify --table --out DIR`` writes."""
@@ -36,6 +24,9 @@ TRIAL_OUTPUTS = ("identify.json", "model.yaml", "trial.png", "resistance.png", "
 
 
 def _run_table(args: argparse.Namespace, out: Path | None) -> int:
+    from boat_twin.ident.pipeline import identify_table, model_dict, write_model_yaml
+    from boat_twin.ident.report import table_figures, table_report
+
     result, si_fit = identify_table(args.monotone, args.order, args.max_order, args.through_origin)
     report = table_report(result, si_fit)
     if out is not None:
@@ -55,6 +46,8 @@ def _run_table(args: argparse.Namespace, out: Path | None) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``boat-twin identify``."""
+    from boat_twin.ident.steady import MAX_ORDER
+
     if args.order is not None and not 1 <= args.order <= MAX_ORDER:
         raise InputError(f"--order must be from 1 to {MAX_ORDER}, got {args.order}")
     if not 1 <= args.max_order <= MAX_ORDER:
@@ -87,6 +80,11 @@ def rejected_summary(rejected: list[dict[str, Any]]) -> str:
 def _run_trial(args: argparse.Namespace) -> int:
     """Recorded trials, pooled: replay through the online identifier, batch fits, dynamic mass, re-simulation of
     each with the identified model (closing the loop), report (into --out, claimed by the caller)."""
+    import numpy as np
+
+    from boat_twin.ident.pipeline import identify_trials, pool, trial_samples
+    from boat_twin.ident.report import resimulation_line, write_trial_report
+
     trials = []
     for path in args.trial:
         sys.stderr.write(f"reading {path} ...\n")
@@ -144,7 +142,9 @@ def register(subparsers: Any) -> None:
         help="built-in steady-state table: dyda2021 = Dyda & Chumakova (2021) Table 1, v in kn, F in kgf",
     )
     p.add_argument(
-        "--order", type=int, help="power-series order N (default: chosen by leave-one-out CV and BIC)"
+        "--order", type=int,
+        help="power-series order N (default: chosen by leave-one-out cross-validation and the Bayesian information "
+        "criterion, BIC)"
     )
     p.add_argument(
         "--max-order", type=int, default=8,

@@ -30,7 +30,8 @@ of every kind give in the accuracy study, docs/diagnosis.md)."""
 MISFIT_FACTOR = 2.0
 """A signal whose residual RMS, after the named effects, stays above this many times its measured noise floor is
 unexplained, whatever was named: on clean simulated trials (thrust steps, zigzag, random) the ratio is 0.97-1.3
-(the replay's initialization error adds to the noise); a 7 m/s wind the catalogue lacks leaves 7-11."""
+(the replay's initialization error adds to the noise); a 7 m/s wind diagnosed without the catalogue's ``wind``
+leaves 7-11."""
 RIDGE = 1e-3
 """Ridge regularization relative to the regressors' scale (they are standardized)."""
 

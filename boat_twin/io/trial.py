@@ -15,11 +15,8 @@ import numpy as np
 import pymap3d
 
 from boat_twin.errors import InputError
+from boat_twin.io.roles import COMMAND_ROLES, SENSOR_ROLES
 
-COMMAND_ROLES = ("thrust_left", "thrust_right", "angle_left", "angle_right")
-"""Command streams, each one scalar per message (N or rad)."""
-SENSOR_ROLES = ("gnss_fix", "gnss_vel", "imu")
-"""Measured streams: GNSS fix (lat, lon, alt), GNSS velocity (east, north), IMU (yaw, yaw rate, ax, ay)."""
 GAP_TOLERANCE_PERIODS = 2.5
 """A sensor stream is interpolated only between samples at most this many nominal periods apart."""
 GRID_BLOCK = 8192
