@@ -9,6 +9,7 @@ from typing import Any
 
 _EXPORTS = {
     "WINDOW_S": "boat_twin.diagnose.defaults",
+    "DiagnosisResult": "boat_twin.diagnose.report",
     "TrialDiagnosis": "boat_twin.diagnose.pipeline",
     "diagnose_paper_table": "boat_twin.diagnose.pipeline",
     "diagnose_trial": "boat_twin.diagnose.pipeline",

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, residual
 from boat_twin.diagnose.search import BIC_THRESHOLD, MIN_HELDOUT_GAIN, Candidate, Fit, Selection, ci95
-from boat_twin.diagnose.structure import Signature
+from boat_twin.diagnose.structure import Signature, SignatureResult
 from boat_twin.diagnose.table import TableDiagnosis
 
 UNITS = {"vel_east_mps": "m/s", "vel_north_mps": "m/s", "yaw_rate_radps": "rad/s", "heading_rad": "rad",
@@ -18,6 +18,72 @@ UNITS = {"vel_east_mps": "m/s", "vel_north_mps": "m/s", "yaw_rate_radps": "rad/s
 NAMES = {"vel_east_mps": "east velocity (GNSS)", "vel_north_mps": "north velocity (GNSS)",
          "yaw_rate_radps": "yaw rate (gyro)", "heading_rad": "heading (IMU)"}
 """Axis label of every compared signal (its unit follows, "name, unit")."""
+
+
+class CandidateResult(TypedDict):
+    """One effect tried in one round of the forward selection."""
+
+    effect: str
+    parameters: dict[str, float]
+    """Fitted parameters, named with their units (EffectSpec.parameter_names)."""
+    delta_bic: float
+    """BIC of the model with this effect minus BIC without it (negative: better)."""
+    round: int
+    heldout_gain: float | None
+    """1 − held-out SSE with / without; None when it failed the in-sample conditions and was not judged."""
+    named: bool
+    on_bound: bool
+    takes_over: bool
+    claims: list[str]
+    """The signals carrying its held-out gain."""
+    misfit_share: float | None
+    """Share of those signals' misfit above the noise floor that it removes (the share rule)."""
+
+
+class VerdictResult(TypedDict):
+    """One named effect: final parameters, their 95 % intervals and the held-out gain per signal."""
+
+    effect: str
+    parameters: dict[str, float]
+    ci95: dict[str, list[float]]
+    gain: dict[str, float]
+
+
+class AmbiguousResult(TypedDict):
+    """Causes the trial cannot tell apart: none of them named."""
+
+    effects: list[str]
+    parameters: dict[str, dict[str, float]]
+    round: int
+    reason: str
+
+
+class _DiagnosisResultBase(TypedDict):
+    trial: str
+    windows: dict[str, float]
+    """count (number of replay windows) and length_s."""
+    noise: dict[str, float]
+    """Measured noise floor per signal (white-noise stdev), SI."""
+    baseline: dict[str, dict[str, float]]
+    """{"rmse": signal → RMSE} of the model as given."""
+    extended: dict[str, dict[str, float]]
+    """{"rmse": signal → RMSE} of the model with the named effects."""
+    candidates: list[CandidateResult]
+    verdict: list[VerdictResult]
+    ambiguous: AmbiguousResult | None
+    unexplained: bool
+    """True when a signal stays above the misfit factor times its noise after the named effects."""
+    signature: list[SignatureResult]
+    """Per unexplained signal: misfit, held-out R², correlated regressors, worst time (Signature.to_dict)."""
+    extended_model: str | None
+    """Path of the written extended twin config, when one was written."""
+
+
+class DiagnosisResult(_DiagnosisResultBase, total=False):
+    """The ``--json`` contract of ``boat-twin diagnose TRIAL`` (SI units), as :func:`result_dict` builds it."""
+
+    evaluations: int
+    """Model replays the search ran."""
 
 
 def signal_rmse(windows: Windows, prediction: Prediction) -> dict[str, float]:
@@ -38,7 +104,7 @@ def _signal_gain(new: Fit, old: Fit) -> dict[str, float]:
     return {s: float(1.0 - new.heldout_sse[i] / old.heldout_sse[i]) for i, s in enumerate(SIGNALS)}
 
 
-def _candidate_dict(candidate: Candidate, round_index: int) -> dict[str, Any]:
+def _candidate_dict(candidate: Candidate, round_index: int) -> CandidateResult:
     _, values, _ = candidate.fit.split()[-1]
     return {"effect": candidate.effect.name, "parameters": candidate.effect.named(values),
             "delta_bic": candidate.delta_bic, "round": round_index + 1,
@@ -49,7 +115,7 @@ def _candidate_dict(candidate: Candidate, round_index: int) -> dict[str, Any]:
             "claims": list(candidate.claims), "misfit_share": candidate.share if np.isfinite(candidate.share) else None}
 
 
-def ambiguity(selection: Selection) -> dict[str, Any] | None:
+def ambiguity(selection: Selection) -> AmbiguousResult | None:
     """The candidates this trial cannot tell apart (none of them named), with why; None when there are none."""
     if not selection.ambiguous:
         return None
@@ -60,9 +126,10 @@ def ambiguity(selection: Selection) -> dict[str, Any] | None:
                       "other cause is; a trial that turns through many headings tells them apart"}
 
 
-def verdict(selection: Selection) -> list[dict[str, Any]]:
+def verdict(selection: Selection) -> list[VerdictResult]:
     """The named effects with their final parameters, 95 % intervals and held-out gain per signal."""
-    out, previous = [], selection.baseline
+    out: list[VerdictResult] = []
+    previous = selection.baseline
     final = {e.name: (v, s) for e, v, s in selection.final.split()}
     for candidate in selection.named:
         values, stderr = final[candidate.effect.name]
@@ -79,7 +146,7 @@ def verdict(selection: Selection) -> list[dict[str, Any]]:
 
 
 def result_dict(windows: Windows, selection: Selection, baseline: Prediction, extended: Prediction,
-                signatures: list[Signature], extended_model: str | None, sigma: dict[str, float]) -> dict[str, Any]:
+                signatures: list[Signature], extended_model: str | None, sigma: dict[str, float]) -> DiagnosisResult:
     """The ``--json`` contract (SI units)."""
     candidates = [_candidate_dict(c, i) for i, r in enumerate(selection.rounds) for c in r]
     return {
@@ -97,7 +164,7 @@ def result_dict(windows: Windows, selection: Selection, baseline: Prediction, ex
     }
 
 
-def text_report(result: dict[str, Any]) -> str:
+def text_report(result: DiagnosisResult) -> str:
     """What was wrong, where, the cause, its size ± uncertainty, the gain per signal."""
     lines = [f"trial       {result['trial']}: {result['windows']['count']} windows of "
              f"{result['windows']['length_s']:g} s replayed from the sensors"]
@@ -184,7 +251,7 @@ def residual_figure(windows: Windows, baseline: Prediction, extended: Prediction
     return fig
 
 
-def evidence_figure(result: dict[str, Any]) -> Figure:
+def evidence_figure(result: DiagnosisResult) -> Figure:
     """ΔBIC and held-out gain of every candidate in round 1, with the decision thresholds."""
     first = sorted([c for c in result["candidates"] if c["round"] == 1], key=lambda c: c["delta_bic"])
     names = [c["effect"] for c in first]
@@ -214,7 +281,7 @@ def evidence_figure(result: dict[str, Any]) -> Figure:
     return fig
 
 
-def concerned_signals(result: dict[str, Any]) -> list[str]:
+def concerned_signals(result: DiagnosisResult) -> list[str]:
     """Signals the named effects improved by ≥ 5 % (all when none did)."""
     gains = [v["gain"] for v in result["verdict"]]
     concerned = [s for s in SIGNALS if any(g.get(s, 0.0) >= 0.05 for g in gains)]

@@ -16,6 +16,7 @@ carry it and the time where the residual is largest.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TypedDict
 
 import numpy as np
 
@@ -36,6 +37,17 @@ RIDGE = 1e-3
 """Ridge regularization relative to the regressors' scale (they are standardized)."""
 
 
+class SignatureResult(TypedDict):
+    """An unexplained signal in the ``--json`` report (:meth:`Signature.to_dict`)."""
+
+    signal: str
+    misfit: float
+    """Residual RMS over the measured noise floor."""
+    heldout_r2: float
+    correlated_with: list[str]
+    worst_time_s: float
+
+
 @dataclass(frozen=True)
 class Signature:
     """Structure left in one signal's residual."""
@@ -49,7 +61,7 @@ class Signature:
     worst_time_s: float
     """Trial time of the middle of the window where the residual is largest, s."""
 
-    def to_dict(self) -> dict[str, object]:
+    def to_dict(self) -> SignatureResult:
         """Plain data for the JSON report."""
         return {"signal": self.signal, "misfit": self.misfit, "heldout_r2": self.heldout_r2,
                 "correlated_with": list(self.correlated_with), "worst_time_s": self.worst_time_s}
