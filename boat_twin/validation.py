@@ -15,16 +15,18 @@ from boat_twin.errors import InputError
 
 C = TypeVar("C")
 
-__all__ = ["config_from_mapping", "number", "number_list", "vector3"]
+__all__ = ["config_from_mapping", "integer", "number", "number_list", "vector3"]
 
 
 def number(where: str, value: Any, *, minimum: float | None = None, maximum: float | None = None,
            above: float | None = None, below: float | None = None) -> float:
     """``value`` as a finite float within inclusive (minimum, maximum) and exclusive (above, below) bounds."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(float(value)):
+    try:
+        result = float(value) if isinstance(value, (int, float, np.integer, np.floating)) else math.nan
+    except OverflowError:  # an integer beyond the float range
+        result = math.nan
+    if isinstance(value, bool) or not math.isfinite(result):
         raise InputError(f"{where}: expected a finite number, got {value!r}")
-    result = float(value)
     for bound, fails, relation in (
         (minimum, lambda b: result < b, ">="), (maximum, lambda b: result > b, "<="),
         (above, lambda b: result <= b, ">"), (below, lambda b: result >= b, "<"),
@@ -32,6 +34,13 @@ def number(where: str, value: Any, *, minimum: float | None = None, maximum: flo
         if bound is not None and fails(bound):
             raise InputError(f"{where}: must be {relation} {bound:g}, got {result:g}")
     return result
+
+
+def integer(where: str, value: int, *, minimum: int, maximum: int) -> int:
+    """``value`` as an integer within inclusive bounds."""
+    if not minimum <= value <= maximum:
+        raise InputError(f"{where}: must be an integer from {minimum} to {maximum}, got {value}")
+    return value
 
 
 def number_list(where: str, value: Any, *, min_length: int = 1) -> tuple[float, ...]:

@@ -154,14 +154,14 @@ def test_an_input_is_never_replaced_by_the_output(tmp_path, capsys) -> None:
     assert tlog.read_bytes() == b"raw telemetry"
 
 
-def _first_chunk_records(data: bytes) -> tuple[int, int]:
-    """(offset, length) of the first MCAP chunk's compressed records (the layout of the MCAP specification)."""
+def _first_chunk_records(data: bytes) -> tuple[int, int, int]:
+    """Offset of the first MCAP chunk, offset and length of its compressed records (the MCAP specification)."""
     pos = 8
     while data[pos] != 0x06:
         pos += 9 + int.from_bytes(data[pos + 1:pos + 9], "little")
     name_length = int.from_bytes(data[pos + 9 + 28:pos + 9 + 32], "little")
     at = pos + 9 + 32 + name_length
-    return at + 8, int.from_bytes(data[at:at + 8], "little")
+    return pos, at + 8, int.from_bytes(data[at:at + 8], "little")
 
 
 @pytest.mark.parametrize("where", [0.05, 0.3, 0.5, 0.7, 0.95])
@@ -171,10 +171,10 @@ def test_a_flipped_bit_inside_a_chunk_is_an_error_never_data(tmp_path, where) ->
     path = tmp_path / "trial.mcap"
     write_bag(path, trial_messages(trial, truth=False))
     data = bytearray(path.read_bytes())
-    start, length = _first_chunk_records(bytes(data))
+    chunk, start, length = _first_chunk_records(bytes(data))
     data[start + int(where * length)] ^= 0x10  # without chunk CRCs, 15 of 19 such flips read back as data
     path.write_bytes(bytes(data))
-    with pytest.raises(InputError, match="trial.mcap"):
+    with pytest.raises(InputError, match=rf"trial.mcap: MCAP chunk at byte {chunk} is corrupt"):
         read_trial(path)
 
 

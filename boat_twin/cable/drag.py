@@ -82,7 +82,7 @@ def drag_from_spec(spec: Any, where: str = "cable.drag") -> DragModel:
     if not isinstance(spec, Mapping):
         raise InputError(f"{where}: expected a mapping with a 'model' key")
     model = spec.get("model", "sphere")
-    fields = {"sphere": ("cx",), "normal_tangential": ("cn", "ct")}.get(model)
+    fields = {"sphere": ("cx",), "normal_tangential": ("cn", "ct")}.get(model) if isinstance(model, str) else None
     if fields is None:
         raise InputError(f"{where}.model: unknown drag model {model!r} (sphere or normal_tangential)")
     unknown = set(spec) - {"model", *fields}

@@ -119,6 +119,6 @@ def link_lengths(length_m: float, segment_length_m: float) -> np.ndarray:
     full = int(np.floor(length_m / segment_length_m * (1.0 + 1e-12)))
     rest = length_m - full * segment_length_m
     lengths = np.full(full, segment_length_m)
-    if rest > 1e-9 * segment_length_m:
+    if rest > 1e-9 * segment_length_m or (full == 0 and length_m > 0.0):  # a cable shorter than one link
         lengths = np.append(lengths, rest)
     return lengths

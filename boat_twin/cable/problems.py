@@ -178,6 +178,10 @@ def solve_length(case: CableCase, depth_m: float | None = None) -> CableSolution
         raise InputError(f"vehicle depth must be > 0 m (got {depth!r})")
     capacity = case.cable.winch_capacity_m
     limit = UNCONFIGURED_MAX_LENGTH_M if capacity is None else capacity
+    where = (f"the winch capacity cable.winch_capacity_m = {capacity:g} m" if capacity is not None
+             else f"{UNCONFIGURED_MAX_LENGTH_M:g} m of cable")
+    if depth > limit:  # refused before the march allocates links for the whole depth
+        raise CableSolveError(f"the cable does not reach the surface from {depth:g} m within {where}")
     seg = case.cable.segment_length_m
     loading = case.loading()
     body = body_equilibrium(case.vehicle, case.water_density_kgpm3, case.flow_mps(depth))
@@ -198,8 +202,6 @@ def solve_length(case: CableCase, depth_m: float | None = None) -> CableSolution
         pull_aft, pull_down = marched.next_pull_aft_N, marched.next_pull_down_N
         start = float(marched.node_depth_m[-1])
     else:
-        where = (f"the winch capacity cable.winch_capacity_m = {capacity:g} m" if capacity is not None
-                 else f"{UNCONFIGURED_MAX_LENGTH_M:g} m of cable")
         raise CableSolveError(f"the cable does not reach the surface from {depth:g} m within {where}")
     lengths = link_lengths(length, seg)
     marched = march(loading, body.pull_aft_N, body.pull_down_N, depth, lengths)

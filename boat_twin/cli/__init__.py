@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 
 from boat_twin import __version__
@@ -35,7 +36,8 @@ DESCRIPTION = ("Digital twin of a small planing boat: simulate sea trials into R
                "cable, convert MAVLink logs. SI units.")
 """What ``boat-twin --help`` says first."""
 EPILOG = ("'boat-twin VERB --help' shows a verb's options. Exit codes: 0 done, 2 bad input (one line on stderr "
-          "naming the file or option), 130 interrupted. Reference: docs/ in the repository.")
+          "naming the file or option), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM). Reference: docs/ in "
+          "the repository.")
 """What ``boat-twin --help`` says last: how to go on, and the exit-code contract."""
 
 
@@ -65,16 +67,35 @@ def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(BaseException):
+    """SIGTERM during a run: unwinds like Ctrl-C, so that outputs being written are dropped and old ones kept."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``boat-twin`` console script."""
+    """Entry point of the ``boat-twin`` console script. Exit codes: 0 done, 2 bad input (one line on stderr),
+    130 Ctrl-C, 143 SIGTERM (an output being written is dropped; an old one stays as it was)."""
     argv = sys.argv[1:] if argv is None else argv
     verb = next((a for a in argv if not a.startswith("-")), None)
-    args = build_parser(verb).parse_args(argv)
     try:
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:  # not the main thread: no handler
+        previous = None
+    try:
+        args = build_parser(verb).parse_args(argv)
         return int(args.handler(args))
     except InputError as err:
-        sys.stderr.write(f"boat-twin {args.verb}: error: {err}\n")
+        sys.stderr.write(f"boat-twin {verb}: error: {err}\n")
         return 2
     except KeyboardInterrupt:
         sys.stderr.write("boat-twin: interrupted\n")
         return 130
+    except Terminated:
+        sys.stderr.write("boat-twin: terminated\n")
+        return 143
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)

@@ -27,7 +27,14 @@ def _progress(message: str) -> None:
     sys.stderr.flush()
 
 
-def _run_trial(args: argparse.Namespace) -> int:
+TRIAL_OUTPUTS = (EXTENDED_MODEL_NAME, "diagnosis_signals.png", "diagnosis_residuals.png", "diagnosis_evidence.png",
+                 "diagnosis.json")
+"""What ``diagnose TRIAL --out DIR`` writes."""
+TABLE_OUTPUTS = (EXTENDED_MODEL_NAME, "diagnosis_table.png")
+"""What ``diagnose --table dyda2021 --out DIR`` writes."""
+
+
+def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     from boat_twin.config import save_config
     from boat_twin.diagnose.pipeline import diagnose_trial
     from boat_twin.diagnose.report import (
@@ -38,8 +45,6 @@ def _run_trial(args: argparse.Namespace) -> int:
         text_report,
     )
 
-    out = claim_out_dir(args.out, (EXTENDED_MODEL_NAME, "diagnosis_signals.png", "diagnosis_residuals.png",
-                                   "diagnosis_evidence.png", "diagnosis.json"), args.force)
     trial = trial_from_args(args.trial, args)
     done = diagnose_trial(trial, twin_config_from_args(args), args.window, None if args.json else _progress)
     if not args.json:
@@ -61,14 +66,11 @@ def _run_trial(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_table(args: argparse.Namespace) -> int:
+def _run_table(args: argparse.Namespace, out: Path | None) -> int:
     from boat_twin.diagnose.pipeline import diagnose_paper_table
     from boat_twin.diagnose.report import table_figure, table_text
 
-    if args.table != "dyda2021":
-        raise InputError(f"--table {args.table!r}: the built-in table is 'dyda2021'")
     result, diag, resistance = diagnose_paper_table(args.model_order)
-    out = claim_out_dir(args.out, (EXTENDED_MODEL_NAME, "diagnosis_table.png"), args.force)
     result["extended_model"] = None
     if out is not None and resistance is not None:
         atomic_write_yaml(out / EXTENDED_MODEL_NAME, {"vessel": {"resistance": resistance.to_dict()}})
@@ -81,15 +83,20 @@ def _run_table(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Dispatch: a table or a trial."""
+    from boat_twin.validation import number
+
     if args.table is not None:
         if args.trial is not None:
             raise InputError("give either a TRIAL or --table, not both")
-        return _run_table(args)
+        if args.table != "dyda2021":
+            raise InputError(f"--table {args.table!r}: the built-in table is 'dyda2021'")
+        with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as out:
+            return _run_table(args, out)
     if args.trial is None:
         raise InputError("give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021")
-    if args.window <= 0:
-        raise InputError(f"--window must be a positive number of seconds, got {args.window}")
-    return _run_trial(args)
+    number("--window", args.window, above=0.0)
+    with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force) as out:
+        return _run_trial(args, out)
 
 
 def register(subparsers: Any) -> None:

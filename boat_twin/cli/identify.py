@@ -23,13 +23,12 @@ TRIAL_OUTPUTS = ("identify.json", "model.yaml", "twin.yaml", "trial.png", "resis
 """What ``identify TRIAL --out DIR`` writes."""
 
 
-def _run_table(args: argparse.Namespace) -> int:
+def _run_table(args: argparse.Namespace, out: Path | None) -> int:
     from boat_twin.ident.pipeline import identify_table, model_dict, write_model_yaml
     from boat_twin.ident.report import table_figures, table_report
 
     result, si_fit = identify_table(args.monotone, args.order, args.max_order, args.through_origin)
     report = table_report(result, si_fit)
-    out = claim_out_dir(args.out, TABLE_OUTPUTS, args.force)
     if out is not None:
         atomic_write_text(out / "identify.json", to_json(result) + "\n")
         atomic_write_text(out / "report.txt", report)
@@ -59,10 +58,12 @@ def run(args: argparse.Namespace) -> int:
     if args.table is not None and args.trial:
         raise InputError("give a TRIAL or --table, not both")
     if args.table is not None:
-        return _run_table(args)
+        with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as out:
+            return _run_table(args, out)
     if not args.trial:
         raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN, .csv) or --table dyda2021")
-    return _run_trial(args)
+    with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force):
+        return _run_trial(args)
 
 
 def rejected_summary(rejected: list[dict[str, Any]]) -> str:
@@ -78,7 +79,7 @@ def rejected_summary(rejected: list[dict[str, Any]]) -> str:
 
 def _run_trial(args: argparse.Namespace) -> int:
     """Recorded trials, pooled: replay through the online identifier, batch fits, dynamic mass, re-simulation of
-    each with the identified model (closing the loop), report."""
+    each with the identified model (closing the loop), report (into --out, claimed by the caller)."""
     import numpy as np
 
     from boat_twin.config import TwinConfig, save_config
@@ -86,7 +87,6 @@ def _run_trial(args: argparse.Namespace) -> int:
     from boat_twin.ident.report import resimulation_line, write_trial_report
     from boat_twin.ident.twin_config import load_boat
 
-    claim_out_dir(args.out, TRIAL_OUTPUTS, args.force)
     boat = load_boat(args.boat) if args.boat is not None else None
     trials = []
     for path in args.trial:

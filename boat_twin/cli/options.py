@@ -5,11 +5,13 @@ twin configuration (--config, --model, --current). Cheap to import (the librarie
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from boat_twin.errors import InputError
-from boat_twin.files import ensure_out_dir
+from boat_twin.files import ensure_out_dir, locked_directory
 from boat_twin.io.roles import TRIAL_ROLES
 
 if TYPE_CHECKING:
@@ -76,14 +78,18 @@ def twin_config_from_args(args: argparse.Namespace) -> TwinConfig:
     return load_twin_config(args.config, args.model, tuple(current) if current else None)
 
 
-def claim_out_dir(out: Path | None, names: tuple[str, ...], force: bool) -> Path | None:
-    """--out DIR checked before any work: the report files ``names`` already there are refused without --force
-    (with it they are replaced one by one, atomically); an input file given as --out is refused too."""
+@contextmanager
+def claim_out_dir(out: Path | None, names: tuple[str, ...], force: bool) -> Iterator[Path | None]:
+    """--out DIR checked before any work and held for the run: the report files ``names`` already there are
+    refused without --force (with it they are replaced one by one, atomically), a file given as --out is refused,
+    and a second run writing reports into DIR at the same time is refused (:func:`locked_directory`)."""
     if out is None:
-        return None
+        yield None
+        return
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: --out must be a directory for the reports, and this is a file")
-    for name in names:
-        if (out / name).exists() and not force:
-            raise InputError(f"{out / name} exists; use --force to overwrite it")
-    return ensure_out_dir(out)
+    with locked_directory(ensure_out_dir(out)):
+        for name in names:
+            if (out / name).exists() and not force:
+                raise InputError(f"{out / name} exists; use --force to overwrite it")
+        yield out

@@ -12,13 +12,16 @@ from typing import TYPE_CHECKING
 from boat_twin.cli import verb_help
 from boat_twin.cli.options import twin_config_from_args
 from boat_twin.errors import InputError
-from boat_twin.files import refuse_input_as_output, to_json
+from boat_twin.files import prepare_output, refuse_input_as_output, to_json
 from boat_twin.vessel.scenario_names import SCENARIO_NAMES
 
 if TYPE_CHECKING:
     from boat_twin.config import TwinConfig
     from boat_twin.vessel.scenarios import CommandProfile, Scenario
     from boat_twin.vessel.truth import TruthSeries
+
+SEED_MAX = 2**63 - 1
+"""Largest --seed: the int64 range of a ROS 2 integer parameter (the simulator node's ``seed``)."""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -40,7 +43,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--current", type=float, nargs=2, metavar=("EAST", "NORTH"),
                    help="water current over ground, m/s (its east and north components)")
     p.add_argument("--duration", type=float, metavar="S", help="trial length, s (default: the scenario's own)")
-    p.add_argument("--seed", type=int, default=0, help="random seed: the same seed gives the same bag (default 0)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="random seed, 0 to 2^63-1: the same seed gives the same bag (default 0)")
     p.add_argument("--no-noise", action="store_true", help="exact measurements (no noise, dropouts or bias)")
     p.add_argument("--out", type=Path, metavar="BAG", help="output bag: a directory, or a file ending in .mcap")
     p.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap", help="rosbag2 storage (default mcap)")
@@ -119,10 +123,15 @@ def summarize(truth: TruthSeries) -> dict[str, float | None]:
 def run(args: argparse.Namespace) -> int:
     """Handler of ``simulate``."""
     from boat_twin.twin.sea_trial import compact_trial_messages, run_compact_trial
+    from boat_twin.validation import integer
     from boat_twin.vessel.params import describe
 
+    integer("--seed", args.seed, minimum=0, maximum=SEED_MAX)
     refuse_input_as_output(args.out, args.commands, args.config, args.model, args.tlog)
     refuse_input_as_output(args.tlog, args.commands, args.config, args.model)
+    for output, kind in ((args.out, "bag"), (args.tlog, "tlog")):
+        if output is not None:
+            prepare_output(output, args.force, kind)  # refused before the simulation, checked again when written
     config = twin_config_from_args(args)
     if args.mavlink is not None or args.tlog is not None:
         return _run_mavlink(args, config)
@@ -153,7 +162,6 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
     import signal
     import time
 
-    from boat_twin.files import prepare_output
     from boat_twin.link.mavlink_boat import MavlinkBoat, parse_stream_rates, progress_to_stderr
     from boat_twin.twin.live import LiveTwin
     from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
@@ -164,8 +172,6 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
     duration = scenario.duration_s if scenario is not None else args.duration
     if duration is not None and not duration > 0.0:
         raise InputError(f"--duration must be a positive number of seconds, got {duration!r}")
-    if args.out is not None:
-        prepare_output(args.out, args.force)  # refuse an existing bag before the link starts
     twin = LiveTwin(config, seed=args.seed, noise=not args.no_noise, epoch_s=round(time.time(), 3))
     stopping: list[bool] = []
     with MavlinkBoat(twin, args.mavlink, allow_remote=args.allow_remote, tlog=args.tlog, overwrite=args.force,
@@ -175,10 +181,12 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
         sys.stderr.write(f"MAVLink boat (system {link.system_id}) -> {where}, "
                          f"{'as fast as possible' if speed == 0 else f'{speed:g}x real time'}"
                          f"{'' if duration is not None else '; Ctrl-C to stop'}\n")
-        try:  # Ctrl-C ends the run cleanly (the .tlog and the bag are completed)
-            previous = signal.signal(signal.SIGINT, lambda *_: stopping.append(True))
+        previous = {}
+        try:  # Ctrl-C or SIGTERM ends a live run cleanly (the .tlog and the bag are completed)
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                previous[signum] = signal.signal(signum, lambda *_: stopping.append(True))
         except ValueError:  # not the main thread: no handler
-            previous = None
+            pass
         try:
             ticks = link.ticks(duration, speed, stop=lambda: bool(stopping), progress=progress_to_stderr)
             if args.out is not None:
@@ -190,8 +198,8 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
                 for _ in ticks:
                     pass
         finally:
-            if previous is not None:
-                signal.signal(signal.SIGINT, previous)
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)
         progress_to_stderr(link.summary_line())
         result = {"scenario": scenario.name if scenario is not None else None, "seed": args.seed,
                   "mavlink": args.mavlink, "speed": speed,

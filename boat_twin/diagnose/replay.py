@@ -24,6 +24,7 @@ from boat_twin.errors import InputError
 from boat_twin.io.trial import Trial
 from boat_twin.sensors.gnss import expected_fix
 from boat_twin.sensors.um7 import expected_gyro
+from boat_twin.validation import number
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.tow import tow_drag_table
 from boat_twin.vessel.truth import ground_velocity_enu
@@ -55,6 +56,8 @@ SWAY_OBSERVER_S = 5.0
 """Run-in of the sway observer before each window, s: ~2 sway time constants at 1.5 m/s, 12 at 10 m/s."""
 MIN_WINDOWS = 6
 """Fewer usable windows than this and a trial cannot be split into training and held-out parts."""
+MIN_WINDOW_S = 2.0 * SETTLING_S
+"""Shortest window, s: its first :data:`SETTLING_S` is not compared, so at least as long again is."""
 
 
 @dataclass(frozen=True)
@@ -86,7 +89,14 @@ def cut_windows(trial: Trial, window_s: float = 20.0) -> Windows:
     if t.size < 3:
         raise InputError(f"{trial.metadata.source}: too few samples to diagnose ({t.size})")
     dt = float(np.median(np.diff(t)))
+    number("--window", window_s, above=0.0)
     length = int(round(window_s / dt))
+    if window_s < MIN_WINDOW_S or length < 3:
+        raise InputError(f"--window {window_s:g} s: shorter than {MIN_WINDOW_S:g} s or 3 samples at the trial's "
+                         f"{1.0 / dt:.3g} Hz")
+    if length > t.size:
+        raise InputError(f"--window {window_s:g} s: longer than the trial {trial.metadata.source} "
+                         f"({t[-1] - t[0]:.1f} s)")
     commands = trial.commands
     known = np.all(np.isfinite(commands), axis=1)
     sensors = np.isfinite(trial.vel_east_mps) & np.isfinite(trial.yaw_rate_radps) & np.isfinite(trial.heading_rad)

@@ -113,7 +113,10 @@ def trial_samples(trial: Trial) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     t, thrust, speed = trial.t_s, trial.surge_thrust_N, trial.speed_mps
     known = np.isfinite(thrust) & np.isfinite(speed)
     if not np.any(known):
-        raise InputError(f"{source}: no sample has both a thrust command and a GNSS velocity "
+        blank = [what for what, values in (("thrust", thrust), ("GNSS speed", speed))
+                 if not np.any(np.isfinite(values))]
+        raise InputError(f"{source}: every {' and every '.join(blank)} value is NaN (not a number)" if blank else
+                         f"{source}: no sample has both a thrust command and a GNSS velocity "
                          "(commands and GNSS do not overlap in time)")
     in_gap = np.zeros(t.size, dtype=bool)
     for role, start_s, end_s in trial.metadata.gaps:

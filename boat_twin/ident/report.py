@@ -129,7 +129,7 @@ def table_report(result: dict[str, Any], si_fit: FitResult) -> str:
         "Paper's fits against the least-squares optimum (kgf; CV = leave-one-out):",
         "  N   paper RMSE   LSQ RMSE   LSQ CV RMSE   LSQ BIC   Fisher (LSQ)   monotone",
     ]
-    for n in sorted(set(PAPER_ORDERS) | {sel}):
+    for n in sorted((set(PAPER_ORDERS) & set(fits)) | {sel}):  # --max-order may leave the paper's high orders out
         fr = fits[n]
         paper_rmse = f"{paper['rmse'][str(n)]:10.3f}" if str(n) in paper["rmse"] else f"{'-':>10}"
         cv = f"{fr['cv_rmse']:11.3f}" if fr["cv_rmse"] is not None else f"{'inf':>11}"
@@ -171,7 +171,7 @@ def table_figures(result: dict[str, Any]) -> tuple[Figure, Figure]:
     speed, thrust = dyda2021_table1()
     grid = np.linspace(0.0, speed.max(), 300)
     fits = {f["order"]: f for f in result["fits"]}
-    orders = sorted(set(PAPER_ORDERS) | {result["selected_order"]})
+    orders = sorted((set(PAPER_ORDERS) & set(fits)) | {result["selected_order"]})
     fig = Figure(figsize=(11, 4.5), layout="constrained")
     ax_paper, ax_lsq = fig.subplots(1, 2, sharey=True)
     res = Figure(figsize=(11, 4.5), layout="constrained")

@@ -1,14 +1,14 @@
 """rosbag2 (MCAP or sqlite3 storage) and bare MCAP: write the twin's messages, read any trial into a Trial.
 
-Writing goes through the rosbags writer (rosbag2 metadata version 8, as ROS 2 Jazzy writes) into a temporary
-directory next to the target, renamed into place when complete: an interrupted run leaves nothing half-written.
+Writing goes through the rosbags writer (rosbag2 metadata version 8, as ROS 2 Jazzy writes) into the scratch
+directory of an :class:`~boat_twin.files.OutputClaim` next to the target, renamed into place when complete: an
+interrupted run leaves nothing half-written, and two runs cannot write one bag at once.
 Reading streams messages in log-time order and keeps only the few numbers each role needs.
 """
 
 from __future__ import annotations
 
 import math
-import shutil
 import tempfile
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
@@ -21,8 +21,8 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 
 from boat_twin.errors import InputError
-from boat_twin.files import prepare_output, replace_output
-from boat_twin.io.mcap_crc import fill_chunk_crcs
+from boat_twin.files import OutputClaim
+from boat_twin.io.mcap_crc import check_chunk_crcs, fill_chunk_crcs
 from boat_twin.io.messages import TOPIC_ODOM_TRUTH, TOPICS, TS
 from boat_twin.io.trial import Stream, Trial, build_trial
 
@@ -54,11 +54,9 @@ def write_bag(path: Path, messages: Iterable[Message], storage: str = "mcap", fo
     bare = path.suffix == ".mcap"
     if bare and storage != "mcap":
         raise InputError(f"{path}: a bare .mcap file needs --storage mcap")
-    prepare_output(path, force)
-    tmp_root = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}."))
-    bag_dir = tmp_root / (path.stem if bare else path.name)
     count = 0
-    try:
+    with OutputClaim(path, force, "bag") as claim:
+        bag_dir = claim.scratch / (path.stem if bare else path.name)
         writer = Writer(bag_dir, version=8, storage_plugin=STORAGES[storage])
         if storage == "mcap":
             writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
@@ -73,9 +71,7 @@ def write_bag(path: Path, messages: Iterable[Message], storage: str = "mcap", fo
                 count += 1
         for mcap_file in bag_dir.glob("*.mcap"):
             fill_chunk_crcs(mcap_file)
-        replace_output(bag_dir / f"{bag_dir.name}.mcap" if bare else bag_dir, path)
-    finally:
-        shutil.rmtree(tmp_root, ignore_errors=True)
+        claim.commit(bag_dir / f"{bag_dir.name}.mcap" if bare else bag_dir)
     return count
 
 
@@ -303,6 +299,8 @@ def read_trial(
     except InputError:
         raise
     except Exception as err:  # rosbags raises several types for corrupt or truncated files
+        for mcap_file in [path] if path.is_file() else sorted(path.glob("*.mcap")):
+            check_chunk_crcs(mcap_file)  # names the corrupt chunk's byte offset
         raise InputError(f"{source}: cannot read bag ({type(err).__name__}: {err})") from None
     streams = {role: rows.pop(role).stream() for role in topics}
     trial = build_trial(streams, source, topics, origin, release=True)

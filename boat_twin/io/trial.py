@@ -171,6 +171,35 @@ def _interpolate_block(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndar
     return out
 
 
+_THRUST_LIMIT = (-1e6, 1e6, "N")
+_ANGLE_LIMIT = (-np.pi, np.pi, "rad")
+VALUE_LIMITS: dict[str, tuple[tuple[str, float, float, str], ...]] = {
+    "thrust_left": (("thrust", *_THRUST_LIMIT),),
+    "thrust_right": (("thrust", *_THRUST_LIMIT),),
+    "angle_left": (("steering angle", *_ANGLE_LIMIT),),
+    "angle_right": (("steering angle", *_ANGLE_LIMIT),),
+    "gnss_fix": (("latitude", -90.0, 90.0, "deg"), ("longitude", -180.0, 180.0, "deg"),
+                 ("altitude", -1e4, 1e5, "m")),
+    "gnss_vel": (("east velocity", -343.0, 343.0, "m/s"), ("north velocity", -343.0, 343.0, "m/s")),
+    "imu": (("yaw", -2 * np.pi, 2 * np.pi, "rad"), ("yaw rate", -35.0, 35.0, "rad/s"),
+            ("x acceleration", -160.0, 160.0, "m/s^2"), ("y acceleration", -160.0, 160.0, "m/s^2")),
+}
+"""Role → per value column (name, lowest, highest, unit) a recording can hold: thrust within ±1 MN (500 times
+the seed boat's bollard thrust), steering within ±π, geodetic coordinates, velocities below the speed of sound
+in air, yaw rate and accelerations within the ±2000 °/s and ±16 g full scales of MEMS IMUs. A value beyond is a
+decoding or unit error, refused; NaN means "not provided" and passes."""
+
+
+def _check_values(source: str, role: str, stream: Stream) -> None:
+    values = np.asarray(stream.values)
+    for column, (name, low, high, unit) in enumerate(VALUE_LIMITS[role]):
+        bad = np.flatnonzero(~((values[:, column] >= low) & (values[:, column] <= high)
+                               | np.isnan(values[:, column])))
+        if bad.size:
+            raise InputError(f"{source}: {role} {name} {values[bad[0], column]:.6g} {unit} at sample {bad[0]} is "
+                             f"outside [{low:g}, {high:g}] {unit} ({bad.size} such sample(s))")
+
+
 def _monotone_stream(role: str, stream: Stream, meta: TrialMetadata) -> Stream:
     """Drop non-finite stamps and every sample whose stamp is not later than all before it (a duplicate, or a
     stamp running backwards: recorded in ``meta.backward_stamps``, never reordered into the data); no copy of a
@@ -297,6 +326,7 @@ def build_trial(
         if stream is None or np.asarray(stream.stamps_s).size == 0:
             meta.missing.append(role)
             continue
+        _check_values(source, role, stream)
         data[role] = _monotone_stream(role, stream, meta)
         if role in ("gnss_fix", "gnss_vel"):  # an IMU field may be NaN by design (REP-145: not provided)
             data[role] = _drop_nan_rows(role, data[role], meta)

@@ -58,7 +58,7 @@ from typing import Any, BinaryIO
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from boat_twin.errors import InputError
-from boat_twin.files import prepare_output
+from boat_twin.files import OutputClaim
 from boat_twin.io import messages
 from boat_twin.twin.live import LiveTwin
 from boat_twin.vessel.scenarios import Scenario
@@ -367,6 +367,7 @@ class MavlinkBoat:
         self._peer: tuple[Any, ...] | None = None
         self._sock: socket.socket | None = None
         self._tlog: BinaryIO | None = None
+        self._tlog_claim: OutputClaim | None = None
         self._mav = mavlink2.MAVLink(self, system_id, component_id)
         self._stamp_s = twin.time_s
         if scenario is not None and twin.tick_index == 0:  # the scenario's initial condition, as in batch
@@ -374,12 +375,12 @@ class MavlinkBoat:
         if self.endpoint is not None:
             self._sock = self._open_socket(self.endpoint)
         if tlog is not None:
-            prepare_output(Path(tlog), overwrite)
             try:
-                self._tlog = open(tlog, "wb")  # noqa: SIM115 (kept open for the link's lifetime)
-            except OSError as err:
-                self.close()
-                raise InputError(f"{tlog}: cannot write the .tlog ({err.strerror})") from None
+                self._tlog_claim = OutputClaim(Path(tlog), overwrite, "tlog")
+                self._tlog = (self._tlog_claim.scratch / Path(tlog).name).open("wb")
+            except BaseException:
+                self.close(complete=False)
+                raise
 
     # ------------------------------------------------------------------ transport
     def _open_socket(self, ep: Endpoint) -> socket.socket:
@@ -423,20 +424,28 @@ class MavlinkBoat:
             self._tlog.write(struct.pack(">Q", max(0, round(self._stamp_s * 1e6))) + bytes(buf))
             self.stats.packets_logged += 1
 
-    def close(self) -> None:
-        """Close the socket and the .tlog (idempotent)."""
+    def close(self, complete: bool = True) -> None:
+        """Close the socket and the .tlog (idempotent). The .tlog, written next to its name, is moved into place
+        if ``complete``; otherwise it is dropped and an old file of that name stays as it was."""
         if self._sock is not None:
             self._sock.close()
             self._sock = None
         if self._tlog is not None:
             self._tlog.close()
             self._tlog = None
+        if self._tlog_claim is not None:
+            try:
+                if complete:
+                    self._tlog_claim.commit(self._tlog_claim.scratch / self._tlog_claim.path.name)
+            finally:
+                self._tlog_claim.release()
+                self._tlog_claim = None
 
     def __enter__(self) -> MavlinkBoat:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, exc_type: object, *exc: object) -> None:
+        self.close(complete=exc_type is None)
 
     # ------------------------------------------------------------------ input
     def poll(self, timeout_s: float = 0.0) -> int:
@@ -685,7 +694,7 @@ class MavlinkBoat:
         self._mav.heartbeat_send(mavlink2.MAV_TYPE_SURFACE_BOAT, mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, base_mode,
                                  ROVER_MODE_MANUAL, mavlink2.MAV_STATE_ACTIVE)
         if self._tlog is not None:
-            self._tlog.flush()  # at most a second of log is lost if the process dies
+            self._tlog.flush()  # the partial .tlog of a killed run lags by at most a second
 
     def _send(self, kind: str, t_rel: float) -> bool:
         """Send one message of ``kind`` if its data exist; True when sent."""

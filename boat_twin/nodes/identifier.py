@@ -36,6 +36,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64, Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
+from boat_twin.errors import InputError
 from boat_twin.ident.live import LiveIdentifier
 from boat_twin.ident.online import SteadyCriteria
 from boat_twin.ident.steady import MAX_ORDER
@@ -128,6 +129,9 @@ class IdentifierNode(Node):
             response.success = self.ident.save(self.model_path)
         except OSError as err:
             response.success, response.message = False, f"cannot write {self.model_path}: {err.strerror}"
+            return response
+        except InputError as err:  # e.g. another process writing the same file now
+            response.success, response.message = False, str(err)
             return response
         response.message = str(self.model_path) if response.success else "not enough steady points yet"
         return response

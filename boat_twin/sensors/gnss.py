@@ -32,6 +32,12 @@ UBLOX_M8_CEP_M = 2.5
 """u-blox M8 (NEO-M8N) datasheet, GPS & GLONASS: horizontal position accuracy 2.5 m CEP (open sky)."""
 
 
+MAX_POSITION_STDEV_M = 1000.0
+"""Largest position noise stdev, m: a receiver worse than a kilometre has no fix (M8: 2.5 m CEP)."""
+MAX_LATENCY_S = 10.0
+"""Largest delivery delay, s: receivers deliver a fix within about one epoch (0.1-1 s); 10 s leaves a margin."""
+
+
 @dataclass(frozen=True)
 class GnssConfig:
     """A consumer GPS/GLONASS receiver (u-blox M8 class) on the boat; SI units, validated on construction."""
@@ -62,16 +68,16 @@ class GnssConfig:
     def __post_init__(self) -> None:
         checks: dict[str, dict[str, Any]] = {
             "rate_hz": {"above": 0.0},
-            "horizontal_stdev_m": {"minimum": 0.0},
-            "vertical_stdev_m": {"minimum": 0.0},
+            "horizontal_stdev_m": {"minimum": 0.0, "maximum": MAX_POSITION_STDEV_M},
+            "vertical_stdev_m": {"minimum": 0.0, "maximum": MAX_POSITION_STDEV_M},
             "position_correlation_time_s": {"minimum": 0.0},
-            "velocity_stdev_mps": {"minimum": 0.0},
-            "latency_s": {"minimum": 0.0},
+            "velocity_stdev_mps": {"minimum": 0.0, "maximum": 10.0},  # m/s: M8 0.05; beyond 10, no velocity
+            "latency_s": {"minimum": 0.0, "maximum": MAX_LATENCY_S},
             "dropout_probability": {"minimum": 0.0, "below": 1.0},
-            "antenna_height_m": {"minimum": 0.0},
+            "antenna_height_m": {"minimum": 0.0, "maximum": 100.0},  # m: a mast, not a tower
             "origin_lat_deg": {"minimum": -90.0, "maximum": 90.0},
             "origin_lon_deg": {"minimum": -180.0, "maximum": 180.0},
-            "origin_alt_m": {},
+            "origin_alt_m": {"minimum": -1000.0, "maximum": 10000.0},  # m: Dead Sea -430 to mountain lakes
         }
         for name, limits in checks.items():
             object.__setattr__(self, name, number(f"gnss.{name}", getattr(self, name), **limits))

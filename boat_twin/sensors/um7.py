@@ -41,6 +41,26 @@ WMM2020_VLADIVOSTOK_ENU_TESLA = (-4.892e-6, 26.225e-6, -45.635e-6)
 (declination -10.57 deg, inclination 59.69 deg, total 52 860 nT)."""
 
 
+GYRO_FULL_SCALE_RADPS = math.radians(2000.0)
+"""±2000 °/s: the largest full scale of MEMS gyros (the UM7's included); a noise or drift beyond is no gyro."""
+ACCEL_FULL_SCALE_MPS2 = 16.0 * STANDARD_GRAVITY_MPS2
+"""±16 g: the largest full scale of MEMS accelerometers; a noise beyond it is no accelerometer."""
+UM7_LIMITS: dict[str, dict[str, float]] = {
+    "rate_hz": {"above": 0.0},
+    "gyro_stdev_radps": {"minimum": 0.0, "maximum": GYRO_FULL_SCALE_RADPS},
+    "gyro_bias_walk_radps_per_sqrt_s": {"minimum": 0.0, "maximum": GYRO_FULL_SCALE_RADPS},
+    "accel_stdev_mps2": {"minimum": 0.0, "maximum": ACCEL_FULL_SCALE_MPS2},
+    "roll_pitch_stdev_rad": {"minimum": 0.0, "maximum": math.pi},
+    "yaw_stdev_rad": {"minimum": 0.0, "maximum": math.pi},
+    "orientation_correlation_time_s": {"minimum": 0.0},
+    "mag_stdev_tesla": {"minimum": 0.0, "maximum": 1e-4},
+    "temperature_celsius": {"minimum": -40.0, "maximum": 85.0},
+}
+"""Range of each scalar field: stdevs up to the sensor's full scale (angles up to π, the magnetometer's up to
+100 µT, about twice the strongest geomagnetic field); the temperature within the UM7's −40…85 °C operating
+range (datasheet)."""
+
+
 @dataclass(frozen=True)
 class Um7Config:
     """A UM7 (UM7-LT, as on the paper's boat) with the ROS 2 driver's defaults; SI units, validated."""
@@ -69,14 +89,8 @@ class Um7Config:
     """Reported board temperature, deg C; constant, assumed."""
 
     def __post_init__(self) -> None:
-        for name in (
-            "rate_hz", "gyro_stdev_radps", "gyro_bias_walk_radps_per_sqrt_s", "accel_stdev_mps2",
-            "roll_pitch_stdev_rad", "yaw_stdev_rad", "orientation_correlation_time_s", "mag_stdev_tesla",
-        ):
-            limits = {"above": 0.0} if name == "rate_hz" else {"minimum": 0.0}
+        for name, limits in UM7_LIMITS.items():
             object.__setattr__(self, name, number(f"um7.{name}", getattr(self, name), **limits))
-        temperature = number("um7.temperature_celsius", self.temperature_celsius)
-        object.__setattr__(self, "temperature_celsius", temperature)
         for name in ("gyro_bias_radps", "magnetic_field_enu_tesla"):
             object.__setattr__(self, name, vector3(f"um7.{name}", getattr(self, name)))
 

@@ -105,6 +105,10 @@ class VesselParams:
                 raise InputError(f"vessel parameter '{f.name}' must not be negative, got {value!r}")
             if f.name not in SIGNED_FIELDS + NON_NEGATIVE_FIELDS and value <= 0.0:
                 raise InputError(f"vessel parameter '{f.name}' must be positive, got {value!r}")
+        for name in ("max_steering_rad", "steering_offset_rad"):
+            if abs(getattr(self, name)) > math.pi / 2:
+                raise InputError(f"vessel parameter '{name}' must be within ±π/2 rad (an outboard turns at most "
+                                 f"90° either way), got {getattr(self, name)!r}")
         if self.turn_steering_rad >= self.max_steering_rad + 1e-12:
             raise InputError("vessel parameter 'turn_steering_rad' must not exceed 'max_steering_rad'")
         if self.turn_drift_rad >= math.pi / 4:

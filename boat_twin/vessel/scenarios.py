@@ -260,6 +260,9 @@ def read_command_csv(path: Path) -> CommandProfile:
                     raise InputError(f"{path}:{line_no}: not a number in {row!r}") from None
                 if not all(math.isfinite(v) for v in values):
                     raise InputError(f"{path}:{line_no}: values must be finite, got {row!r}")
+                if any(abs(a) > math.pi / 2 for a in values[3:]):
+                    raise InputError(f"{path}:{line_no}: steering angle beyond ±π/2 rad (an outboard turns at "
+                                     f"most 90° either way), got {row!r}")
                 if rows and values[0] <= rows[-1][0]:
                     raise InputError(f"{path}:{line_no}: time {values[0]} s does not increase")
                 rows.append(values)
