@@ -1,7 +1,8 @@
-"""``boat-twin identify``: the thrust–speed model m·dv/dt = F − Fc(v) from the paper's table or a trial.
+"""``boat-twin identify``: the thrust–speed model m·dv/dt = F − Fc(v) from the paper's table or a trial, or
+(``--manoeuvring``) the turning coefficients from one or more zigzag / turning-circle trials.
 
-A front end over :mod:`boat_twin.ident.pipeline` (the computation) and :mod:`boat_twin.ident.report` (text,
-files, figures).
+A front end over :mod:`boat_twin.ident.pipeline` and :mod:`boat_twin.ident.manoeuvring` (the computation) and
+:mod:`boat_twin.ident.report` (text, files, figures).
 """
 
 from __future__ import annotations
@@ -12,9 +13,17 @@ from pathlib import Path
 from typing import Any
 
 from boat_twin.cli import verb_help
-from boat_twin.cli.options import TRIAL_HELP, add_trial_options, claim_out_dir, trial_from_args
+from boat_twin.cli.options import (
+    TRIAL_HELP,
+    add_trial_options,
+    claim_out_dir,
+    trial_from_args,
+    twin_config_from_args,
+)
+from boat_twin.config import save_config
 from boat_twin.errors import InputError
-from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
+from boat_twin.files import atomic_save_figure, atomic_write_text, refuse_input_as_output, to_json
+from boat_twin.ident.manoeuvring import WINDOW_S, fit_manoeuvring, validate
 from boat_twin.ident.pipeline import identify_table, identify_trial, model_dict, trial_samples, write_model_yaml
 from boat_twin.ident.report import resimulation_line, table_figures, table_report, write_trial_report
 from boat_twin.ident.steady import MAX_ORDER
@@ -23,6 +32,8 @@ TABLE_OUTPUTS = ("identify.json", "report.txt", "model.yaml", "fits.png", "resid
 """What ``identify --table --out DIR`` writes."""
 TRIAL_OUTPUTS = ("identify.json", "model.yaml", "trial.png", "resistance.png", "resimulation.png")
 """What ``identify TRIAL --out DIR`` writes."""
+MANOEUVRING_OUTPUTS = ("manoeuvring.json", "twin.yaml")
+"""What ``identify TRIAL... --manoeuvring --out DIR`` writes: the result and the twin config with the fit."""
 
 
 def _run_table(args: argparse.Namespace) -> int:
@@ -50,13 +61,69 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--order must be from 1 to {MAX_ORDER}, got {args.order}")
     if not 1 <= args.max_order <= MAX_ORDER:
         raise InputError(f"--max-order must be from 1 to {MAX_ORDER}, got {args.max_order}")
-    if args.table is not None and args.trial is not None:
+    if args.table is not None and args.trial:
         raise InputError("give a TRIAL or --table, not both")
     if args.table is not None:
         return _run_table(args)
-    if args.trial is None:
+    if not args.trial:
         raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021")
+    if args.manoeuvring:
+        return _run_manoeuvring(args)
+    if args.validate:
+        raise InputError("--validate needs --manoeuvring")
+    if len(args.trial) > 1:
+        raise InputError(f"{len(args.trial)} trials given: the thrust–speed identification takes one "
+                         "(several trials: --manoeuvring)")
+    args.trial = args.trial[0]
     return _run_trial(args)
+
+
+def _run_manoeuvring(args: argparse.Namespace) -> int:
+    """Fit the turning coefficients to the trials (surge held from --config/--model), replay the --validate
+    trials with the fit, report; --out writes the result and a twin config ``simulate --config`` loads."""
+    refuse_input_as_output(args.out, *args.trial, *args.validate, args.config, args.model)
+    out = claim_out_dir(args.out, MANOEUVRING_OUTPUTS, args.force)
+    base = twin_config_from_args(args)
+    trials = []
+    for path in args.trial:
+        sys.stderr.write(f"reading {path} ...\n")
+        trials.append(trial_from_args(path, args))
+    held_out = [trial_from_args(path, args) for path in args.validate]
+    sys.stderr.write(f"fitting the manoeuvring coefficients to {len(trials)} trial(s) ...\n")
+    fit = fit_manoeuvring(trials, base, args.window)
+    block = fit.to_dict()
+    block["validation"] = [validate(trial, fit.config) for trial in held_out]
+    result = {"manoeuvring": block}
+    if out is not None:
+        atomic_write_text(out / "manoeuvring.json", to_json(result) + "\n")
+        sources = ", ".join(map(str, args.trial))
+        save_config(fit.config, out / "twin.yaml", f"boat_twin twin config: manoeuvring coefficients from {sources}")
+    if args.json:
+        sys.stdout.write(to_json(result) + "\n")
+        return 0
+    lines = [f"{len(trials)} trial(s), {block['windows']} windows of {args.window:g} s, "
+             f"{block['evaluations']} model evaluations, {block['fit_time_s']:.1f} s"]
+    for key, value in block["parameters"].items():
+        ci = block["ci95"].get(key)
+        lines.append(f"{key:24s} {value:11.5g}" + (f"   95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "   held"))
+    lines += [f"not identified: {key}: {why}" for key, why in block["not_identified"].items()]
+    lines += [f"not separated: {' / '.join(pair['parameters'])} (correlation {pair['correlation']:+.3f}): "
+              f"{pair['why']}" for pair in block["not_separated"]]
+    ratios = ", ".join(f"{s} {r:.2f}" for s, r in block["residual_to_noise"].items())
+    lines.append(("MISFIT: residuals above the measured noise (" if block["misfit"] else
+                  "residual RMS / measured noise: ") + ratios + (
+                  f"; threshold {block['misfit_threshold']}): the model lacks a cause in these trials and the "
+                  "coefficients are biased" if block["misfit"] else ""))
+    for check in block["validation"]:
+        line = (f"validation {check['source']}: heading RMSE {check['heading_rmse_deg']:.2f}°, yaw rate RMSE "
+                f"{check['yaw_rate_rmse_degps']:.3f}°/s, track RMSE {check['track_rmse_m']:.1f} m")
+        if "tactical_diameter_m" in check:
+            d = check["tactical_diameter_m"]
+            line += f", tactical diameter {d['predicted']:.1f} m predicted vs {d['measured']:.1f} m measured"
+        lines.append(line)
+    lines += [f"note: {note}" for note in block["notes"]]
+    sys.stdout.write("\n".join(lines) + "\n")
+    return 0
 
 
 def _run_trial(args: argparse.Namespace) -> int:
@@ -101,8 +168,19 @@ def register(subparsers: Any) -> None:
         description="Identify the longitudinal model m·dv/dt = F - Fc(v), Fc(v) = sum c_i·v^i "
         "(Dyda & Chumakova 2021). Internally SI; the built-in table is reported in its own units (kn, kgf).",
     )
-    p.add_argument("trial", nargs="?", type=Path, help=TRIAL_HELP)
+    p.add_argument("trial", nargs="*", type=Path, help=TRIAL_HELP + " (several with --manoeuvring)")
     add_trial_options(p)
+    p.add_argument("--manoeuvring", action="store_true",
+                   help="fit the turning coefficients (m22, m33, sway/yaw damping, lateral centre, cross-flow drag, "
+                   "steering offset) to the TRIALs (zigzags, turning circles), surge held from --config/--model")
+    p.add_argument("--validate", action="append", type=Path, default=[], metavar="TRIAL",
+                   help="with --manoeuvring: a trial not fitted, replayed with the fit to report its error")
+    p.add_argument("--window", type=float, default=WINDOW_S, metavar="S",
+                   help=f"with --manoeuvring: replay window, s (default {WINDOW_S:g}; a trial needs 6 windows)")
+    p.add_argument("--config", type=Path, help="with --manoeuvring: twin configuration YAML (the prior and the held "
+                   "surge; default the built-in boat)")
+    p.add_argument("--model", type=Path, help="with --manoeuvring: identified surge model YAML (identify TRIAL "
+                   "--out) over the config's vessel")
     p.add_argument(
         "--table",
         choices=["dyda2021"],
@@ -128,7 +206,8 @@ def register(subparsers: Any) -> None:
         "--out",
         type=Path,
         metavar="DIR",
-        help="write identify.json, model.yaml (SI) and PNG plots here (report.txt too with --table)",
+        help="write identify.json, model.yaml (SI) and PNG plots here (report.txt too with --table; "
+        "manoeuvring.json and twin.yaml with --manoeuvring)",
     )
     p.add_argument("--force", action="store_true", help="overwrite existing reports in --out")
     p.set_defaults(handler=run)

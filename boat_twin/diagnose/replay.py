@@ -30,6 +30,9 @@ from boat_twin.vessel.truth import ground_velocity_enu
 
 SIGNALS = ("vel_east_mps", "vel_north_mps", "yaw_rate_radps", "heading_rad")
 """Measured signals the diagnosis compares: GNSS velocity over ground (ENU), gyro yaw rate, IMU heading."""
+LATERAL_ACCEL = "accel_y_mps2"
+"""The accelerometer's lateral reading v̇ + u·r, m/s² (FLU body), which :func:`predict` also gives (the turning
+identification, boat_twin.ident.manoeuvring, fits it: it sees the sway transient that sets m22)."""
 HEADING_SMOOTHING_S = 5.0
 """A window's initial heading averages IMU yaw minus integrated gyro over ± this long, s (3° noise → 0.3°)."""
 SETTLING_S = 1.0
@@ -206,12 +209,12 @@ def predict(windows: Windows, config: TwinConfig) -> Prediction:
     """Run every window's commands through ``config``'s model from its measured initial state; the sensors read
     the path as their expected-measurement functions say (:func:`~boat_twin.sensors.gnss.expected_fix`: velocity
     over ground and position delayed by the GNSS latency; :func:`~boat_twin.sensors.um7.expected_gyro`: yaw rate
-    plus the gyro bias), noise-free."""
+    plus the gyro bias), noise-free; and the lateral accelerometer (:data:`LATERAL_ACCEL`, v̇ + u·r)."""
     dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
     states = initial_states(windows, config, dynamics)
     substeps = max(1, int(round(windows.dt_s * REPLAY_INTEGRATION_RATE_HZ)))
     environments = np.tile(config.environment.as_vector(), (states.shape[0], 1))
-    path, _ = dynamics.run(states, windows.commands, environments, windows.dt_s / substeps, substeps)
+    path, rates = dynamics.run(states, windows.commands, environments, windows.dt_s / substeps, substeps)
     east, north, yaw, u, v, r = (path[..., j] for j in range(6))
     env = config.environment
     vel_east, vel_north = ground_velocity_enu(yaw, u, v, env.current_east_mps, env.current_north_mps)
@@ -219,7 +222,8 @@ def predict(windows: Windows, config: TwinConfig) -> Prediction:
     fix = expected_fix(config.gnss, window_t_s, east, north, vel_east, vel_north)  # delayed; held at the start
     skip = int(round(SETTLING_S / windows.dt_s))
     signals = {"vel_east_mps": fix.vel_east_mps, "vel_north_mps": fix.vel_north_mps,
-               "yaw_rate_radps": expected_gyro(config.um7, r)[..., 2], "heading_rad": yaw.copy()}
+               "yaw_rate_radps": expected_gyro(config.um7, r)[..., 2], "heading_rad": yaw.copy(),
+               LATERAL_ACCEL: rates[..., 4] + r * u}
     position = np.stack([fix.east_m, fix.north_m], axis=-1)
     for values in (*signals.values(), position):
         values[:skip] = np.nan
