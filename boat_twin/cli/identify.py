@@ -112,7 +112,7 @@ def _run_manoeuvring(args: argparse.Namespace) -> int:
     ratios = ", ".join(f"{s} {r:.2f}" for s, r in block["residual_to_noise"].items())
     lines.append(("MISFIT: residuals above the measured noise (" if block["misfit"] else
                   "residual RMS / measured noise: ") + ratios + (
-                  f"; threshold {block['misfit_threshold']}): the model lacks a cause in these trials and the "
+                  f"; thresholds {block['misfit_threshold']}): the model lacks a cause in these trials and the "
                   "coefficients are biased" if block["misfit"] else ""))
     for check in block["validation"]:
         line = (f"validation {check['source']}: heading RMSE {check['heading_rmse_deg']:.2f}°, yaw rate RMSE "

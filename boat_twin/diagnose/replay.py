@@ -169,16 +169,22 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
     return sway
 
 
-def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics) -> np.ndarray:
-    """(m, 6) state at each window's start, from the sensors as ``config`` says they err.
+@dataclass(frozen=True)
+class MeasuredMotion:
+    """Trial-length heading (rad), surge through water (m/s) and yaw rate (rad/s) from the sensors, as a
+    config's sensors and current say they err (:func:`measured_motion`): the same for every vessel, so a fit of
+    vessel coefficients computes it once."""
 
-    Heading: mean over ±:data:`HEADING_SMOOTHING_S` of IMU yaw with the gyro's turn removed (the 3° IMU yaw
+    heading_rad: np.ndarray
+    surge_mps: np.ndarray
+    yaw_rate_radps: np.ndarray
+
+
+def measured_motion(windows: Windows, config: TwinConfig) -> MeasuredMotion:
+    """Heading: mean over ±:data:`HEADING_SMOOTHING_S` of IMU yaw with the gyro's turn removed (the 3° IMU yaw
     noise drops to ~0.3°); yaw rate: gyro − bias, 3-sample mean; surge through water: the GNSS velocity
     stamped t + latency (it describes t) minus the current, along that heading, averaged over
-    ±:data:`SURGE_SMOOTHING_S` by a local quadratic; sway: the
-    :func:`_sway_observer`. Every term is a measurement or driven by measurements, so initialization errors
-    are noise with zero mean, never a bias that a catalogue effect could absorb.
-    """
+    ±:data:`SURGE_SMOOTHING_S` by a local quadratic. Uses ``config``'s gyro bias, GNSS latency and current only."""
     trial, dt = windows.trial, windows.dt_s
     bias = float(config.um7.gyro_bias_radps[2])
     half = max(1, int(round(HEADING_SMOOTHING_S / dt)))
@@ -190,10 +196,26 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics) -> 
     we = np.interp(stamped, trial.t_s, trial.vel_east_mps) - env.current_east_mps
     wn = np.interp(stamped, trial.t_s, trial.vel_north_mps) - env.current_north_mps
     surge = _local_quadratic(we * np.cos(heading) + wn * np.sin(heading), max(2, int(round(SURGE_SMOOTHING_S / dt))))
+    return MeasuredMotion(heading, surge, yaw_rate)
+
+
+def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics,
+                   motion: MeasuredMotion | None = None) -> np.ndarray:
+    """(m, 6) state at each window's start, from the sensors as ``config`` says they err.
+
+    Heading, surge and yaw rate: :func:`measured_motion` (``motion``, if already computed for ``config``'s
+    sensors and current); sway: the :func:`_sway_observer`. Every term is a measurement or driven by
+    measurements, so initialization errors are noise with zero mean, never a bias that a catalogue effect could
+    absorb.
+    """
+    motion = motion or measured_motion(windows, config)
     start = windows.start_index
     states = np.zeros((start.size, 6))
-    states[:, 2], states[:, 3], states[:, 5] = heading[start], surge[start], yaw_rate[start]
-    states[:, 4] = _sway_observer(windows, config, dynamics, heading, surge, yaw_rate)
+    states[:, 2] = motion.heading_rad[start]
+    states[:, 3] = motion.surge_mps[start]
+    states[:, 5] = motion.yaw_rate_radps[start]
+    states[:, 4] = _sway_observer(windows, config, dynamics, motion.heading_rad, motion.surge_mps,
+                                  motion.yaw_rate_radps)
     return states
 
 
@@ -205,13 +227,14 @@ class Prediction:
     position: np.ndarray
 
 
-def predict(windows: Windows, config: TwinConfig) -> Prediction:
+def predict(windows: Windows, config: TwinConfig, motion: MeasuredMotion | None = None) -> Prediction:
     """Run every window's commands through ``config``'s model from its measured initial state; the sensors read
     the path as their expected-measurement functions say (:func:`~boat_twin.sensors.gnss.expected_fix`: velocity
     over ground and position delayed by the GNSS latency; :func:`~boat_twin.sensors.um7.expected_gyro`: yaw rate
-    plus the gyro bias), noise-free; and the lateral accelerometer (:data:`LATERAL_ACCEL`, v̇ + u·r)."""
+    plus the gyro bias), noise-free; and the lateral accelerometer (:data:`LATERAL_ACCEL`, v̇ + u·r).
+    ``motion``: :func:`measured_motion` for ``config``'s sensors and current, when the caller keeps it."""
     dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
-    states = initial_states(windows, config, dynamics)
+    states = initial_states(windows, config, dynamics, motion)
     substeps = max(1, int(round(windows.dt_s * REPLAY_INTEGRATION_RATE_HZ)))
     environments = np.tile(config.environment.as_vector(), (states.shape[0], 1))
     path, rates = dynamics.run(states, windows.commands, environments, windows.dt_s / substeps, substeps)

@@ -16,11 +16,12 @@ together, which the trials cannot tell apart; the fit takes x_e as given.
 
 Uncertainty: the covariance is the cluster-robust sandwich with windows as clusters (residuals within a window
 share its initial-state error; windows start afresh and are nearly independent), and the 95 % intervals use
-the t quantile with (windows − parameters) degrees of freedom. A parameter whose interval is wider than
-a factor :data:`NOT_IDENTIFIED_FACTOR` of the value (or :data:`NOT_IDENTIFIED_ABSOLUTE` for x_c and the
-offset) is reported as not
-identified by these trials and held at its prior value in a refit. A fit whose residuals stay above the measured
-noise (ratio > :data:`MISFIT_RATIO` on any signal) is flagged as a misfit: its coefficients absorb a cause the
+the t quantile with (windows − parameters) degrees of freedom. A parameter whose interval reaches beyond a
+factor :data:`NOT_IDENTIFIED_FACTOR` of its value (x_c and the offset: :data:`NOT_IDENTIFIED_ABSOLUTE`) is
+reported as not identified by these trials; it stays in the fit (holding it at a prior would bias the others
+and hide that from their intervals), its value is the best fit and its interval says how little that means.
+A fit whose residuals stay above the measured noise (ratio above :data:`MISFIT_RATIO` on any signal) is
+flagged as a misfit: its coefficients absorb a cause the
 model lacks and are biased.
 """
 
@@ -37,7 +38,15 @@ from scipy.optimize import least_squares
 from scipy.stats import t as student_t
 
 from boat_twin.config import TwinConfig
-from boat_twin.diagnose.replay import LATERAL_ACCEL, SIGNALS, Windows, cut_windows, predict
+from boat_twin.diagnose.replay import (
+    LATERAL_ACCEL,
+    SIGNALS,
+    MeasuredMotion,
+    Windows,
+    cut_windows,
+    measured_motion,
+    predict,
+)
 from boat_twin.errors import InputError
 from boat_twin.io.trial import Trial
 from boat_twin.signal_noise import white_noise_stdev
@@ -46,9 +55,12 @@ from boat_twin.vessel.params import MANOEUVRING_KEYS, derive_coefficients
 WINDOW_S = 20.0
 """Replay window, s: several yaw and sway time constants (0.4-9 s at 6 m/s), short enough that the heading a
 window starts with (±0.3°) does not dominate its end; a 120 s zigzag gives 6 (the replay's minimum)."""
-MISFIT_RATIO = 1.3
-"""Residual RMS / measured white noise above which a signal is misfitted (the model lacks a cause): clean trials
-of the model's own equations stay at 1.0-1.1 (benchmarks/bench_manoeuvring.py)."""
+MISFIT_RATIO = {"vel_east_mps": 1.6, "vel_north_mps": 1.6, "heading_rad": 1.6, "accel_y_mps2": 1.6,
+                "yaw_rate_radps": 2.5}
+"""Residual RMS / measured white noise above which a signal is misfitted (the model lacks a cause). Measured
+(docs/identification.md): fits of the right model stay at 0.95-1.4 (velocity, heading, accelerometer) and up to
+1.9 on the gyro, whose noise (0.06°/s) is so low that a window's initial sway and surge errors show above it;
+a thrust 10 % off the model's gives 4.8-6.3 on the GNSS velocity."""
 NOT_IDENTIFIED_FACTOR = 2.0
 """A positive coefficient whose 95 % interval reaches beyond this factor of its value (either way) is not
 identified: the trials leave it free by more than its own size."""
@@ -56,8 +68,8 @@ NOT_IDENTIFIED_ABSOLUTE = {"lateral_centre_x_m": 0.5, "steering_offset_rad": mat
 """Half-interval above which a signed parameter is not identified (m; rad)."""
 SEPARATION_CORRELATION = 0.95
 """|correlation| above which two estimates are reported as not separated by the trials."""
-MAX_EVALUATIONS = 200
-"""Model evaluations of one least-squares fit (each replays every window of every trial)."""
+MAX_EVALUATIONS = 30
+"""Iterations of one least-squares fit (each replays every window of every trial 1 + parameters times)."""
 
 
 @dataclass(frozen=True)
@@ -157,9 +169,10 @@ def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
     return TrialData(windows, {s: measured[s] for s in noise}, noise)
 
 
-def _normalized_residuals(data: TrialData, config: TwinConfig) -> dict[str, np.ndarray]:
+def _normalized_residuals(data: TrialData, config: TwinConfig, motion: MeasuredMotion | None = None
+                          ) -> dict[str, np.ndarray]:
     """Signal → (T, m) measured − predicted over noise, NaN where not measured."""
-    prediction = predict(data.windows, config)
+    prediction = predict(data.windows, config, motion)
     return {s: (data.measured[s] - prediction.signals[s]) / data.noise[s] for s in data.noise}
 
 
@@ -171,6 +184,7 @@ class _Problem:
         self.data, self.base, self.start = data, base, start
         self.free = [p for p in PARAMETERS if p.key in free]
         self.evaluations = 0
+        self.motion = [measured_motion(d.windows, base) for d in data]  # the vessel does not change it
 
     def values(self, x: np.ndarray) -> dict[str, float]:
         values = dict(self.start)
@@ -182,7 +196,7 @@ class _Problem:
         """Per trial, signal → (T, m) normalized residuals (NaN kept)."""
         self.evaluations += 1
         config = apply_parameters(self.base, self.values(x))
-        return [_normalized_residuals(d, config) for d in self.data]
+        return [_normalized_residuals(d, config, m) for d, m in zip(self.data, self.motion, strict=True)]
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         stacked = np.concatenate([r.ravel() for res in self.residuals(x) for r in res.values()])
@@ -203,7 +217,7 @@ class ManoeuvringFit:
     """A fit and its statistics; :meth:`to_dict` is the ``--json`` contract's ``manoeuvring`` block."""
 
     values: dict[str, float]
-    """Every parameter of :data:`PARAMETER_KEYS`: fitted, or held at its prior value when not identified."""
+    """Every parameter of :data:`PARAMETER_KEYS` as fitted."""
     fitted: list[str]
     ci95: dict[str, tuple[float, float]]
     stderr: dict[str, float]
@@ -234,7 +248,7 @@ class ManoeuvringFit:
             "misfit": self.misfit,
             "residual_to_noise": dict(self.residual_to_noise),
             "noise_floor": dict(self.noise),
-            "misfit_threshold": MISFIT_RATIO,
+            "misfit_threshold": {s: MISFIT_RATIO[s] for s in self.residual_to_noise},
             "windows": self.windows,
             "trials": list(self.trials),
             "evaluations": self.evaluations,
@@ -273,33 +287,26 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     data = [prepare(trial, window_s) for trial in trials]
     start = _start_values(base)
     free = list(PARAMETER_KEYS)
-    not_identified: dict[str, str] = {}
-    evaluations = 0
-    while True:
-        problem = _Problem(data, base, start, free)
-        x, jac, fun = _solve(problem)
-        evaluations += problem.evaluations
-        cov, groups = _sandwich(jac, fun, problem.clusters())
-        stderr = np.sqrt(np.maximum(np.diag(cov), 0.0))
-        quantile = float(student_t.ppf(0.975, max(groups - len(free), 1)))
-        values = problem.values(x)
-        weak = {}
-        for p, se in zip(problem.free, stderr, strict=True):
-            if p.logarithmic and not quantile * se <= math.log(NOT_IDENTIFIED_FACTOR):
-                weak[p.key] = (f"95 % interval ×/÷ {math.exp(quantile * se):.3g}: these trials do not determine it; "
-                               f"held at the prior {start[p.key]:.4g}")
-            elif not p.logarithmic and not quantile * p.scale * se <= NOT_IDENTIFIED_ABSOLUTE[p.key]:
-                weak[p.key] = (f"95 % half-interval {quantile * p.scale * se:.3g} exceeds "
-                               f"{NOT_IDENTIFIED_ABSOLUTE[p.key]:.3g}: these trials do not determine it; held at "
-                               f"the prior {start[p.key]:.4g}")
-        if len(weak) == len(free):
-            raise InputError("the trials determine none of the manoeuvring coefficients (every 95 % interval is "
-                             "wider than the value): record zigzags or turning circles with the steering in the "
-                             "commands")
-        if not weak:
-            break
-        not_identified.update(weak)
-        free = [k for k in free if k not in weak]
+    problem = _Problem(data, base, start, free)
+    x, jac, fun = _solve(problem)
+    evaluations = problem.evaluations
+    cov, groups = _sandwich(jac, fun, problem.clusters())
+    stderr = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    quantile = float(student_t.ppf(0.975, max(groups - len(free), 1)))
+    values = problem.values(x)
+    not_identified = {}
+    for p, se in zip(problem.free, stderr, strict=True):
+        if p.logarithmic and not quantile * se <= math.log(NOT_IDENTIFIED_FACTOR):
+            not_identified[p.key] = (f"95 % interval ×/÷ {math.exp(quantile * se):.3g}: these trials do not "
+                                     "determine it (the value is the best fit, not a measurement)")
+        elif not p.logarithmic and not quantile * p.scale * se <= NOT_IDENTIFIED_ABSOLUTE[p.key]:
+            not_identified[p.key] = (f"95 % half-interval {quantile * p.scale * se:.3g} exceeds "
+                                     f"{NOT_IDENTIFIED_ABSOLUTE[p.key]:.3g}: these trials do not determine it (the "
+                                     "value is the best fit, not a measurement)")
+    if len(not_identified) == len(free):
+        raise InputError("the trials determine none of the manoeuvring coefficients (every 95 % interval is "
+                         "wider than the value): record zigzags or turning circles with the steering in the "
+                         "commands")
     values = problem.values(x)
     ci95: dict[str, tuple[float, float]] = {}
     for p, se in zip(problem.free, stderr, strict=True):
@@ -319,7 +326,7 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
         stderr={p.key: float(se) for p, se in zip(problem.free, stderr, strict=True)},
         correlation=correlation, not_identified=not_identified,
         not_separated=_not_separated(free, correlation),
-        residual_to_noise=ratio, noise=noise, misfit=any(r > MISFIT_RATIO for r in ratio.values()),
+        residual_to_noise=ratio, noise=noise, misfit=any(r > MISFIT_RATIO[s] for s, r in ratio.items()),
         windows=groups, trials=[str(t.metadata.source) for t in trials], evaluations=evaluations + 1,
         fit_time_s=time.perf_counter() - started, config=config,
         notes=[HELD_NOTE, LEVER_ARM_NOTE.format(x_e=base.vessel.engine_x_m)],

@@ -14,6 +14,7 @@ import tempfile
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -34,8 +35,8 @@ ZIGZAG_SPEEDS_MPS = (4.0, 7.0)
 """Approach speeds of the zigzag set, m/s."""
 ZIGZAG_ANGLES_DEG = (20.0, 10.0)
 """Zigzags of the set: 20°/20° and 10°/10°."""
-ZIGZAG_S = 70.0
-"""Length of each zigzag trial, s: 10 s approach and about two periods of a 20°/20° zigzag at 4 m/s."""
+ZIGZAG_S = 120.0
+"""Length of each zigzag trial, s: 10 s approach and 110 s of zigzag, six 20 s replay windows."""
 
 
 def draw_boat(base: TwinConfig, rng: np.random.Generator) -> tuple[TwinConfig, dict[str, float]]:
@@ -79,15 +80,18 @@ def recorded(trial: SeaTrial, name: str, directory: Path) -> Trial:
     return read_trial(path)
 
 
-def zigzag_set(config: TwinConfig, seed: int, both_sides: bool = True, **kwargs: float) -> list[Trial]:
+def zigzag_set(config: TwinConfig, seed: int, both_sides: bool = True, directory: Path | None = None,
+               **kwargs: Any) -> list[Trial]:
     """The zigzag set of the true boat ``config`` with default sensor noise (seeds ``seed``, ``seed`` + 1, ...),
-    starboard-first and (``both_sides``) port-first, as recorded trials."""
+    starboard-first and (``both_sides``) port-first, as recorded trials; the bags stay in ``directory`` (named
+    after the scenarios) when it is given. ``kwargs`` go to :func:`zigzag_scenarios`."""
     trials = []
     with tempfile.TemporaryDirectory(prefix="boat_twin_zigzags_") as tmp:
-        for i, scenario in enumerate(zigzag_scenarios(config, **kwargs)):  # type: ignore[arg-type]
+        where = directory or Path(tmp)
+        for i, scenario in enumerate(zigzag_scenarios(config, **kwargs)):
             sea = run_sea_trial(config, scenario, seed + 2 * i)
-            trials.append(recorded(sea, scenario.name, Path(tmp)))
+            trials.append(recorded(sea, scenario.name, where))
             if both_sides:
                 port = mirrored(sea, scenario.name + "-port")
-                trials.append(recorded(run_sea_trial(config, port, seed + 2 * i + 1), port.name, Path(tmp)))
+                trials.append(recorded(run_sea_trial(config, port, seed + 2 * i + 1), port.name, where))
     return trials

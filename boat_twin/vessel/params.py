@@ -186,6 +186,9 @@ def derive_coefficients(params: VesselParams) -> ModelCoefficients:
     centre of lateral resistance x_c) with the outboard thrust that holds the surge balance
     (:func:`reference_turn_thrust_N`), steered to port (a negative angle turns the bow to port).
     """
+    if set(params.manoeuvring) == set(MANOEUVRING_KEYS):  # all identified: the reference turn plays no part
+        return ModelCoefficients(m11_kg=_inertia(params)["m11"], lateral_centre_x_m=params.lateral_centre_x_m,
+                                 **params.manoeuvring)
     derived = _derived_coefficients(params)
     return replace(derived, **params.manoeuvring) if params.manoeuvring else derived
 
