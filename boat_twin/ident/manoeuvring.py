@@ -40,6 +40,7 @@ from scipy.stats import t as student_t
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.replay import (
     LATERAL_ACCEL,
+    SETTLING_S,
     SIGNALS,
     MeasuredMotion,
     Windows,
@@ -68,6 +69,9 @@ NOT_IDENTIFIED_ABSOLUTE = {"lateral_centre_x_m": 0.5, "steering_offset_rad": mat
 """Half-interval above which a signed parameter is not identified (m; rad)."""
 SEPARATION_CORRELATION = 0.95
 """|correlation| above which two estimates are reported as not separated by the trials."""
+DIVERGED_RESIDUAL = 1e3
+"""Normalized residual of a sample whose prediction diverged (coefficients far off make the replay blow up):
+steers the fit away instead of letting a NaN count as no error."""
 MAX_EVALUATIONS = 30
 """Iterations of one least-squares fit (each replays every window of every trial 1 + parameters times)."""
 
@@ -171,9 +175,16 @@ def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
 
 def _normalized_residuals(data: TrialData, config: TwinConfig, motion: MeasuredMotion | None = None
                           ) -> dict[str, np.ndarray]:
-    """Signal → (T, m) measured − predicted over noise, NaN where not measured."""
+    """Signal → (T, m) measured − predicted over noise, NaN where not measured; a prediction that diverged
+    (non-finite after the window's settling second) counts :data:`DIVERGED_RESIDUAL` per sample."""
     prediction = predict(data.windows, config, motion)
-    return {s: (data.measured[s] - prediction.signals[s]) / data.noise[s] for s in data.noise}
+    settled = np.arange(data.windows.t_s.shape[0])[:, None] >= int(round(SETTLING_S / data.windows.dt_s))
+    out = {}
+    for s in data.noise:
+        measured, predicted = data.measured[s], prediction.signals[s]
+        diverged = settled & np.isfinite(measured) & ~np.isfinite(predicted)
+        out[s] = np.where(diverged, DIVERGED_RESIDUAL, (measured - predicted) / data.noise[s])
+    return out
 
 
 class _Problem:
