@@ -78,8 +78,8 @@ def test_cli_contract_twin_config_and_held_out_turning_circle(hidden, tmp_path: 
     assert check["tactical_diameter_m"]["error_rel"] == pytest.approx(0.0, abs=0.05), check
     assert main(argv) == 2  # outputs are not overwritten without --force
     assert "exists" in capsys.readouterr().err
-    assert main(["identify", *map(str, bags[:2])]) == 2
-    assert "--manoeuvring" in capsys.readouterr().err
+    assert main(["identify", str(bags[0]), "--validate", str(directory / "turning-circle")]) == 2
+    assert "--validate needs --manoeuvring" in capsys.readouterr().err
 
 
 def test_thrust_error_the_model_lacks_is_flagged_as_misfit() -> None:

@@ -8,6 +8,7 @@ A front end over :mod:`boat_twin.ident.pipeline` and :mod:`boat_twin.ident.manoe
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -20,13 +21,8 @@ from boat_twin.cli.options import (
     trial_from_args,
     twin_config_from_args,
 )
-from boat_twin.config import save_config
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_save_figure, atomic_write_text, refuse_input_as_output, to_json
-from boat_twin.ident.manoeuvring import WINDOW_S, fit_manoeuvring, validate
-from boat_twin.ident.pipeline import identify_table, identify_trial, model_dict, trial_samples, write_model_yaml
-from boat_twin.ident.report import resimulation_line, table_figures, table_report, write_trial_report
-from boat_twin.ident.steady import MAX_ORDER
 
 TABLE_OUTPUTS = ("identify.json", "report.txt", "model.yaml", "fits.png", "residuals.png")
 """What ``identify --table --out DIR`` writes."""
@@ -37,6 +33,9 @@ MANOEUVRING_OUTPUTS = ("manoeuvring.json", "twin.yaml")
 
 
 def _run_table(args: argparse.Namespace) -> int:
+    from boat_twin.ident.pipeline import identify_table, model_dict, write_model_yaml
+    from boat_twin.ident.report import table_figures, table_report
+
     result, si_fit = identify_table(args.monotone, args.order, args.max_order, args.through_origin)
     report = table_report(result, si_fit)
     out = claim_out_dir(args.out, TABLE_OUTPUTS, args.force)
@@ -57,10 +56,15 @@ def _run_table(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``boat-twin identify``."""
+    from boat_twin.ident.steady import MAX_ORDER
+
     if args.order is not None and not 1 <= args.order <= MAX_ORDER:
         raise InputError(f"--order must be from 1 to {MAX_ORDER}, got {args.order}")
     if not 1 <= args.max_order <= MAX_ORDER:
         raise InputError(f"--max-order must be from 1 to {MAX_ORDER}, got {args.max_order}")
+    for name, value in (("--steady-window", args.steady_window), ("--thrust-tolerance", args.thrust_tolerance)):
+        if value is not None and not (math.isfinite(value) and value > 0.0):
+            raise InputError(f"{name} must be a positive number, got {value:g}")
     if args.table is not None and args.trial:
         raise InputError("give a TRIAL or --table, not both")
     if args.table is not None:
@@ -69,20 +73,23 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021")
     if args.manoeuvring:
         return _run_manoeuvring(args)
-    if args.validate:
-        raise InputError("--validate needs --manoeuvring")
-    if len(args.trial) > 1:
-        raise InputError(f"{len(args.trial)} trials given: the thrust–speed identification takes one "
-                         "(several trials: --manoeuvring)")
-    args.trial = args.trial[0]
+    for name in ("validate", "window", "config", "model"):
+        if getattr(args, name):
+            raise InputError(f"--{name} needs --manoeuvring")
     return _run_trial(args)
 
 
 def _run_manoeuvring(args: argparse.Namespace) -> int:
     """Fit the turning coefficients to the trials (surge held from --config/--model), replay the --validate
     trials with the fit, report; --out writes the result and a twin config ``simulate --config`` loads."""
+    from boat_twin.config import save_config
+    from boat_twin.ident.manoeuvring import WINDOW_S, fit_manoeuvring, validate
+
     refuse_input_as_output(args.out, *args.trial, *args.validate, args.config, args.model)
     out = claim_out_dir(args.out, MANOEUVRING_OUTPUTS, args.force)
+    window_s = WINDOW_S if args.window is None else args.window
+    if not (math.isfinite(window_s) and window_s > 0.0):
+        raise InputError(f"--window must be a positive number of seconds, got {window_s:g}")
     base = twin_config_from_args(args)
     trials = []
     for path in args.trial:
@@ -90,7 +97,7 @@ def _run_manoeuvring(args: argparse.Namespace) -> int:
         trials.append(trial_from_args(path, args))
     held_out = [trial_from_args(path, args) for path in args.validate]
     sys.stderr.write(f"fitting the manoeuvring coefficients to {len(trials)} trial(s) ...\n")
-    fit = fit_manoeuvring(trials, base, args.window)
+    fit = fit_manoeuvring(trials, base, window_s)
     block = fit.to_dict()
     block["validation"] = [validate(trial, fit.config) for trial in held_out]
     result = {"manoeuvring": block}
@@ -101,11 +108,11 @@ def _run_manoeuvring(args: argparse.Namespace) -> int:
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0
-    lines = [f"{len(trials)} trial(s), {block['windows']} windows of {args.window:g} s, "
+    lines = [f"{len(trials)} trial(s), {block['windows']} windows of {window_s:g} s, "
              f"{block['evaluations']} model evaluations, {block['fit_time_s']:.1f} s"]
     for key, value in block["parameters"].items():
-        ci = block["ci95"].get(key)
-        lines.append(f"{key:24s} {value:11.5g}" + (f"   95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "   held"))
+        lo, hi = block["ci95"][key]
+        lines.append(f"{key:24s} {value:11.5g}   95% CI [{lo:.5g}, {hi:.5g}]")
     lines += [f"not identified: {key}: {why}" for key, why in block["not_identified"].items()]
     lines += [f"not separated: {' / '.join(pair['parameters'])} (correlation {pair['correlation']:+.3f}): "
               f"{pair['why']}" for pair in block["not_separated"]]
@@ -126,35 +133,61 @@ def _run_manoeuvring(args: argparse.Namespace) -> int:
     return 0
 
 
+def rejected_summary(rejected: list[dict[str, Any]]) -> str:
+    """One line: the rejected segments counted by reason (the details are in identify.json / --json)."""
+    kinds: dict[str, int] = {}
+    for seg in rejected:
+        reason = seg["reason"]
+        kind = "held shorter than the test window" if "shorter than" in reason else reason.split(":")[0]
+        kinds[kind] = kinds.get(kind, 0) + 1
+    counts = ", ".join(f"{n} {kind}" for kind, n in sorted(kinds.items(), key=lambda item: -item[1]))
+    return f"rejected segments: {counts} (each with its reason in --json / identify.json)"
+
+
 def _run_trial(args: argparse.Namespace) -> int:
-    """A recorded trial: replay it through the online identifier, batch fits, dynamic mass, re-simulation with
-    the identified model (closing the loop), report."""
+    """Recorded trials, pooled: replay through the online identifier, batch fits, dynamic mass, re-simulation of
+    each with the identified model (closing the loop), report."""
+    import numpy as np
+
+    from boat_twin.ident.pipeline import identify_trials, pool, trial_samples
+    from boat_twin.ident.report import resimulation_line, write_trial_report
+
     claim_out_dir(args.out, TRIAL_OUTPUTS, args.force)
-    sys.stderr.write(f"reading {args.trial} ...\n")
-    trial = trial_from_args(args.trial, args)
-    sys.stderr.write(trial.metadata.summary_line() + "\n")
+    trials = []
+    for path in args.trial:
+        sys.stderr.write(f"reading {path} ...\n")
+        trials.append(trial_from_args(path, args))
+        sys.stderr.write(trials[-1].metadata.summary_line() + "\n")
     sys.stderr.write("identifying, then re-simulating the trial's commands with the identified model ...\n")
-    result, resim = identify_trial(trial, order=args.order, max_order=min(args.max_order, 6),
-                                   monotone=args.monotone)
+    result, resims = identify_trials(trials, order=args.order, max_order=min(args.max_order, 6),
+                                     monotone=args.monotone, window_s=args.steady_window,
+                                     thrust_tolerance_N=args.thrust_tolerance)
     if args.out is not None:
-        write_trial_report(args.out, result, *trial_samples(trial), resim)
+        t_s, thrust, speed = (np.concatenate(column) for column in zip(*pool([trial_samples(tr) for tr in trials]),
+                                                                       strict=True))
+        write_trial_report(args.out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None)
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0
     fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
     dyn = result.get("dynamic", {})
+    names = ", ".join(map(str, args.trial))
     lines = [
-        f"trial {args.trial}: {len(result['steady_points'])} steady points, "
+        f"trial{'s' if len(trials) > 1 else ''} {names}: {len(result['steady_points'])} steady points, "
         f"{len(result.get('rejected_segments', []))} segments rejected",
+        f"steady-state detector: window {result['steady_criteria']['window_s']:.3g} s, thrust tolerance "
+        f"{result['steady_criteria']['thrust_tolerance_N']:.3g} N",
         f"selected order N = {result['selected_order']} ({result.get('selection_reason', '')})",
         "Fc(v) coefficients c0..cN, N/(m/s)^i: " + ", ".join(f"{c:.4g}" for c in fit["coefficients"]),
         f"RMSE {fit['rmse']:.2f} N",
         f"effective mass {dyn['mass_kg']:.0f} kg, 95% CI [{dyn['mass_ci95_kg'][0]:.0f}, {dyn['mass_ci95_kg'][1]:.0f}]"
         if "mass_kg" in dyn else f"effective mass: {dyn.get('error', 'not identified')}",
     ]
-    for seg in result.get("rejected_segments", []):
-        lines.append(f"rejected {seg['start_s']:.1f}-{seg['end_s']:.1f} s at {seg['thrust_N']:.0f} N: {seg['reason']}")
-    lines.append(resimulation_line(result["resimulation"]))
+    if result.get("rejected_segments"):
+        lines.append(rejected_summary(result["rejected_segments"]))
+    for entry in result["trials"]:
+        prefix = f"{entry['source']}: " if len(trials) > 1 else ""
+        lines.append(prefix + resimulation_line(entry["resimulation"]))
     lines += [f"warning: {w}" for w in result.get("warnings", [])]
     sys.stdout.write("\n".join(lines) + "\n")
     return 0
@@ -168,15 +201,16 @@ def register(subparsers: Any) -> None:
         description="Identify the longitudinal model m·dv/dt = F - Fc(v), Fc(v) = sum c_i·v^i "
         "(Dyda & Chumakova 2021). Internally SI; the built-in table is reported in its own units (kn, kgf).",
     )
-    p.add_argument("trial", nargs="*", type=Path, help=TRIAL_HELP + " (several with --manoeuvring)")
+    p.add_argument("trial", nargs="*", type=Path,
+                   help=TRIAL_HELP + "; several trials of one boat are pooled into one identification")
     add_trial_options(p)
     p.add_argument("--manoeuvring", action="store_true",
                    help="fit the turning coefficients (m22, m33, sway/yaw damping, lateral centre, cross-flow drag, "
                    "steering offset) to the TRIALs (zigzags, turning circles), surge held from --config/--model")
     p.add_argument("--validate", action="append", type=Path, default=[], metavar="TRIAL",
                    help="with --manoeuvring: a trial not fitted, replayed with the fit to report its error")
-    p.add_argument("--window", type=float, default=WINDOW_S, metavar="S",
-                   help=f"with --manoeuvring: replay window, s (default {WINDOW_S:g}; a trial needs 6 windows)")
+    p.add_argument("--window", type=float, metavar="S",
+                   help="with --manoeuvring: replay window, s (default 20; a trial needs 6 windows)")
     p.add_argument("--config", type=Path, help="with --manoeuvring: twin configuration YAML (the prior and the held "
                    "surge; default the built-in boat)")
     p.add_argument("--model", type=Path, help="with --manoeuvring: identified surge model YAML (identify TRIAL "
@@ -187,7 +221,9 @@ def register(subparsers: Any) -> None:
         help="built-in steady-state table: dyda2021 = Dyda & Chumakova (2021) Table 1, v in kn, F in kgf",
     )
     p.add_argument(
-        "--order", type=int, help="power-series order N (default: chosen by leave-one-out CV and BIC)"
+        "--order", type=int,
+        help="power-series order N (default: chosen by leave-one-out cross-validation and the Bayesian information "
+        "criterion, BIC)"
     )
     p.add_argument(
         "--max-order", type=int, default=8,
@@ -201,6 +237,14 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--through-origin", action="store_true", help="impose Fc(0) = c0 = 0 (no resistance at rest)"
     )
+    p.add_argument(
+        "--steady-window", type=float, metavar="S",
+        help="shortest settled tail the steady-state detector tests, s (default: derived from the trial: the surge "
+        "time constant seen after thrust steps, or what the speed noise needs; see docs/identification.md)")
+    p.add_argument(
+        "--thrust-tolerance", type=float, metavar="N",
+        help="thrust counts as constant within this of a segment's start, N (default: derived from the commands: "
+        "half their smallest step, or 4 sigma of their jitter)")
     p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
     p.add_argument(
         "--out",

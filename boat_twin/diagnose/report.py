@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows
+from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, residual
 from boat_twin.diagnose.search import BIC_THRESHOLD, MIN_HELDOUT_GAIN, Candidate, Fit, Selection, ci95
 from boat_twin.diagnose.structure import Signature
 from boat_twin.diagnose.table import TableDiagnosis
@@ -15,13 +15,16 @@ from boat_twin.diagnose.table import TableDiagnosis
 UNITS = {"vel_east_mps": "m/s", "vel_north_mps": "m/s", "yaw_rate_radps": "rad/s", "heading_rad": "rad",
          "speed_mps": "m/s", "position_m": "m"}
 """Unit of every reported signal."""
+NAMES = {"vel_east_mps": "east velocity (GNSS)", "vel_north_mps": "north velocity (GNSS)",
+         "yaw_rate_radps": "yaw rate (gyro)", "heading_rad": "heading (IMU)"}
+"""Axis label of every compared signal (its unit follows, "name, unit")."""
 
 
 def signal_rmse(windows: Windows, prediction: Prediction) -> dict[str, float]:
-    """RMS of measured − predicted per signal, speed over ground and horizontal position, SI."""
+    """RMS of measured − predicted per signal (heading wrapped), speed over ground and horizontal position, SI."""
     out = {}
     for s in SIGNALS:
-        out[s] = float(np.sqrt(np.nanmean((windows.measured[s] - prediction.signals[s]) ** 2)))
+        out[s] = float(np.sqrt(np.nanmean(residual(s, windows.measured[s], prediction.signals[s]) ** 2)))
     measured_speed = np.hypot(windows.measured["vel_east_mps"], windows.measured["vel_north_mps"])
     predicted_speed = np.hypot(prediction.signals["vel_east_mps"], prediction.signals["vel_north_mps"])
     out["speed_mps"] = float(np.sqrt(np.nanmean((measured_speed - predicted_speed) ** 2)))
@@ -118,29 +121,48 @@ def _concatenated(windows: Windows, values: np.ndarray) -> tuple[np.ndarray, np.
     return t, v
 
 
+def _same_prediction(baseline: Prediction, extended: Prediction, signals: list[str] | tuple[str, ...]) -> bool:
+    """No effect named: the extended model is the baseline (one line is drawn, not two on top of each other)."""
+    return all(np.array_equal(baseline.signals[s], extended.signals[s], equal_nan=True) for s in signals)
+
+
 def signal_figure(windows: Windows, baseline: Prediction, extended: Prediction, signals: list[str]) -> Figure:
-    """Measured vs baseline vs extended prediction for each signal concerned."""
+    """Measured vs baseline vs extended prediction for each signal concerned (the baseline drawn wide and light
+    under the extended model, so that both show where they agree)."""
+    same = _same_prediction(baseline, extended, signals)
     fig = Figure(figsize=(10, 2.6 * len(signals)), layout="constrained")
-    for ax, s in zip(fig.subplots(len(signals), 1, squeeze=False)[:, 0], signals, strict=True):
-        ax.plot(*_concatenated(windows, windows.measured[s]), ".", ms=1.5, color="0.5", label="measured")
-        ax.plot(*_concatenated(windows, baseline.signals[s]), lw=1.0, label="baseline model")
-        ax.plot(*_concatenated(windows, extended.signals[s]), lw=1.0, label="extended model")
-        ax.set_ylabel(f"{s} [{UNITS[s]}]")
-    ax.set_xlabel("trial time [s]")
-    ax.legend(loc="upper right", fontsize=8)
+    for ax, s in zip(fig.subplots(len(signals), 1, squeeze=False, sharex=True)[:, 0], signals, strict=True):
+        ax.plot(*_concatenated(windows, windows.measured[s]), ".", ms=1.5, color="0.6", label="measured")
+        if same:
+            ax.plot(*_concatenated(windows, baseline.signals[s]), lw=1.2, color="C0",
+                    label="model (no effect named: extended = baseline)")
+        else:
+            ax.plot(*_concatenated(windows, baseline.signals[s]), lw=3.0, color="C0", alpha=0.45,
+                    label="baseline model")
+            ax.plot(*_concatenated(windows, extended.signals[s]), lw=1.0, color="C3", label="extended model")
+        ax.set_ylabel(f"{NAMES[s]}, {UNITS[s]}")
+    ax.set_xlabel("trial time, s")
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside upper center", ncols=3, fontsize=8, markerscale=4)
     return fig
 
 
 def residual_figure(windows: Windows, baseline: Prediction, extended: Prediction) -> Figure:
     """Residuals (measured − predicted) of every signal before and after the extension."""
+    same = _same_prediction(baseline, extended, SIGNALS)
     fig = Figure(figsize=(10, 9), layout="constrained")
-    for ax, s in zip(fig.subplots(len(SIGNALS), 1)[:], SIGNALS, strict=True):
-        ax.plot(*_concatenated(windows, windows.measured[s] - baseline.signals[s]), lw=0.6, label="baseline")
-        ax.plot(*_concatenated(windows, windows.measured[s] - extended.signals[s]), lw=0.6, label="extended")
+    for ax, s in zip(fig.subplots(len(SIGNALS), 1, sharex=True)[:], SIGNALS, strict=True):
+        if same:
+            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], baseline.signals[s])), lw=0.6, color="C0",
+                    label="model (no effect named: extended = baseline)")
+        else:
+            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], baseline.signals[s])), lw=1.6, color="C0",
+                    alpha=0.45, label="baseline")
+            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], extended.signals[s])), lw=0.6, color="C3",
+                    label="extended")
         ax.axhline(0.0, color="k", lw=0.5)
-        ax.set_ylabel(f"Δ{s} [{UNITS[s]}]", fontsize=8)
-    ax.set_xlabel("trial time [s]")
-    ax.legend(loc="upper right", fontsize=8)
+        ax.set_ylabel(f"{NAMES[s]}\nresidual, {UNITS[s]}", fontsize=8)
+    ax.set_xlabel("trial time, s")
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside upper center", ncols=2, fontsize=8)
     return fig
 
 
@@ -148,16 +170,29 @@ def evidence_figure(result: dict[str, Any]) -> Figure:
     """ΔBIC and held-out gain of every candidate in round 1, with the decision thresholds."""
     first = sorted([c for c in result["candidates"] if c["round"] == 1], key=lambda c: c["delta_bic"])
     names = [c["effect"] for c in first]
-    fig = Figure(figsize=(10, 4), layout="constrained")
-    ax_bic, ax_gain = fig.subplots(1, 2)
-    ax_bic.barh(names, [c["delta_bic"] for c in first], color=["C3" if c["named"] else "C0" for c in first])
+    from matplotlib.ticker import FuncFormatter
+
+    fig = Figure(figsize=(10, 1.2 + 0.4 * max(len(first), 2)), layout="constrained")
+    ax_bic, ax_gain = fig.subplots(1, 2, sharey=True)
+    colors = ["C3" if c["named"] else "C0" for c in first]
+    ax_bic.barh(names, [c["delta_bic"] for c in first], color=colors)
     ax_bic.axvline(BIC_THRESHOLD, color="k", ls="--", lw=0.8)
-    ax_bic.set_xscale("symlog")
-    ax_bic.set_xlabel("ΔBIC against the baseline (named: red; threshold dashed)")
-    ax_gain.barh(names, [np.nan if c["heldout_gain"] is None else 100 * c["heldout_gain"] for c in first])
+    ax_bic.set_xscale("symlog", linthresh=10.0)  # linear within ±10 (the threshold), logarithmic beyond
+    ax_bic.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
+    ax_bic.set_title(f"ΔBIC against the baseline: lower is better\n(dashed: {BIC_THRESHOLD:g}, needed to name; "
+                     "red: named)", fontsize=9)
+    gains = [np.nan if c["heldout_gain"] is None else 100 * c["heldout_gain"] for c in first]
+    ax_gain.barh(names, gains, color=colors)
     ax_gain.axvline(100 * MIN_HELDOUT_GAIN, color="k", ls="--", lw=0.8)
-    ax_gain.set_xlabel("held-out gain [%] (no bar: not judged, the in-sample conditions failed)")
-    ax_gain.set_yticklabels([])
+    ax_gain.axvline(0.0, color="k", lw=0.5)
+    ax_gain.set_title(f"held-out gain, %: higher is better\n(dashed: {100 * MIN_HELDOUT_GAIN:g} %, needed to "
+                      "name; no bar: not judged)", fontsize=9)
+    if all(np.isnan(gains)):
+        ax_gain.set_xlim(-10.0, 10.0)
+        ax_gain.text(0.5, 0.5, "no candidate judged on held-out data:\nnone passed the in-sample conditions\n"
+                     "(ΔBIC below the threshold and a plausible size)", transform=ax_gain.transAxes, ha="center",
+                     va="center", fontsize=9, bbox={"facecolor": "white", "edgecolor": "0.7"})
+    ax_gain.tick_params(labelleft=False)
     return fig
 
 
@@ -200,12 +235,12 @@ def table_figure(diag: TableDiagnosis) -> Figure:
     ax.plot(diag.speed, diag.extended, label="extended (resistance_shape)")
     if diag.plateau:
         ax.axvspan(*diag.plateau, color="0.9", label="plateau (regime change)")
-    ax.set_ylabel("thrust [kgf]")
+    ax.set_ylabel("thrust, kgf")
     ax.legend()
     ax_r.plot(diag.speed, diag.force - diag.baseline, "o-", ms=3, label="baseline")
     ax_r.plot(diag.speed, diag.force - diag.extended, "o-", ms=3, label="extended")
     ax_r.axhline(0.0, color="k", lw=0.5)
-    ax_r.set_xlabel("speed [kn]")
-    ax_r.set_ylabel("residual [kgf]")
+    ax_r.set_xlabel("speed, kn")
+    ax_r.set_ylabel("residual, kgf")
     ax_r.legend()
     return fig

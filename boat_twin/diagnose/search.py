@@ -38,7 +38,7 @@ from scipy.stats import t as student_t
 
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.effects import Effect
-from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, predict
+from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, predict, residual
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
 
@@ -148,7 +148,7 @@ class Diagnosis:
         values = {}
         for s in SIGNALS:
             scale = self.sigma[s] if np.isfinite(self.sigma[s]) and self.sigma[s] > 0 else 1.0
-            values[s] = (self.windows.measured[s] - prediction.signals[s]) / scale
+            values[s] = residual(s, self.windows.measured[s], prediction.signals[s]) / scale
         return Residuals(values, prediction)
 
     def _fit_values(self, effects: list[Effect], start: np.ndarray, train: np.ndarray) -> np.ndarray:

@@ -47,6 +47,7 @@ from boat_twin.diagnose.replay import (
     cut_windows,
     measured_motion,
     predict,
+    residual,
 )
 from boat_twin.errors import InputError
 from boat_twin.io.trial import Trial
@@ -175,15 +176,15 @@ def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
 
 def _normalized_residuals(data: TrialData, config: TwinConfig, motion: MeasuredMotion | None = None
                           ) -> dict[str, np.ndarray]:
-    """Signal → (T, m) measured − predicted over noise, NaN where not measured; a prediction that diverged
-    (non-finite after the window's settling second) counts :data:`DIVERGED_RESIDUAL` per sample."""
+    """Signal → (T, m) measured − predicted over noise (headings wrapped), NaN where not measured; a prediction
+    that diverged (non-finite after the window's settling second) counts :data:`DIVERGED_RESIDUAL` per sample."""
     prediction = predict(data.windows, config, motion)
     settled = np.arange(data.windows.t_s.shape[0])[:, None] >= int(round(SETTLING_S / data.windows.dt_s))
     out = {}
     for s in data.noise:
         measured, predicted = data.measured[s], prediction.signals[s]
         diverged = settled & np.isfinite(measured) & ~np.isfinite(predicted)
-        out[s] = np.where(diverged, DIVERGED_RESIDUAL, (measured - predicted) / data.noise[s])
+        out[s] = np.where(diverged, DIVERGED_RESIDUAL, residual(s, measured, predicted) / data.noise[s])
     return out
 
 
