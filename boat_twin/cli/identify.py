@@ -1,7 +1,8 @@
-"""``boat-twin identify``: the thrust–speed model m·dv/dt = F − Fc(v) from the paper's table or a trial.
+"""``boat-twin identify``: the thrust–speed model m·dv/dt = F − Fc(v) from the paper's table or a trial, or
+(``--manoeuvring``) the turning coefficients from one or more zigzag / turning-circle trials.
 
-A front end over :mod:`boat_twin.ident.pipeline` (the computation) and :mod:`boat_twin.ident.report` (text,
-files, figures).
+A front end over :mod:`boat_twin.ident.pipeline` and :mod:`boat_twin.ident.manoeuvring` (the computation) and
+:mod:`boat_twin.ident.report` (text, files, figures).
 """
 
 from __future__ import annotations
@@ -13,14 +14,22 @@ from pathlib import Path
 from typing import Any
 
 from boat_twin.cli import verb_help
-from boat_twin.cli.options import TRIAL_HELP, add_trial_options, claim_out_dir, trial_from_args
+from boat_twin.cli.options import (
+    TRIAL_HELP,
+    add_trial_options,
+    claim_out_dir,
+    trial_from_args,
+    twin_config_from_args,
+)
 from boat_twin.errors import InputError
-from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
+from boat_twin.files import atomic_save_figure, atomic_write_text, refuse_input_as_output, to_json
 
 TABLE_OUTPUTS = ("identify.json", "report.txt", "model.yaml", "fits.png", "residuals.png")
 """What ``identify --table --out DIR`` writes."""
 TRIAL_OUTPUTS = ("identify.json", "model.yaml", "twin.yaml", "trial.png", "resistance.png", "resimulation.png")
 """What ``identify TRIAL --out DIR`` writes."""
+MANOEUVRING_OUTPUTS = ("manoeuvring.json", "twin.yaml")
+"""What ``identify TRIAL... --manoeuvring --out DIR`` writes: the result and the twin config with the fit."""
 
 
 def _run_table(args: argparse.Namespace, out: Path | None) -> int:
@@ -62,8 +71,67 @@ def run(args: argparse.Namespace) -> int:
             return _run_table(args, out)
     if not args.trial:
         raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN, .csv) or --table dyda2021")
+    if args.manoeuvring:
+        refuse_input_as_output(args.out, *args.trial, *args.validate, args.config, args.model)
+        with claim_out_dir(args.out, MANOEUVRING_OUTPUTS, args.force) as out:
+            return _run_manoeuvring(args, out)
+    for name in ("validate", "window", "config", "model"):
+        if getattr(args, name):
+            raise InputError(f"--{name} needs --manoeuvring")
     with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force):
         return _run_trial(args)
+
+
+def _run_manoeuvring(args: argparse.Namespace, out: Path | None) -> int:
+    """Fit the turning coefficients to the trials (surge held from --config/--model), replay the --validate
+    trials with the fit, report; --out writes the result and a twin config ``simulate --config`` loads."""
+    from boat_twin.config import save_config
+    from boat_twin.ident.manoeuvring import WINDOW_S, fit_manoeuvring, validate
+
+    window_s = WINDOW_S if args.window is None else args.window
+    if not (math.isfinite(window_s) and window_s > 0.0):
+        raise InputError(f"--window must be a positive number of seconds, got {window_s:g}")
+    base = twin_config_from_args(args)
+    trials = []
+    for path in args.trial:
+        sys.stderr.write(f"reading {path} ...\n")
+        trials.append(trial_from_args(path, args))
+    held_out = [trial_from_args(path, args) for path in args.validate]
+    sys.stderr.write(f"fitting the manoeuvring coefficients to {len(trials)} trial(s) ...\n")
+    fit = fit_manoeuvring(trials, base, window_s)
+    block = fit.to_dict()
+    block["validation"] = [validate(trial, fit.config) for trial in held_out]
+    result = {"manoeuvring": block}
+    if out is not None:
+        atomic_write_text(out / "manoeuvring.json", to_json(result) + "\n")
+        sources = ", ".join(map(str, args.trial))
+        save_config(fit.config, out / "twin.yaml", f"boat_twin twin config: manoeuvring coefficients from {sources}")
+    if args.json:
+        sys.stdout.write(to_json(result) + "\n")
+        return 0
+    lines = [f"{len(trials)} trial(s), {block['windows']} windows of {window_s:g} s, "
+             f"{block['evaluations']} model evaluations, {block['fit_time_s']:.1f} s"]
+    for key, value in block["parameters"].items():
+        lo, hi = block["ci95"][key]
+        lines.append(f"{key:24s} {value:11.5g}   95% CI [{lo:.5g}, {hi:.5g}]")
+    lines += [f"not identified: {key}: {why}" for key, why in block["not_identified"].items()]
+    lines += [f"not separated: {' / '.join(pair['parameters'])} (correlation {pair['correlation']:+.3f}): "
+              f"{pair['why']}" for pair in block["not_separated"]]
+    ratios = ", ".join(f"{s} {r:.2f}" for s, r in block["residual_to_noise"].items())
+    lines.append(("MISFIT: residuals above the measured noise (" if block["misfit"] else
+                  "residual RMS / measured noise: ") + ratios + (
+                  f"; thresholds {block['misfit_threshold']}): the model lacks a cause in these trials and the "
+                  "coefficients are biased" if block["misfit"] else ""))
+    for check in block["validation"]:
+        line = (f"validation {check['source']}: heading RMSE {check['heading_rmse_deg']:.2f}°, yaw rate RMSE "
+                f"{check['yaw_rate_rmse_degps']:.3f}°/s, track RMSE {check['track_rmse_m']:.1f} m")
+        if "tactical_diameter_m" in check:
+            d = check["tactical_diameter_m"]
+            line += f", tactical diameter {d['predicted']:.1f} m predicted vs {d['measured']:.1f} m measured"
+        lines.append(line)
+    lines += [f"note: {note}" for note in block["notes"]]
+    sys.stdout.write("\n".join(lines) + "\n")
+    return 0
 
 
 def rejected_summary(rejected: list[dict[str, Any]]) -> str:
@@ -150,6 +218,17 @@ def register(subparsers: Any) -> None:
     p.add_argument("trial", nargs="*", type=Path,
                    help=TRIAL_HELP + "; several trials of one boat are pooled into one identification")
     add_trial_options(p)
+    p.add_argument("--manoeuvring", action="store_true",
+                   help="fit the turning coefficients (m22, m33, sway/yaw damping, lateral centre, cross-flow drag, "
+                   "steering offset) to the TRIALs (zigzags, turning circles), surge held from --config/--model")
+    p.add_argument("--validate", action="append", type=Path, default=[], metavar="TRIAL",
+                   help="with --manoeuvring: a trial not fitted, replayed with the fit to report its error")
+    p.add_argument("--window", type=float, metavar="S",
+                   help="with --manoeuvring: replay window, s (default 20; a trial needs 6 windows)")
+    p.add_argument("--config", type=Path, help="with --manoeuvring: twin configuration YAML (the prior and the held "
+                   "surge; default the built-in boat)")
+    p.add_argument("--model", type=Path, help="with --manoeuvring: identified surge model YAML (identify TRIAL "
+                   "--out) over the config's vessel")
     p.add_argument(
         "--table",
         choices=["dyda2021"],
@@ -191,7 +270,8 @@ def register(subparsers: Any) -> None:
         type=Path,
         metavar="DIR",
         help="write identify.json, model.yaml (SI), twin.yaml (a complete twin configuration of the boat, for "
-        "simulate/diagnose --config) and PNG plots here (report.txt too with --table)",
+        "simulate/diagnose --config) and PNG plots here (report.txt too with --table; manoeuvring.json and "
+        "twin.yaml with --manoeuvring)",
     )
     p.add_argument("--force", action="store_true", help="overwrite existing reports in --out")
     p.set_defaults(handler=run)

@@ -31,6 +31,9 @@ from boat_twin.vessel.truth import ground_velocity_enu
 
 SIGNALS = ("vel_east_mps", "vel_north_mps", "yaw_rate_radps", "heading_rad")
 """Measured signals the diagnosis compares: GNSS velocity over ground (ENU), gyro yaw rate, IMU heading."""
+LATERAL_ACCEL = "accel_y_mps2"
+"""The accelerometer's lateral reading v̇ + u·r, m/s² (FLU body), which :func:`predict` also gives (the turning
+identification, boat_twin.ident.manoeuvring, fits it: it sees the sway transient that sets m22)."""
 ANGLE_SIGNALS = ("heading_rad",)
 """Signals that are angles: their residuals are wrapped to (−π, π]."""
 
@@ -186,16 +189,22 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
     return sway
 
 
-def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics) -> np.ndarray:
-    """(m, 6) state at each window's start, from the sensors as ``config`` says they err.
+@dataclass(frozen=True)
+class MeasuredMotion:
+    """Trial-length heading (rad), surge through water (m/s) and yaw rate (rad/s) from the sensors, as a
+    config's sensors and current say they err (:func:`measured_motion`): the same for every vessel, so a fit of
+    vessel coefficients computes it once."""
 
-    Heading: mean over ±:data:`HEADING_SMOOTHING_S` of IMU yaw with the gyro's turn removed (the 3° IMU yaw
+    heading_rad: np.ndarray
+    surge_mps: np.ndarray
+    yaw_rate_radps: np.ndarray
+
+
+def measured_motion(windows: Windows, config: TwinConfig) -> MeasuredMotion:
+    """Heading: mean over ±:data:`HEADING_SMOOTHING_S` of IMU yaw with the gyro's turn removed (the 3° IMU yaw
     noise drops to ~0.3°); yaw rate: gyro − bias, 3-sample mean; surge through water: the GNSS velocity
     stamped t + latency (it describes t) minus the current, along that heading, averaged over
-    ±:data:`SURGE_SMOOTHING_S` by a local quadratic; sway: the
-    :func:`_sway_observer`. Every term is a measurement or driven by measurements, so initialization errors
-    are noise with zero mean, never a bias that a catalogue effect could absorb.
-    """
+    ±:data:`SURGE_SMOOTHING_S` by a local quadratic. Uses ``config``'s gyro bias, GNSS latency and current only."""
     trial, dt = windows.trial, windows.dt_s
     bias = float(config.um7.gyro_bias_radps[2])
     half = max(1, int(round(HEADING_SMOOTHING_S / dt)))
@@ -207,10 +216,26 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics) -> 
     we = np.interp(stamped, trial.t_s, trial.vel_east_mps) - env.current_east_mps
     wn = np.interp(stamped, trial.t_s, trial.vel_north_mps) - env.current_north_mps
     surge = _local_quadratic(we * np.cos(heading) + wn * np.sin(heading), max(2, int(round(SURGE_SMOOTHING_S / dt))))
+    return MeasuredMotion(heading, surge, yaw_rate)
+
+
+def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics,
+                   motion: MeasuredMotion | None = None) -> np.ndarray:
+    """(m, 6) state at each window's start, from the sensors as ``config`` says they err.
+
+    Heading, surge and yaw rate: :func:`measured_motion` (``motion``, if already computed for ``config``'s
+    sensors and current); sway: the :func:`_sway_observer`. Every term is a measurement or driven by
+    measurements, so initialization errors are noise with zero mean, never a bias that a catalogue effect could
+    absorb.
+    """
+    motion = motion or measured_motion(windows, config)
     start = windows.start_index
     states = np.zeros((start.size, 6))
-    states[:, 2], states[:, 3], states[:, 5] = heading[start], surge[start], yaw_rate[start]
-    states[:, 4] = _sway_observer(windows, config, dynamics, heading, surge, yaw_rate)
+    states[:, 2] = motion.heading_rad[start]
+    states[:, 3] = motion.surge_mps[start]
+    states[:, 5] = motion.yaw_rate_radps[start]
+    states[:, 4] = _sway_observer(windows, config, dynamics, motion.heading_rad, motion.surge_mps,
+                                  motion.yaw_rate_radps)
     return states
 
 
@@ -222,16 +247,17 @@ class Prediction:
     position: np.ndarray
 
 
-def predict(windows: Windows, config: TwinConfig) -> Prediction:
+def predict(windows: Windows, config: TwinConfig, motion: MeasuredMotion | None = None) -> Prediction:
     """Run every window's commands through ``config``'s model from its measured initial state; the sensors read
     the path as their expected-measurement functions say (:func:`~boat_twin.sensors.gnss.expected_fix`: velocity
     over ground and position delayed by the GNSS latency; :func:`~boat_twin.sensors.um7.expected_gyro`: yaw rate
-    plus the gyro bias), noise-free."""
+    plus the gyro bias), noise-free; and the lateral accelerometer (:data:`LATERAL_ACCEL`, v̇ + u·r).
+    ``motion``: :func:`measured_motion` for ``config``'s sensors and current, when the caller keeps it."""
     dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
-    states = initial_states(windows, config, dynamics)
+    states = initial_states(windows, config, dynamics, motion)
     substeps = max(1, int(round(windows.dt_s * REPLAY_INTEGRATION_RATE_HZ)))
     environments = np.tile(config.environment.as_vector(), (states.shape[0], 1))
-    path, _ = dynamics.run(states, windows.commands, environments, windows.dt_s / substeps, substeps)
+    path, rates = dynamics.run(states, windows.commands, environments, windows.dt_s / substeps, substeps)
     east, north, yaw, u, v, r = (path[..., j] for j in range(6))
     env = config.environment
     vel_east, vel_north = ground_velocity_enu(yaw, u, v, env.current_east_mps, env.current_north_mps)
@@ -239,7 +265,8 @@ def predict(windows: Windows, config: TwinConfig) -> Prediction:
     fix = expected_fix(config.gnss, window_t_s, east, north, vel_east, vel_north)  # delayed; held at the start
     skip = int(round(SETTLING_S / windows.dt_s))
     signals = {"vel_east_mps": fix.vel_east_mps, "vel_north_mps": fix.vel_north_mps,
-               "yaw_rate_radps": expected_gyro(config.um7, r)[..., 2], "heading_rad": yaw.copy()}
+               "yaw_rate_radps": expected_gyro(config.um7, r)[..., 2], "heading_rad": yaw.copy(),
+               LATERAL_ACCEL: rates[..., 4] + r * u}
     position = np.stack([fix.east_m, fix.north_m], axis=-1)
     for values in (*signals.values(), position):
         values[:skip] = np.nan

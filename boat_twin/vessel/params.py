@@ -31,6 +31,9 @@ SIGNED_FIELDS = ("engine_x_m", "lateral_centre_x_m", "steering_offset_rad", "win
 """Parameters that may be zero or negative (positions and offsets)."""
 NON_NEGATIVE_FIELDS = ("frontal_windage_area_m2", "lateral_windage_area_m2")
 """Parameters that may be zero (0 m² of windage: no wind force); all others must be positive."""
+MANOEUVRING_KEYS = ("m22_kg", "m33_kgm2", "sway_damping_Nspm2", "yaw_damping_Nms", "sway_quadratic_Ns2pm2",
+                    "yaw_quadratic_Nms2")
+"""Coefficients (:class:`ModelCoefficients` fields) that ``VesselParams.manoeuvring`` may set from trials."""
 
 
 @dataclass(frozen=True)
@@ -93,10 +96,21 @@ class VesselParams:
     """Centre of the lateral windage forward of the centre of gravity, m (console forward of midships; assumed)."""
     resistance: ResistanceModel = field(default_factory=dyda2021_resistance)
     """Calm-water surge resistance Fc(u); default the measured Table 1 of Dyda & Chumakova (2021)."""
+    manoeuvring: dict[str, float] = field(default_factory=dict, hash=False)
+    """Sway/yaw coefficients identified from trials (keys: :data:`MANOEUVRING_KEYS`, SI, each > 0) that replace
+    the ones :func:`derive_coefficients` derives from the reference turn (boat_twin.ident.manoeuvring); empty:
+    all derived."""
 
     def __post_init__(self) -> None:
+        for key, value in self.manoeuvring.items():
+            if key not in MANOEUVRING_KEYS:
+                raise InputError(f"vessel parameter 'manoeuvring': unknown coefficient '{key}' "
+                                 f"(expected {', '.join(MANOEUVRING_KEYS)})")
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+                    or value <= 0.0:
+                raise InputError(f"vessel parameter 'manoeuvring': '{key}' must be a positive number, got {value!r}")
         for f in fields(self):
-            if f.name == "resistance":
+            if f.name in ("resistance", "manoeuvring"):
                 continue
             value = getattr(self, f.name)
             if not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -168,13 +182,23 @@ def _reference_turn_velocities(params: VesselParams) -> tuple[float, float, floa
 
 
 def derive_coefficients(params: VesselParams) -> ModelCoefficients:
-    """Solve the steady reference turn's sway and yaw balances for the two lift-damping coefficients.
+    """Solve the steady reference turn's sway and yaw balances for the two lift-damping coefficients, then
+    put in the identified coefficients ``params.manoeuvring`` holds (they replace the derived ones).
 
     In the steady turn, ``0 = Y_thrust − m11·u·r − a_v·|u|·v − Y_vv·|v|·v`` and
     ``0 = N_thrust − (m22 − m11)·u·v − x_c·a_v·|u|·v − a_r·|u|·r − N_rr·|r|·r`` (the sway lift acts at the
     centre of lateral resistance x_c) with the outboard thrust that holds the surge balance
     (:func:`reference_turn_thrust_N`), steered to port (a negative angle turns the bow to port).
     """
+    if set(params.manoeuvring) == set(MANOEUVRING_KEYS):  # all identified: the reference turn plays no part
+        return ModelCoefficients(m11_kg=_inertia(params)["m11"], lateral_centre_x_m=params.lateral_centre_x_m,
+                                 **params.manoeuvring)
+    derived = _derived_coefficients(params)
+    return replace(derived, **params.manoeuvring) if params.manoeuvring else derived
+
+
+def _derived_coefficients(params: VesselParams) -> ModelCoefficients:
+    """The coefficients from the physical facts and the reference turn alone (see :func:`derive_coefficients`)."""
     inertia = _inertia(params)
     rho = WATER_DENSITY_KGPM3
     area = 2.0 * params.draft_m * params.length_m
@@ -268,8 +292,10 @@ def similar_boat(resistance: ResistanceModel, mass_kg: float, given: dict[str, A
 
 def params_to_dict(params: VesselParams) -> dict[str, Any]:
     """Plain data for YAML: every fact plus the resistance model's description."""
-    data = {f.name: getattr(params, f.name) for f in fields(params) if f.name != "resistance"}
+    data = {f.name: getattr(params, f.name) for f in fields(params) if f.name not in ("resistance", "manoeuvring")}
     data["resistance"] = params.resistance.to_dict()
+    if params.manoeuvring:
+        data["manoeuvring"] = {key: float(value) for key, value in params.manoeuvring.items()}
     return data
 
 
@@ -288,6 +314,10 @@ def params_from_dict(data: Any, where: str, base: VesselParams | None = None) ->
     for key, value in data.items():
         if key == "resistance":
             changes[key] = resistance_from_dict(value, f"{where}: resistance")
+        elif key == "manoeuvring":
+            if not isinstance(value, dict):
+                raise InputError(f"{where}: 'manoeuvring' must be a mapping of coefficients")
+            changes[key] = {str(k): _number(v, where, f"manoeuvring: {k}") for k, v in value.items()}
         elif key == "effective_mass_kg":
             changes["mass_kg"] = _number(value, where, key) / (1.0 + base.surge_added_mass_ratio)
         else:

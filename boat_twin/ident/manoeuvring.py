@@ -1,0 +1,437 @@
+"""Turning (manoeuvring) coefficients from recorded trials, by output error over windows (multiple shooting).
+
+The sway/yaw coefficients of :mod:`boat_twin.vessel.dynamics` — sway and yaw inertia m22, m33, the lift damping
+a_v, a_r, the lateral-resistance centre x_c, the cross-flow drag Y_vv, N_rr — and the outboards' steering offset
+are fitted to zigzags and turning circles (any number of trials, at one or several speeds). Each trial is cut
+into windows and replayed through the model by the diagnosis replay (:func:`~boat_twin.diagnose.replay.predict`:
+every window starts from the measured state, so a window's error is the model's, not accumulated drift); the
+residuals (measured − predicted GNSS velocity, gyro yaw rate, IMU heading), each divided by its sensor's white
+noise measured from the trial itself (:func:`~boat_twin.signal_noise.white_noise_stdev`), are minimised by
+``scipy.optimize.least_squares`` over the parameters (positive ones in logarithms).
+
+Held, not fitted: surge (m11 and the resistance Fc, from the thrust–speed identification or the given model),
+the thrust envelope and the outboards' position (x_e, y_e). The yaw equation divided by m33 holds the engine
+lever arm only as x_e/m33 (and a_r/m33, x_c·a_v/m33, ...): a wrong x_e rescales m33 and every yaw coefficient
+together, which the trials cannot tell apart; the fit takes x_e as given.
+
+Uncertainty: the covariance is the cluster-robust sandwich with windows as clusters (residuals within a window
+share its initial-state error; windows start afresh and are nearly independent), and the 95 % intervals use
+the t quantile with (windows − parameters) degrees of freedom. A parameter whose interval reaches beyond a
+factor :data:`NOT_IDENTIFIED_FACTOR` of its value (x_c and the offset: :data:`NOT_IDENTIFIED_ABSOLUTE`) is
+reported as not identified by these trials; it stays in the fit (holding it at a prior would bias the others
+and hide that from their intervals), its value is the best fit and its interval says how little that means.
+A fit whose residuals stay above the measured noise (ratio above :data:`MISFIT_RATIO` on any signal) is
+flagged as a misfit: its coefficients absorb a cause the
+model lacks and are biased.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.stats import t as student_t
+
+from boat_twin.config import TwinConfig
+from boat_twin.diagnose.replay import (
+    LATERAL_ACCEL,
+    SETTLING_S,
+    SIGNALS,
+    MeasuredMotion,
+    Windows,
+    cut_windows,
+    measured_motion,
+    predict,
+    residual,
+)
+from boat_twin.errors import InputError
+from boat_twin.io.trial import Trial
+from boat_twin.signal_noise import white_noise_stdev
+from boat_twin.vessel.params import MANOEUVRING_KEYS, derive_coefficients
+
+WINDOW_S = 20.0
+"""Replay window, s: several yaw and sway time constants (0.4-9 s at 6 m/s), short enough that the heading a
+window starts with (±0.3°) does not dominate its end; a 120 s zigzag gives 6 (the replay's minimum)."""
+MISFIT_RATIO = {"vel_east_mps": 1.6, "vel_north_mps": 1.6, "heading_rad": 1.6, "accel_y_mps2": 1.6,
+                "yaw_rate_radps": 2.5}
+"""Residual RMS / measured white noise above which a signal is misfitted (the model lacks a cause). Measured
+(docs/identification.md): fits of the right model stay at 0.95-1.4 (velocity, heading, accelerometer) and up to
+1.9 on the gyro, whose noise (0.06°/s) is so low that a window's initial sway and surge errors show above it;
+a thrust 10 % off the model's gives 4.8-6.3 on the GNSS velocity."""
+NOT_IDENTIFIED_FACTOR = 2.0
+"""A positive coefficient whose 95 % interval reaches beyond this factor of its value (either way) is not
+identified: the trials leave it free by more than its own size."""
+NOT_IDENTIFIED_ABSOLUTE = {"lateral_centre_x_m": 0.5, "steering_offset_rad": math.radians(2.0)}
+"""Half-interval above which a signed parameter is not identified (m; rad)."""
+SEPARATION_CORRELATION = 0.95
+"""|correlation| above which two estimates are reported as not separated by the trials."""
+DIVERGED_RESIDUAL = 1e3
+"""Normalized residual of a sample whose prediction diverged (coefficients far off make the replay blow up):
+steers the fit away instead of letting a NaN count as no error."""
+MAX_EVALUATIONS = 30
+"""Iterations of one least-squares fit (each replays every window of every trial 1 + parameters times)."""
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One fitted parameter: its key (the ``vessel`` block of ``simulate --json``), unit and coordinate."""
+
+    key: str
+    meaning: str
+    logarithmic: bool
+    """Fitted as ln(value) (positive coefficients) or as value / :attr:`scale` (signed ones)."""
+    scale: float = 1.0
+
+
+PARAMETERS = (
+    Parameter("m22_kg", "sway mass with added mass, kg", True),
+    Parameter("m33_kgm2", "yaw inertia with added inertia, kg·m²", True),
+    Parameter("sway_damping_Nspm2", "sway lift damping a_v in Y = −a_v·|u|·v, N·s²/m²", True),
+    Parameter("lateral_centre_x_m", "centre of lateral resistance x_c, m forward of the centre of gravity", False,
+              0.1),
+    Parameter("yaw_damping_Nms", "yaw lift damping a_r in N = −a_r·|u|·r, N·m·s", True),
+    Parameter("sway_quadratic_Ns2pm2", "cross-flow sway drag Y_vv in Y = −Y_vv·|v|·v, N·s²/m²", True),
+    Parameter("yaw_quadratic_Nms2", "cross-flow yaw drag N_rr in N = −N_rr·|r|·r, N·m·s²", True),
+    Parameter("steering_offset_rad", "outboards' real minus commanded steering angle, rad", False, 0.01),
+)
+"""What the fit can identify, in the order of the correlation matrix."""
+PARAMETER_KEYS = tuple(p.key for p in PARAMETERS)
+
+HELD_NOTE = ("held, not fitted: m11 and the resistance Fc(u) (surge: the thrust–speed identification or the given "
+             "model), the thrust envelope and thrust factors, the outboards' position x_e, y_e")
+LEVER_ARM_NOTE = ("engine lever arm x_e: the yaw equation holds it only as x_e/m33 (with a_r/m33, x_c·a_v/m33, "
+                  "N_rr/m33), so a wrong x_e rescales m33 and the yaw coefficients together; taken as given "
+                  "({x_e:+.2f} m), m33, a_r and N_rr are relative to it")
+PAIR_REASONS = {
+    frozenset(("sway_damping_Nspm2", "sway_quadratic_Ns2pm2")):
+        "lift a_v·|u|·v and cross-flow Y_vv·|v|·v are told apart by the drift |v| against the speed |u|: "
+        "add trials at another speed or with more drift (turning circles, larger steering)",
+    frozenset(("yaw_damping_Nms", "yaw_quadratic_Nms2")):
+        "a_r·|u|·r and N_rr·|r|·r are told apart by the yaw rate against the speed: add another speed or a "
+        "turning circle",
+    frozenset(("m22_kg", "sway_damping_Nspm2")):
+        "inertia and damping are told apart by the transients: faster steering reversals separate them",
+    frozenset(("m33_kgm2", "yaw_damping_Nms")):
+        "inertia and damping are told apart by the transients: faster steering reversals separate them",
+}
+"""Why a pair of parameters can be confounded, when the correlation says so."""
+
+
+def _start_values(base: TwinConfig) -> dict[str, float]:
+    coeff = derive_coefficients(base.vessel)
+    values = {key: float(getattr(coeff, key)) for key in MANOEUVRING_KEYS}
+    values["lateral_centre_x_m"] = float(coeff.lateral_centre_x_m)
+    values["steering_offset_rad"] = float(base.vessel.steering_offset_rad)
+    return values
+
+
+def apply_parameters(base: TwinConfig, values: dict[str, float]) -> TwinConfig:
+    """``base`` with the manoeuvring ``values`` (keys of :data:`PARAMETER_KEYS`, any subset) put in its vessel."""
+    vessel = base.vessel
+    manoeuvring = dict(vessel.manoeuvring)
+    manoeuvring.update({k: float(v) for k, v in values.items() if k in MANOEUVRING_KEYS})
+    changes: dict[str, Any] = {"manoeuvring": manoeuvring}
+    for key in ("lateral_centre_x_m", "steering_offset_rad"):
+        if key in values:
+            changes[key] = float(values[key])
+    return replace(base, vessel=replace(vessel, **changes))
+
+
+FIT_SIGNALS = SIGNALS + (LATERAL_ACCEL,)
+"""Signals fitted: the replay's (GNSS velocity, gyro, IMU heading) and the lateral accelerometer v̇ + u·r, which
+sees the sway transient that separates m22 from the lift damping (used when the trial records it)."""
+
+
+@dataclass(frozen=True)
+class TrialData:
+    """One trial cut into replay windows, with its sensors' white noise measured from the trial."""
+
+    windows: Windows
+    measured: dict[str, np.ndarray]
+    """Signal → (T, m) measured values of the fitted signals."""
+    noise: dict[str, float]
+    """Signal → white-noise standard deviation measured on the trial (SI)."""
+
+
+def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
+    """Cut ``trial`` into windows and measure its sensors' noise floor (a trial without a lateral accelerometer
+    is fitted without it)."""
+    windows = cut_windows(trial, window_s)
+    index = windows.start_index[None, :] + np.arange(windows.t_s.shape[0])[:, None]
+    measured = {**windows.measured, LATERAL_ACCEL: trial.accel_y_mps2[index]}
+    noise = {}
+    for s in FIT_SIGNALS:
+        sigma = white_noise_stdev(measured[s])
+        if np.isfinite(sigma) and sigma > 0.0:
+            noise[s] = sigma
+        elif s != LATERAL_ACCEL:
+            raise InputError(f"{trial.metadata.source}: no noise level measurable on {s} (constant or missing)")
+    return TrialData(windows, {s: measured[s] for s in noise}, noise)
+
+
+def _normalized_residuals(data: TrialData, config: TwinConfig, motion: MeasuredMotion | None = None
+                          ) -> dict[str, np.ndarray]:
+    """Signal → (T, m) measured − predicted over noise (headings wrapped), NaN where not measured; a prediction
+    that diverged (non-finite after the window's settling second) counts :data:`DIVERGED_RESIDUAL` per sample."""
+    prediction = predict(data.windows, config, motion)
+    settled = np.arange(data.windows.t_s.shape[0])[:, None] >= int(round(SETTLING_S / data.windows.dt_s))
+    out = {}
+    for s in data.noise:
+        measured, predicted = data.measured[s], prediction.signals[s]
+        diverged = settled & np.isfinite(measured) & ~np.isfinite(predicted)
+        out[s] = np.where(diverged, DIVERGED_RESIDUAL, residual(s, measured, predicted) / data.noise[s])
+    return out
+
+
+class _Problem:
+    """The least-squares problem: free parameters in fitted coordinates → stacked normalized residuals."""
+
+    def __init__(self, data: Sequence[TrialData], base: TwinConfig, start: dict[str, float],
+                 free: Sequence[str]) -> None:
+        self.data, self.base, self.start = data, base, start
+        self.free = [p for p in PARAMETERS if p.key in free]
+        self.evaluations = 0
+        self.motion = [measured_motion(d.windows, base) for d in data]  # the vessel does not change it
+
+    def values(self, x: np.ndarray) -> dict[str, float]:
+        values = dict(self.start)
+        for p, xi in zip(self.free, x, strict=True):
+            values[p.key] = self.start[p.key] * math.exp(xi) if p.logarithmic else self.start[p.key] + p.scale * xi
+        return values
+
+    def residuals(self, x: np.ndarray) -> list[dict[str, np.ndarray]]:
+        """Per trial, signal → (T, m) normalized residuals (NaN kept)."""
+        self.evaluations += 1
+        config = apply_parameters(self.base, self.values(x))
+        return [_normalized_residuals(d, config, m) for d, m in zip(self.data, self.motion, strict=True)]
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        stacked = np.concatenate([r.ravel() for res in self.residuals(x) for r in res.values()])
+        return np.where(np.isfinite(stacked), stacked, 0.0)
+
+    def clusters(self) -> np.ndarray:
+        """Window index (over all trials) of every stacked residual."""
+        labels, offset = [], 0
+        for d in self.data:
+            t, m = d.windows.t_s.shape
+            labels.append(np.broadcast_to(offset + np.arange(m), (len(d.noise), t, m)).ravel())
+            offset += m
+        return np.concatenate(labels)
+
+
+@dataclass
+class ManoeuvringFit:
+    """A fit and its statistics; :meth:`to_dict` is the ``--json`` contract's ``manoeuvring`` block."""
+
+    values: dict[str, float]
+    """Every parameter of :data:`PARAMETER_KEYS` as fitted."""
+    fitted: list[str]
+    ci95: dict[str, tuple[float, float]]
+    stderr: dict[str, float]
+    """Standard error in fitted coordinates (relative for the logarithmic ones)."""
+    correlation: np.ndarray
+    """Correlation of the fitted parameters (order of :attr:`fitted`)."""
+    not_identified: dict[str, str]
+    not_separated: list[dict[str, Any]]
+    residual_to_noise: dict[str, float]
+    noise: dict[str, float]
+    misfit: bool
+    windows: int
+    trials: list[str]
+    evaluations: int
+    fit_time_s: float
+    config: TwinConfig
+    notes: list[str]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready result (SI)."""
+        return {
+            "parameters": {k: self.values[k] for k in PARAMETER_KEYS},
+            "ci95": {k: list(v) for k, v in self.ci95.items()},
+            "fitted": list(self.fitted),
+            "correlation": {"parameters": list(self.fitted), "matrix": np.round(self.correlation, 4).tolist()},
+            "not_identified": dict(self.not_identified),
+            "not_separated": list(self.not_separated),
+            "misfit": self.misfit,
+            "residual_to_noise": dict(self.residual_to_noise),
+            "noise_floor": dict(self.noise),
+            "misfit_threshold": {s: MISFIT_RATIO[s] for s in self.residual_to_noise},
+            "windows": self.windows,
+            "trials": list(self.trials),
+            "evaluations": self.evaluations,
+            "fit_time_s": self.fit_time_s,
+            "notes": list(self.notes),
+        }
+
+
+def _solve(problem: _Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least squares from the start values: (x, Jacobian, residuals) at the solution."""
+    x0 = np.zeros(len(problem.free))
+    result = least_squares(problem, x0, method="trf", diff_step=1e-4, x_scale=1.0, max_nfev=MAX_EVALUATIONS,
+                           xtol=1e-4, ftol=1e-6)
+    return result.x, np.asarray(result.jac), result.fun
+
+
+def _sandwich(jac: np.ndarray, residuals: np.ndarray, clusters: np.ndarray) -> tuple[np.ndarray, int]:
+    """Cluster-robust covariance (JᵀJ)⁻¹·Σ_g (J_gᵀr_g)(J_gᵀr_g)ᵀ·(JᵀJ)⁻¹ · G/(G − p), and G."""
+    p = jac.shape[1]
+    bread = np.linalg.pinv(jac.T @ jac)
+    groups = np.unique(clusters)
+    meat = np.zeros((p, p))
+    score = jac * residuals[:, None]
+    for g in groups:
+        s = score[clusters == g].sum(axis=0)
+        meat += np.outer(s, s)
+    g_count = groups.size
+    return bread @ meat @ bread * g_count / max(g_count - p, 1), g_count
+
+
+def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float = WINDOW_S) -> ManoeuvringFit:
+    """Fit the manoeuvring coefficients of ``base`` (the prior; its surge is held) to ``trials``."""
+    if not trials:
+        raise InputError("no trial to fit the manoeuvring coefficients to")
+    started = time.perf_counter()
+    data = [prepare(trial, window_s) for trial in trials]
+    start = _start_values(base)
+    free = list(PARAMETER_KEYS)
+    problem = _Problem(data, base, start, free)
+    x, jac, fun = _solve(problem)
+    evaluations = problem.evaluations
+    cov, groups = _sandwich(jac, fun, problem.clusters())
+    stderr = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    quantile = float(student_t.ppf(0.975, max(groups - len(free), 1)))
+    values = problem.values(x)
+    not_identified = {}
+    for p, se in zip(problem.free, stderr, strict=True):
+        if p.logarithmic and not quantile * se <= math.log(NOT_IDENTIFIED_FACTOR):
+            not_identified[p.key] = (f"95 % interval ×/÷ {math.exp(quantile * se):.3g}: these trials do not "
+                                     "determine it (the value is the best fit, not a measurement)")
+        elif not p.logarithmic and not quantile * p.scale * se <= NOT_IDENTIFIED_ABSOLUTE[p.key]:
+            not_identified[p.key] = (f"95 % half-interval {quantile * p.scale * se:.3g} exceeds "
+                                     f"{NOT_IDENTIFIED_ABSOLUTE[p.key]:.3g}: these trials do not determine it (the "
+                                     "value is the best fit, not a measurement)")
+    if len(not_identified) == len(free):
+        raise InputError("the trials determine none of the manoeuvring coefficients (every 95 % interval is "
+                         "wider than the value): record zigzags or turning circles with the steering in the "
+                         "commands")
+    values = problem.values(x)
+    ci95: dict[str, tuple[float, float]] = {}
+    for p, se in zip(problem.free, stderr, strict=True):
+        v = values[p.key]
+        ci95[p.key] = ((v * math.exp(-quantile * se), v * math.exp(quantile * se)) if p.logarithmic
+                       else (v - quantile * p.scale * se, v + quantile * p.scale * se))
+    scale = np.where(stderr > 0, stderr, 1.0)
+    correlation = cov / np.outer(scale, scale)
+    config = apply_parameters(base, values)
+    residuals = problem.residuals(x)
+    used = [s for s in FIT_SIGNALS if any(s in d.noise for d in data)]
+    ratio = {s: float(np.sqrt(np.nanmean(np.concatenate([r[s].ravel() for r in residuals if s in r]) ** 2)))
+             for s in used}
+    noise = {s: float(np.median([d.noise[s] for d in data if s in d.noise])) for s in used}
+    return ManoeuvringFit(
+        values=values, fitted=list(free), ci95=ci95,
+        stderr={p.key: float(se) for p, se in zip(problem.free, stderr, strict=True)},
+        correlation=correlation, not_identified=not_identified,
+        not_separated=_not_separated(free, correlation),
+        residual_to_noise=ratio, noise=noise, misfit=any(r > MISFIT_RATIO[s] for s, r in ratio.items()),
+        windows=groups, trials=[str(t.metadata.source) for t in trials], evaluations=evaluations + 1,
+        fit_time_s=time.perf_counter() - started, config=config,
+        notes=[HELD_NOTE, LEVER_ARM_NOTE.format(x_e=base.vessel.engine_x_m)],
+    )
+
+
+def _not_separated(keys: Sequence[str], correlation: np.ndarray) -> list[dict[str, Any]]:
+    """Pairs of fitted parameters the trials do not separate (|ρ| > :data:`SEPARATION_CORRELATION`), and why."""
+    out = []
+    for i in range(len(keys)):
+        for j in range(i + 1, len(keys)):
+            rho = float(correlation[i, j])
+            if abs(rho) > SEPARATION_CORRELATION:
+                why = PAIR_REASONS.get(frozenset((keys[i], keys[j])),
+                                       "their effects on the measured signals are nearly proportional on these "
+                                       "trials; manoeuvres at other speeds or steering angles separate them")
+                out.append({"parameters": [keys[i], keys[j]], "correlation": rho, "why": why})
+    return out
+
+
+TURN_AVERAGING_S = 1.0
+"""Positions are averaged over ± this long around the execute and the 180° instant (2.1 m GNSS noise → 0.5 m)."""
+
+
+def tactical_diameter_m(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray, yaw_rad: np.ndarray,
+                        execute_index: int) -> float | None:
+    """Transfer when the heading has changed by 180° since the execute (IMO MSC.137(76) tactical diameter), m:
+    the displacement normal to the approach heading between the execute and that instant; None if the heading
+    never turns that far. Positions are averaged over ±:data:`TURN_AVERAGING_S` (both instants are stationary
+    points of the transfer)."""
+    change = np.abs(yaw_rad[execute_index:] - yaw_rad[execute_index])
+    beyond = np.flatnonzero(change >= math.pi)
+    if beyond.size == 0:
+        return None
+    half = max(0, int(round(TURN_AVERAGING_S / float(np.median(np.diff(t_s))))))
+    heading = yaw_rad[execute_index]
+    normal = np.array([-math.sin(heading), math.cos(heading)])
+
+    def around(i: int) -> np.ndarray:
+        span = slice(max(i - half, 0), i + half + 1)
+        return np.array([np.nanmean(east_m[span]), np.nanmean(north_m[span])])
+
+    return float(abs(normal @ (around(execute_index + int(beyond[0])) - around(execute_index))))
+
+
+def _measured_yaw(trial: Trial, first: int) -> np.ndarray:
+    """Heading from the gyro integrated from ``first``, anchored on the IMU heading's mean over the trial."""
+    rate = np.where(np.isfinite(trial.yaw_rate_radps), trial.yaw_rate_radps, 0.0)
+    dt = float(np.median(np.diff(trial.t_s)))
+    turned = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * dt)])
+    turned -= turned[first]
+    return turned + float(np.nanmean(trial.heading_rad[first:] - turned[first:]))
+
+
+def validate(trial: Trial, config: TwinConfig) -> dict[str, Any]:
+    """Replay a trial that was not fitted through ``config`` open loop (one window, from its first sample with
+    commands and sensors to the last) and report the errors: yaw rate against the gyro, heading against the
+    gyro-integrated heading, track against GNSS, and the tactical diameter when the boat turns 180°."""
+    commands_known = np.all(np.isfinite(trial.commands), axis=1)
+    sensors = np.isfinite(trial.vel_east_mps) & np.isfinite(trial.yaw_rate_radps) & np.isfinite(trial.heading_rad)
+    usable = commands_known & sensors
+    if not usable.any():
+        raise InputError(f"{trial.metadata.source}: no sample with commands and sensors to replay")
+    first = int(np.argmax(usable))
+    gaps = np.flatnonzero(~commands_known[first:])
+    stop = first + (int(gaps[0]) if gaps.size else trial.t_s.size - first)
+    index = np.arange(first, stop)[:, None]
+    values = {"vel_east_mps": trial.vel_east_mps, "vel_north_mps": trial.vel_north_mps,
+              "yaw_rate_radps": trial.yaw_rate_radps, "heading_rad": trial.heading_rad}
+    window = Windows(t_s=trial.t_s[index], commands=trial.commands[index],
+                     measured={s: values[s][index] for s in SIGNALS},
+                     position=np.stack([trial.east_m[index], trial.north_m[index]], axis=-1), trial=trial,
+                     start_index=np.array([first]))
+    prediction = predict(window, config)
+    yaw = _measured_yaw(trial, first)[first:stop]
+    model_yaw = prediction.signals["heading_rad"][:, 0]
+    rate_error = trial.yaw_rate_radps[first:stop] - prediction.signals["yaw_rate_radps"][:, 0]
+    track_error = window.position[:, 0] - prediction.position[:, 0]
+    result: dict[str, Any] = {
+        "source": str(trial.metadata.source),
+        "duration_s": float(trial.t_s[stop - 1] - trial.t_s[first]),
+        "yaw_rate_rmse_degps": math.degrees(float(np.sqrt(np.nanmean(rate_error**2)))),
+        "heading_rmse_deg": math.degrees(float(np.sqrt(np.nanmean((yaw - model_yaw) ** 2)))),
+        "track_rmse_m": float(np.sqrt(np.nanmean(np.sum(track_error**2, axis=-1)))),
+    }
+    steering = trial.commands[first:stop, 2]
+    changed = np.flatnonzero(np.abs(steering - steering[0]) > 1e-6)
+    if changed.size:
+        t = trial.t_s[first:stop]
+        measured = tactical_diameter_m(t, trial.east_m[first:stop], trial.north_m[first:stop], yaw, int(changed[0]))
+        predicted = tactical_diameter_m(t, prediction.position[:, 0, 0], prediction.position[:, 0, 1], model_yaw,
+                                        int(changed[0]))
+        if measured is not None and predicted is not None:
+            result["tactical_diameter_m"] = {"measured": measured, "predicted": predicted,
+                                             "error_rel": predicted / measured - 1.0}
+    return result
