@@ -140,10 +140,11 @@ def _integrated(rate: np.ndarray, dt: float) -> np.ndarray:
 
 
 def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, heading: np.ndarray,
-                   surge: np.ndarray, yaw_rate: np.ndarray) -> np.ndarray:
+                   surge: np.ndarray, yaw_rate: np.ndarray, steering: np.ndarray) -> np.ndarray:
     """(m,) sway through water at each window's start, m/s: the model's sway equation run over the
     :data:`SWAY_OBSERVER_S` before it, from rest, driven by the recorded commands and the *measured* heading,
-    surge (GNSS) and yaw rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length).
+    surge (GNSS) and yaw rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length)
+    and the outboards' angles that the recorded commands drive (``steering``, (n, 2)).
 
     Sway is a fast state (time constant m22 / (Y_v·u): 0.4 s at 10 m/s), so it forgets its start; the gyro
     that drives it through the m11·u·r term is 50× less noisy than a sway read from GNSS velocity and IMU
@@ -160,14 +161,17 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
         states = np.zeros((sway.size, 6))
         states[:, 2], states[:, 3], states[:, 4], states[:, 5] = heading[index], surge[index], sway, yaw_rate[index]
         commands = trial.commands[index][None]
-        _, derivative = dynamics.run(states, commands, environments, dt, 1)
+        angles = np.where(np.isfinite(steering[index]), steering[index], dynamics.steering_targets(commands[0]))
+        _, derivative, _ = dynamics.run(states, commands, environments, dt, 1, angles)
         rate = derivative[0, :, 4]
         sway = np.where(inside & np.isfinite(rate), sway + dt * rate, sway)
     return sway
 
 
-def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics) -> np.ndarray:
-    """(m, 6) state at each window's start, from the sensors as ``config`` says they err.
+def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics,
+                   steering: np.ndarray) -> np.ndarray:
+    """(m, 6) state at each window's start, from the sensors as ``config`` says they err (``steering``: the
+    outboards' angles over the trial, :meth:`~boat_twin.vessel.dynamics.Dynamics.steering_history`).
 
     Heading: mean over ±:data:`HEADING_SMOOTHING_S` of IMU yaw with the gyro's turn removed (the 3° IMU yaw
     noise drops to ~0.3°); yaw rate: gyro − bias, 3-sample mean; surge through water: the GNSS velocity
@@ -190,7 +194,7 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics) -> 
     start = windows.start_index
     states = np.zeros((start.size, 6))
     states[:, 2], states[:, 3], states[:, 5] = heading[start], surge[start], yaw_rate[start]
-    states[:, 4] = _sway_observer(windows, config, dynamics, heading, surge, yaw_rate)
+    states[:, 4] = _sway_observer(windows, config, dynamics, heading, surge, yaw_rate, steering)
     return states
 
 
@@ -208,10 +212,12 @@ def predict(windows: Windows, config: TwinConfig) -> Prediction:
     over ground and position delayed by the GNSS latency; :func:`~boat_twin.sensors.um7.expected_gyro`: yaw rate
     plus the gyro bias), noise-free."""
     dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
-    states = initial_states(windows, config, dynamics)
+    steering = dynamics.steering_history(windows.dt_s, windows.trial.commands)
+    states = initial_states(windows, config, dynamics, steering)
     substeps = max(1, int(round(windows.dt_s * REPLAY_INTEGRATION_RATE_HZ)))
     environments = np.tile(config.environment.as_vector(), (states.shape[0], 1))
-    path, _ = dynamics.run(states, windows.commands, environments, windows.dt_s / substeps, substeps)
+    path, _, _ = dynamics.run(states, windows.commands, environments, windows.dt_s / substeps, substeps,
+                              steering[windows.start_index])
     east, north, yaw, u, v, r = (path[..., j] for j in range(6))
     env = config.environment
     vel_east, vel_north = ground_velocity_enu(yaw, u, v, env.current_east_mps, env.current_north_mps)
