@@ -273,6 +273,25 @@ def _run_ticks(
                        substeps)
 
 
+@numba.njit(cache=True)
+def _step_all(
+    states: np.ndarray,
+    steering: np.ndarray,
+    commands: np.ndarray,
+    k: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    environments: np.ndarray,
+    dt: float,
+) -> None:
+    """Advance every boat one RK4 step of ``dt`` under its command ``commands[b]``, recording nothing."""
+    for b in range(states.shape[0]):
+        steering[b, 0] = _steering_after(steering[b, 0], _steering_target(commands[b, 2], k), k, 0.0)
+        steering[b, 1] = _steering_after(steering[b, 1], _steering_target(commands[b, 3], k), k, 0.0)
+        _step_boat(states[b], steering[b], commands[b], k, table, u_max, extra, environments[b], dt, 1)
+
+
 class Dynamics:
     """The equations of motion of one boat design, stepping an ensemble of N boats together."""
 
@@ -298,6 +317,15 @@ class Dynamics:
             out[i] = angle = np.where(np.isnan(angle), target, angle)
             angle = angle + np.clip(target - angle, -reach, reach)
         return out
+
+    def step(self, states: np.ndarray, commands: np.ndarray, environments: np.ndarray, dt_s: float,
+             steering_rad: np.ndarray) -> None:
+        """Advance ``states`` (N, 6) and ``steering_rad`` (N, 2) in place by one RK4 step of ``dt_s`` under
+        ``commands`` (N, 4): :meth:`run` of one tick and one substep without its records (a closed-loop helm's
+        steps between output ticks)."""
+        m = self.model
+        _step_all(states, steering_rad, commands, m.coefficients, m.resistance_N, m.resistance_max_speed_mps,
+                  m.extra_drag_N, environments, dt_s)
 
     def run(
         self, states: np.ndarray, commands: np.ndarray, environments: np.ndarray, dt_s: float, substeps: int,

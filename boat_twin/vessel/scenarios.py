@@ -173,25 +173,25 @@ class ZigzagHelm:
 
     def __init__(self, zigzag: Zigzag, n_boats: int) -> None:
         self.zigzag = zigzag
-        self.thrust_N = _approach_thrust_N(zigzag.params, zigzag.speed_mps)
         self.sign = np.ones(n_boats)  # +1: steering to starboard (positive angle)
         self.initial_yaw_rad: np.ndarray | None = None
+        self._out = np.zeros((n_boats, 4))
+        self._out[:, :2] = _approach_thrust_N(zigzag.params, zigzag.speed_mps)
 
     def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
         """Thrust held; steering flips when the heading deviation reaches the threshold (per boat)."""
         zig = self.zigzag
         if states.shape[0] != self.sign.size:
             raise ValueError(f"this helm steers {self.sign.size} boats, got states of {states.shape[0]}")
-        out = np.zeros((states.shape[0], 4))
-        out[:, :2] = self.thrust_N
+        out = self._out.copy()
         if t_s < zig.approach_s - 1e-9:
             return out
         if self.initial_yaw_rad is None:
             self.initial_yaw_rad = states[:, 2].copy()
         deviation = states[:, 2] - self.initial_yaw_rad  # > 0: bow to port
-        self.sign = np.where(deviation <= -zig.heading_change_rad, -1.0, self.sign)
-        self.sign = np.where(deviation >= zig.heading_change_rad, 1.0, self.sign)
-        out[:, 2:] = (self.sign * zig.steering_rad)[:, None]
+        self.sign[deviation <= -zig.heading_change_rad] = -1.0
+        self.sign[deviation >= zig.heading_change_rad] = 1.0
+        out[:, 2] = out[:, 3] = self.sign * zig.steering_rad
         return out
 
 

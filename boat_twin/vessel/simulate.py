@@ -136,11 +136,13 @@ def simulate_chunks(
                     command = helm.command(float(t) + j * dt_s, states)
                     if steering is None:
                         steering = dynamics.steering_targets(command)
-                    sub_states, sub_derivatives, sub_steering = dynamics.run(
+                    if j > 0:
+                        dynamics.step(states, command, environments, dt_s, steering)
+                        continue
+                    tick_states, tick_derivatives, tick_steering = dynamics.run(
                         states, command[None], environments, dt_s, 1, steering)
-                    if j == 0:
-                        commands[i], out_states[i], derivatives[i] = command, sub_states[0], sub_derivatives[0]
-                        out_steering[i] = sub_steering[0]
+                    commands[i], out_states[i], derivatives[i] = command, tick_states[0], tick_derivatives[0]
+                    out_steering[i] = tick_steering[0]
         yield SimulationRecord(t_s, out_states, commands, derivatives, environment, out_steering)
         start = stop
         if start >= n_ticks:
