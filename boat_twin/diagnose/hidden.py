@@ -22,7 +22,8 @@ from boat_twin.io.bags import write_bag
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import VesselParams
-from boat_twin.vessel.scenarios import CommandProfile, Scenario, make_scenario, random_commands
+from boat_twin.vessel.scenarios import CommandProfile, Scenario, Zigzag, make_scenario, random_commands
+from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 from boat_twin.vessel.tow import TowConfig, tow_drag_N
 
 TRIAL_SCENARIOS = {"thrust-steps": "thrust-steps", "zigzag": "zigzag-20-20", "random": "random"}
@@ -46,7 +47,13 @@ def scenario(kind: str, params: VesselParams, rng: np.random.Generator, duration
         raise ValueError(f"unknown trial kind {kind!r}")
     if kind == "random":  # commands drawn over the whole trial (the registry's draws 600 s, then holds the last)
         return random_commands(params, rng, duration_s)
-    return make_scenario(TRIAL_SCENARIOS[kind], params, rng, duration_s)
+    chosen = make_scenario(TRIAL_SCENARIOS[kind], params, rng, duration_s)
+    if isinstance(chosen, Zigzag):
+        # A helm deciding at the 10 Hz log rate: the replay holds commands over the log's samples, so a reversal
+        # between two samples (a faster helm) would be logged up to a sample late, a timing error the replay
+        # cannot see (docs/diagnosis.md, limitations).
+        return replace(chosen, decision_rate_hz=OUTPUT_RATE_HZ)
+    return chosen
 
 
 def visited_speeds_mps(config: TwinConfig, kind: str, seed: int, duration_s: float) -> np.ndarray:

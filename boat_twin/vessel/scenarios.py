@@ -148,6 +148,9 @@ class Zigzag:
 
     The boat starts at ``speed_mps`` and runs straight for ``approach_s`` at the thrust that holds it; the first
     execute is to starboard. ``steering_rad`` and ``heading_change_rad`` are δ and ψ (20°/20° or 10°/10°).
+    ``decision_rate_hz``: how often the helm checks the heading, Hz; 0 (default): at every integration step, so
+    it reverses within one step of ±ψ. A helm as slow as the 10 Hz command log reverses up to a tick late
+    (20.5-20.85° on the 20°/20°) but only at logged instants, so a replay of the log has its commands exactly.
     """
 
     params: VesselParams
@@ -157,6 +160,7 @@ class Zigzag:
     approach_s: float = 10.0
     duration_s: float = 130.0
     name: str = "zigzag"
+    decision_rate_hz: float = 0.0
 
     @property
     def initial_surge_mps(self) -> float:
@@ -188,6 +192,10 @@ class ZigzagHelm:
             return out
         if self.initial_yaw_rad is None:
             self.initial_yaw_rad = states[:, 2].copy()
+        rate = zig.decision_rate_hz
+        if rate > 0.0 and abs(t_s * rate - round(t_s * rate)) > 1e-6:
+            out[:, 2] = out[:, 3] = self.sign * zig.steering_rad  # between decisions: the last one holds
+            return out
         deviation = states[:, 2] - self.initial_yaw_rad  # > 0: bow to port
         self.sign[deviation <= -zig.heading_change_rad] = -1.0
         self.sign[deviation >= zig.heading_change_rad] = 1.0
