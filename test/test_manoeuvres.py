@@ -213,3 +213,36 @@ def _approach(params: VesselParams, speed: float):
     thrust = float(params.resistance.force_N(speed)) / 2.0
     assert steady_speed_mps(params, 2 * thrust) == pytest.approx(speed)
     return CommandProfile("hold", np.array([0.0]), np.array([[thrust, thrust, 0.0, 0.0]]), 20.0, speed)
+
+
+def test_a_helm_deciding_at_the_log_rate_reverses_only_on_log_ticks() -> None:
+    zigzag = replace(make_scenario("zigzag-20-20", PARAMS, np.random.default_rng(0), duration_s=40.0),
+                     decision_rate_hz=10.0)
+    watched = _Watched(zigzag, [])
+    simulate(PARAMS, watched)  # type: ignore[arg-type]
+    t, _, _, steer = (np.array(c) for c in zip(*watched.calls, strict=True))
+    flips = t[1:][np.diff(steer) != 0.0]
+    assert flips.size >= 3
+    np.testing.assert_allclose(flips * 10.0, np.round(flips * 10.0), atol=1e-9)
+
+
+def test_replayed_commands_drive_the_same_rate_limited_steering() -> None:
+    from boat_twin.vessel.dynamics import Dynamics
+
+    commands = np.zeros((40, 4))
+    commands[3:, 2:] = math.radians(30.0)
+    commands[20:25] = np.nan  # a gap in the log: the next known command starts at its target
+    commands[25:, 2:] = math.radians(-10.0)
+    angles = np.degrees(Dynamics(PARAMS).steering_history(0.1, commands)[:, 0])
+    np.testing.assert_allclose(angles[:4], 0.0)
+    np.testing.assert_allclose(angles[4:8], [1.8, 3.6, 5.4, 7.2])
+    assert angles[19] == pytest.approx(28.8) and np.all(np.isnan(angles[21:25]))
+    assert angles[25] == pytest.approx(-10.0)
+    record = simulate(PARAMS, _profile(commands[:20]))
+    np.testing.assert_allclose(np.degrees(record.steering_rad[:20, 0, 0]), angles[:20], atol=1e-9)
+
+
+def _profile(rows: np.ndarray):
+    from boat_twin.vessel.scenarios import CommandProfile
+
+    return CommandProfile("rows", np.arange(rows.shape[0]) * 0.1, rows, (rows.shape[0] - 1) * 0.1)
