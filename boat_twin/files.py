@@ -85,12 +85,27 @@ def ensure_out_dir(path: Path) -> Path:
     return path
 
 
+def _new_file_mode() -> int:
+    """The permissions ``open()`` gives a new file under the process umask (0o644 for the usual 022): the
+    temporary files of an atomic write are created 0o600 by :func:`tempfile.mkstemp` and get these before the
+    rename, like every other output (bags included). The umask is read from /proc where it is shown (Linux ≥ 4.7),
+    since setting it to read it back would briefly change it for the node threads writing files."""
+    try:
+        with open("/proc/self/status") as status:
+            umask = next(int(line.split()[1], 8) for line in status if line.startswith("Umask:"))
+    except (OSError, StopIteration, ValueError, IndexError):
+        umask = os.umask(0)
+        os.umask(umask)
+    return 0o666 & ~umask
+
+
 def atomic_write_bytes(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same directory and a rename."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
+        os.chmod(tmp, _new_file_mode())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -113,6 +128,7 @@ def atomic_save_figure(path: Path, figure: Any) -> None:
     os.close(fd)
     try:
         figure.savefig(tmp, dpi=110)
+        os.chmod(tmp, _new_file_mode())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -21,7 +21,9 @@ from boat_twin.config import TwinConfig, load_config
 from boat_twin.diagnose import hidden
 from boat_twin.diagnose.effects import EFFECTS, catalogue
 from boat_twin.diagnose.pipeline import diagnose_trial
-from boat_twin.diagnose.replay import cut_windows, predict
+from boat_twin.diagnose.replay import SIGNALS, cut_windows, predict
+from boat_twin.diagnose.report import text_report
+from boat_twin.diagnose.search import MIN_MISFIT_SHARE, WIND_ALIASES, Candidate, Fit, misfit_share
 from boat_twin.diagnose.table import runs_test_p
 from boat_twin.io.bags import read_trial, write_bag
 
@@ -30,6 +32,7 @@ TRIAL_S = 300.0
 TOLERANCE = {
     "water_current": ("east_mps", 0.05), "gyro_bias": ("bias_radps", 0.0015), "gnss_latency": ("delay_s", 0.1),
     "steering_offset": ("offset_rad", 0.01), "mass_error": ("mass_factor", 0.08), "tow_load": ("drag_scale", 0.35),
+    "wind": ("east_mps", 0.5),
 }
 """(parameter checked, absolute tolerance) per effect: ~3× the jackknife standard error seen on 5-minute trials.
 A test-side accuracy bound on the fitted value, in the parameter's unit; not the registry's detection threshold
@@ -73,6 +76,8 @@ def _names(result: dict) -> list[str]:
     # 227 and 327 did not either way).
     ("resistance_shape", "zigzag", 127),
     ("tow_load", "thrust-steps", 28),
+    ("wind", "random", 29),
+    ("wind", "zigzag", 30),
 ])
 def test_hidden_effect_is_named_with_its_size(tmp_path: Path, effect: str, kind: str, seed: int) -> None:
     config, truth = _true_boat(effect, kind, seed)
@@ -138,15 +143,6 @@ def test_false_alarms_stay_at_most_5_percent_over_many_clean_trials(tmp_path: Pa
     assert len(unexplained) <= 0.05 * FALSE_ALARM_SEEDS, unexplained
 
 
-def test_wind_outside_the_catalogue_is_unexplained_not_mislabelled(tmp_path: Path) -> None:
-    """A 10-14 m/s wind on a trial that turns through every heading: its force depends on the heading."""
-    config, _ = hidden.draw_effect("wind", TwinConfig(), np.random.default_rng(52))
-    result = _diagnose(tmp_path, config, "random", 52)
-    assert result["verdict"] == [], result["verdict"]
-    assert result["unexplained"]
-    assert any("heading" in name for sig in result["signature"] for name in sig["correlated_with"])
-
-
 def test_another_boat_far_off_the_model_is_never_an_all_clear(tmp_path: Path) -> None:
     """A 2.5 m, 60 kg survey boat (other vessel parameters) diagnosed against the default 6 m twin: whatever is
     named, the residuals stay far above the noise floor and the report says so."""
@@ -159,7 +155,9 @@ def test_another_boat_far_off_the_model_is_never_an_all_clear(tmp_path: Path) ->
     assert max(sig["misfit"] for sig in result["signature"]) > 2.0
 
 
-def test_a_gyro_scale_error_outside_the_catalogue_is_unexplained_not_labelled(tmp_path: Path) -> None:
+@pytest.mark.parametrize(("kind", "seed"), [("random", 71), ("zigzag", 72)])
+def test_a_gyro_scale_error_outside_the_catalogue_is_unexplained_not_labelled(tmp_path: Path, kind: str,
+                                                                              seed: int) -> None:
     """An out-of-catalogue probe made by this test, not by the twin: the recorded gyro reads 5 % high."""
     from dataclasses import replace as replace_msg
 
@@ -167,7 +165,7 @@ def test_a_gyro_scale_error_outside_the_catalogue_is_unexplained_not_labelled(tm
 
     from boat_twin.io import messages
 
-    clean = hidden.write_trial(tmp_path / "clean.mcap", TwinConfig(), "random", 71, TRIAL_S)
+    clean = hidden.write_trial(tmp_path / "clean.mcap", TwinConfig(), kind, seed, TRIAL_S)
     scaled = []
     with AnyReader([clean]) as reader:
         for connection, stamp, raw in reader.messages():
@@ -182,6 +180,62 @@ def test_a_gyro_scale_error_outside_the_catalogue_is_unexplained_not_labelled(tm
     assert result["verdict"] == [] and result["unexplained"], result["verdict"]
     worst = max(result["signature"], key=lambda sig: sig["misfit"])
     assert worst["signal"] == "yaw_rate_radps" and worst["misfit"] > 2.0
+
+
+@pytest.mark.parametrize(("probe", "seed"), [("steering_thrust_loss", 73), ("steering_dead_band", 74)])
+def test_an_actuator_fault_outside_the_catalogue_is_unexplained_not_labelled(tmp_path: Path, probe: str,
+                                                                            seed: int) -> None:
+    """Physical causes the catalogue lacks, made by :func:`hidden.write_probe_trial` without the catalogue: the
+    outboards deliver less thrust when steered, or turn through a 4° dead band; the bag records the helm's
+    commands. A catalogue effect takes up part of the misfit (held-out gain > 20 %) but not the share the rule
+    asks: it is listed as a candidate, not named."""
+    bag = hidden.write_probe_trial(tmp_path / "probe.mcap", probe, "random", seed, TRIAL_S)
+    result = diagnose_trial(read_trial(bag), TwinConfig()).result
+    assert result["verdict"] == [] and result["ambiguous"] is None, result["verdict"]
+    assert result["unexplained"] and max(sig["misfit"] for sig in result["signature"]) > 2.0
+    partial = [c for c in result["candidates"] if (c["heldout_gain"] or 0.0) > 0.2]
+    assert partial and all(c["misfit_share"] < MIN_MISFIT_SHARE and not c["named"] for c in partial), partial
+
+
+def _fit(sse: list[float]) -> Fit:
+    """A fit judged on held-out windows with the held-out SSE ``sse`` per signal (normalized residuals)."""
+    return Fit([], np.zeros(0), np.zeros(0), np.array(sse), np.array(sse), residuals=None)  # type: ignore[arg-type]
+
+
+def test_a_cause_removing_a_small_share_of_an_8x_misfit_is_a_candidate_not_a_verdict() -> None:
+    """Issue 17's case: velocity RMSE 8× the noise, a cause that lowers it by 20 % and 12 % (and makes the yaw
+    rate slightly worse) passes every other condition but is not named; one that removes most of it is."""
+    n = 1000.0
+    floor = np.full(len(SIGNALS), n)
+    baseline = _fit([64 * n, 64 * n, 1.0 * n, 1.0 * n])
+    weak = _fit([64 * n * 0.80**2, 64 * n * 0.88**2, 1.05 * n, 1.0 * n])
+    strong = _fit([1.3 * n, 1.2 * n, 1.0 * n, 1.0 * n])
+    effect = catalogue(TwinConfig(), np.linspace(0.5, 9.0, 200))["thrust_asymmetry"]
+    for fit, named in ((weak, False), (strong, True)):
+        candidate = Candidate(effect, fit, delta_bic=-300.0, size=0.06, at_bound=False, takes_over=False,
+                              heldout_gain=float(1 - fit.heldout_sse.sum() / baseline.heldout_sse.sum()),
+                              significant=True)
+        candidate.claims, candidate.share, candidate.leaves_noise = misfit_share(fit, baseline, floor)
+        assert candidate.claims == ("vel_east_mps", "vel_north_mps")
+        assert candidate.plausible and candidate.heldout_gain > 0.2
+        assert candidate.named is named, candidate.share
+    _, share, within = misfit_share(weak, baseline, floor)
+    assert 0.12 <= share <= 0.25 < MIN_MISFIT_SHARE and not within
+
+
+def test_wind_on_a_trial_that_holds_one_heading_is_reported_with_its_alias_not_guessed(tmp_path: Path) -> None:
+    """A 6 m/s head wind on thrust steps (no steering: the heading stays put) is a force along the hull, as a
+    current or a thrust loss are: the wind and its best alias are reported as ambiguous, neither is named."""
+    config = replace(TwinConfig(), environment=replace(TwinConfig().environment, wind_east_mps=-6.0))
+    result = _diagnose(tmp_path, config, "thrust-steps", 81)
+    ambiguous = result["ambiguous"]
+    assert ambiguous is not None and "wind" in ambiguous["effects"], result["candidates"]
+    (alias,) = set(ambiguous["effects"]) - {"wind"}
+    assert alias in WIND_ALIASES
+    assert not {"wind", alias} & set(_names(result))
+    assert ambiguous["parameters"]["wind"]["east_mps"] == pytest.approx(-6.0, abs=1.0)
+    assert result["unexplained"]
+    assert f"ambiguous   {' or '.join(ambiguous['effects'])}" in text_report(result)
 
 
 def test_two_effects_at_once_are_both_named(tmp_path: Path) -> None:

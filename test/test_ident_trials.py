@@ -209,23 +209,33 @@ def test_cli_constant_thrust_is_unidentifiable(tmp_path, capsys) -> None:
 @pytest.mark.parametrize(
     ("dropped", "expected"),
     [
-        (messages.TOPIC_THRUST_LEFT, "no left outboard's thrust (thrust_left) in the trial"),
-        (messages.TOPIC_GNSS_VEL, "no GNSS velocity (gnss_vel) in the trial"),
+        ((messages.TOPIC_THRUST_LEFT,), "no left outboard's thrust (thrust_left) in the trial"),
+        ((messages.TOPIC_GNSS_VEL, messages.TOPIC_GNSS_FIX),
+         "no GNSS fix (NavSatFix) or velocity (TwistStamped) topic found; the bag holds: "
+         "/thrusters/left/pos (std_msgs/msg/Float64), /thrusters/left/thrust (std_msgs/msg/Float64)"),
     ],
 )
-def test_cli_missing_thrust_or_velocity_topic(tmp_path, capsys, short_messages, dropped, expected) -> None:
-    bag = edited_bag(short_messages, tmp_path, lambda topic, ns, msg: None if topic == dropped else (topic, ns, msg))
+def test_cli_missing_thrust_or_gnss_topic(tmp_path, capsys, short_messages, dropped, expected) -> None:
+    bag = edited_bag(short_messages, tmp_path, lambda topic, ns, msg: None if topic in dropped else (topic, ns, msg))
     assert expected in identify_fails(capsys, bag)
 
 
-def test_cli_nan_samples_are_refused(tmp_path, capsys, short_messages) -> None:
+def test_cli_nan_samples_are_dropouts_not_a_rejection(tmp_path, capsys, short_messages) -> None:
+    """10 NaN velocity fixes in 1 s (of 3,000) become a reported gap; the trial identifies and says so."""
     def nan_velocity(topic, ns, msg):
         if topic == messages.TOPIC_GNSS_VEL and 100 * 10**9 <= ns < 101 * 10**9:
             msg = messages.twist_stamped(msg.header, (math.nan, math.nan, 0.0))
         return topic, ns, msg
 
-    err = identify_fails(capsys, edited_bag(short_messages, tmp_path, nan_velocity))
-    assert "10 sample(s) are NaN outside the reported gaps (first: speed over ground at t = 100.0 s)" in err
+    bag = edited_bag(short_messages, tmp_path, nan_velocity)
+    trial = read_trial(bag)
+    assert trial.metadata.dropouts == {"gnss_vel": 10}
+    assert [g for g in trial.metadata.gaps if g[0] == "gnss_vel"] == [("gnss_vel", pytest.approx(99.9, abs=0.06),
+                                                                       pytest.approx(101.0, abs=0.06))]
+    assert main(["identify", str(bag), "--order", "2", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert len(result["steady_points"]) == 4
+    assert any("gnss_vel: 10 sample(s) with NaN values dropped as dropouts" in w for w in result["warnings"])
 
 
 def test_cli_commands_and_gnss_without_overlap_in_time(tmp_path, capsys, short_messages) -> None:

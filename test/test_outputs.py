@@ -15,7 +15,7 @@ from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.files import prepare_output, replace_output
 from boat_twin.io.bags import read_trial, write_bag
-from boat_twin.io.messages import header
+from boat_twin.io.messages import header, twist_stamped
 from boat_twin.twin import run_sea_trial, trial_messages
 from boat_twin.vessel import make_scenario
 
@@ -195,3 +195,20 @@ def test_a_drag_coefficient_must_be_finite(tmp_path, capsys) -> None:
     assert main(["cable", "depth", "--case", str(bad), "--json"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "cable.drag.cx: expected a finite number" in err[0], err
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o077])
+def test_reports_get_the_umask_permissions_a_bag_gets(tmp_path, umask) -> None:
+    """Atomic writes go through mkstemp (0600): the files they leave have the mode open() would give, like a bag."""
+    previous = os.umask(umask)
+    try:
+        assert main(["identify", "--table", "dyda2021", "--out", str(tmp_path / "report")]) == 0
+        velocity = twist_stamped(header(1, "gnss_link"), (1.0, 0.0, 0.0))
+        write_bag(tmp_path / "bag.mcap", iter([("gnss/vel", 1, velocity)]))
+    finally:
+        os.umask(previous)
+    expected = 0o666 & ~umask
+    modes = {p.name: p.stat().st_mode & 0o777 for p in [*(tmp_path / "report").iterdir(), tmp_path / "bag.mcap"]}
+    assert set(modes) >= {"identify.json", "report.txt", "model.yaml", "fits.png", "bag.mcap"}
+    assert modes == dict.fromkeys(modes, expected)
+

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 
 import numpy as np
 import pymap3d
@@ -10,11 +11,14 @@ import pytest
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
+from boat_twin.io.messages import TOPICS, TS, Message
 from boat_twin.sensors import GaussMarkov, gauss_markov
-from boat_twin.sensors.gnss import GnssConfig, GnssModel
-from boat_twin.sensors.um7 import WMM2020_VLADIVOSTOK_ENU_TESLA, Um7Config, Um7Model
+from boat_twin.sensors.gnss import GnssConfig, GnssModel, GnssNoise
+from boat_twin.sensors.um7 import WMM2020_VLADIVOSTOK_ENU_TESLA, Um7Config, Um7Model, Um7Noise
 from boat_twin.twin.live import LiveTwin
+from boat_twin.twin.sea_trial import compact_trial_messages, run_compact_trial, run_sea_trial, trial_messages
 from boat_twin.units import STANDARD_GRAVITY_MPS2
+from boat_twin.vessel.scenarios import make_scenario
 from boat_twin.vessel.truth import TruthSeries
 
 DT_S = 0.1
@@ -303,3 +307,39 @@ def test_live_noise_has_the_batch_statistics_correlated_noise_included() -> None
             errors = (enu - [0.0, 0.0, gnss.antenna_height_m]) / stdev
             assert variogram(errors, lag) / gm == pytest.approx(1.0, abs=tolerance), lag
             assert variogram(rates, lag) / walk == pytest.approx(1.0, abs=tolerance), lag
+
+
+@pytest.mark.parametrize("pieces", [(1, 999, 500, 4500), (6000,), (0, 3, 5997)])
+def test_noise_for_a_record_read_in_chunks_draws_what_one_run_draws(pieces: tuple[int, ...]) -> None:
+    """GnssNoise/Um7Noise.for_record: chunked runs equal one run bit for bit and leave the RNG where it does."""
+    n = sum(pieces)
+    gnss_cfg = GnssConfig(dropout_probability=0.1)
+    um7_cfg = Um7Config()
+    whole_rng = np.random.default_rng(21)
+    whole = (GnssNoise(gnss_cfg, whole_rng).run(n), Um7Noise(um7_cfg, whole_rng).run(n))
+    chunked_rng = np.random.default_rng(21)
+    gnss_noise = GnssNoise.for_record(gnss_cfg, chunked_rng, n)
+    um7_noise = Um7Noise.for_record(um7_cfg, chunked_rng, n)
+    gnss_parts = [gnss_noise.run(k) for k in pieces]
+    um7_parts = [um7_noise.run(k) for k in pieces]
+    for field in ("position_m", "velocity_mps", "received"):
+        assert np.array_equal(np.concatenate([getattr(p, field) for p in gnss_parts]), getattr(whole[0], field))
+    for field in ("attitude_rad", "gyro_radps", "accel_mps2", "mag_tesla"):
+        assert np.array_equal(np.concatenate([getattr(p, field) for p in um7_parts]), getattr(whole[1], field))
+    assert chunked_rng.random() == whole_rng.random()
+
+
+@pytest.mark.parametrize("chunk_s", [7.3, 0.3, 1000.0])
+def test_compact_trial_messages_equal_the_whole_trials(chunk_s: float) -> None:
+    """The streamed (chunked) sea trial writes the messages of the whole-record one, byte for byte: GNSS with
+    dropouts, a latency that is not a whole number of ticks, a 5 Hz receiver."""
+    cfg = TwinConfig(gnss=GnssConfig(dropout_probability=0.05, latency_s=0.23, rate_hz=5.0))
+    scenario = make_scenario("random", cfg.vessel, np.random.default_rng(1), 120.0)
+
+    def serialized(stream: Iterable[Message]) -> list[tuple[str, int, bytes]]:
+        return [(topic, stamp, bytes(TS.serialize_cdr(msg, TOPICS[topic]))) for topic, stamp, msg in stream]
+
+    whole = serialized(trial_messages(run_sea_trial(cfg, scenario, 3)))
+    streamed = serialized(compact_trial_messages(run_compact_trial(cfg, scenario, 3), chunk_s=chunk_s))
+    assert len(whole) > 5_000
+    assert streamed == whole

@@ -5,32 +5,34 @@ Problem 1 :func:`solve_depth` (cable length -> vehicle depth and shape), problem
 convergence study. Cases come from YAML (:func:`load_case`); everything is SI inside.
 """
 
-from boat_twin.cable.case import CableCase, case_from_dict, load_case, with_overrides
-from boat_twin.cable.continuous import continuous_depth, continuous_length
-from boat_twin.cable.convergence import convergence_study
-from boat_twin.cable.errors import CableSolveError
-from boat_twin.cable.problems import (
-    CableSolution,
-    TowLoad,
-    solve_depth,
-    solve_length,
-    tow_load,
-    tow_speed_for_depth,
-)
+from __future__ import annotations
 
-__all__ = [
-    "CableCase",
-    "CableSolution",
-    "CableSolveError",
-    "TowLoad",
-    "case_from_dict",
-    "continuous_depth",
-    "continuous_length",
-    "convergence_study",
-    "load_case",
-    "solve_depth",
-    "solve_length",
-    "tow_load",
-    "tow_speed_for_depth",
-    "with_overrides",
-]
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "CableCase": "boat_twin.cable.case",
+    "CableSolution": "boat_twin.cable.problems",
+    "CableSolveError": "boat_twin.cable.errors",
+    "TowLoad": "boat_twin.cable.problems",
+    "case_from_dict": "boat_twin.cable.case",
+    "continuous_depth": "boat_twin.cable.continuous",
+    "continuous_length": "boat_twin.cable.continuous",
+    "convergence_study": "boat_twin.cable.convergence",
+    "load_case": "boat_twin.cable.case",
+    "solve_depth": "boat_twin.cable.problems",
+    "solve_length": "boat_twin.cable.problems",
+    "tow_load": "boat_twin.cable.problems",
+    "tow_speed_for_depth": "boat_twin.cable.problems",
+    "with_overrides": "boat_twin.cable.case",
+}
+"""Public name → its module, imported on first use: one problem does not load the others' solvers (the ODE
+reference loads scipy.integrate)."""
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

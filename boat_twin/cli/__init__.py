@@ -18,16 +18,25 @@ from boat_twin.errors import InputError
 
 VERBS: dict[str, tuple[str, str]] = {
     "simulate": ("boat_twin.cli.simulate", "simulate a sea trial and write it as a ROS 2 bag"),
-    "identify": ("boat_twin.cli.identify", "identify m·dv/dt = F - Fc(v): resistance curve and effective mass"),
+    "identify": ("boat_twin.cli.identify",
+                 "identify the thrust-speed model (resistance curve, effective mass) from a trial or a table"),
     "diagnose": ("boat_twin.cli.diagnose", "find what the model gets wrong on a trial (or a steady-state table)"),
     "convert": ("boat_twin.cli.convert",
                 "convert a MAVLink log (.tlog, .BIN) into a rosbag2 with the package's topics"),
     "cable": ("boat_twin.cli.cable",
               "towed cable: vehicle depth, cable length, convergence (Babanin & Melkonyan 2025)"),
-    "demo": ("boat_twin.cli.demo", "the main job on the shipped sample trial"),
+    "demo": ("boat_twin.cli.demo", "a tour on the shipped sample trial: regenerate, read back, plot, identify"),
 }
 """Verb → (module that registers it, one-line help), in the order ``--help`` lists them. Only the verb being run
 is imported (with its library): ``--help`` and ``--version`` answer at once."""
+
+DESCRIPTION = ("Digital twin of a small planing boat: simulate sea trials into ROS 2 bags, identify its "
+               "thrust-speed model from a recorded trial, diagnose what the model gets wrong, solve a towed "
+               "cable, convert MAVLink logs. SI units.")
+"""What ``boat-twin --help`` says first."""
+EPILOG = ("'boat-twin VERB --help' shows a verb's options. Exit codes: 0 done, 2 bad input (one line on stderr "
+          "naming the file or option), 130 interrupted. Reference: docs/ in the repository.")
+"""What ``boat-twin --help`` says last: how to go on, and the exit-code contract."""
 
 
 def verb_help(verb: str) -> str:
@@ -45,7 +54,7 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
     """The parser: ``verb`` fully registered (its module imported), the other verbs listed with their help."""
-    parser = _Parser(prog="boat-twin", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="boat-twin", description=DESCRIPTION, epilog=EPILOG)
     parser.add_argument("--version", action="version", version=f"boat-twin {__version__}")
     subparsers = parser.add_subparsers(dest="verb", required=True, parser_class=_Parser)
     for name, (module, help_text) in VERBS.items():

@@ -1,4 +1,6 @@
-"""``boat-twin cable``: towed-cable configuration (depth | length | convergence | speed) from a case file."""
+"""``boat-twin cable``: towed-cable configuration (depth | length | convergence | speed) from a case file.
+
+The cable library is imported by the handlers, so that ``--help`` answers at once."""
 
 from __future__ import annotations
 
@@ -6,12 +8,14 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from boat_twin.cable.case import CableCase, load_case, with_overrides
-from boat_twin.cable.convergence import PAPER_SEGMENTS_M, convergence_study
-from boat_twin.cable.problems import CableSolution, solve_depth, solve_length, tow_speed_for_depth
 from boat_twin.cli import verb_help
 from boat_twin.files import atomic_save_figure, ensure_out_dir, prepare_output, to_json
+
+if TYPE_CHECKING:
+    from boat_twin.cable.case import CableCase
+    from boat_twin.cable.problems import CableSolution
 
 DEFAULT_OUT = Path("out/cable")
 
@@ -22,8 +26,10 @@ def _progress(message: str) -> None:
 
 
 def _case(args: argparse.Namespace) -> CableCase:
+    from boat_twin.cable.case import load_case, with_overrides
+
     case = load_case(args.case)
-    return with_overrides(case, tow_speed_mps=args.tow_speed, segment_length_m=args.segment_length)
+    return with_overrides(case, tow_speed_mps=getattr(args, "tow_speed", None), segment_length_m=args.segment_length)
 
 
 def _save(args: argparse.Namespace, name: str, figure: object) -> Path:
@@ -57,18 +63,24 @@ def _report(args: argparse.Namespace, case: CableCase, solution: CableSolution) 
 
 
 def _depth(args: argparse.Namespace) -> int:
+    from boat_twin.cable.problems import solve_depth
+
     case = _case(args)
     return _report(args, case, solve_depth(case, args.length))
 
 
 def _length(args: argparse.Namespace) -> int:
+    from boat_twin.cable.problems import solve_length
+
     case = _case(args)
     return _report(args, case, solve_length(case, args.depth))
 
 
 def _convergence(args: argparse.Namespace) -> int:
+    from boat_twin.cable.convergence import PAPER_SEGMENTS_M, convergence_study
+
     case = _case(args)
-    study = convergence_study(case, args.segments, args.tolerance, progress=_progress)
+    study = convergence_study(case, args.segments or PAPER_SEGMENTS_M, args.tolerance, progress=_progress)
     if args.plot:
         from boat_twin.cable.plot import convergence_figure
 
@@ -98,6 +110,8 @@ def _convergence(args: argparse.Namespace) -> int:
 
 
 def _speed(args: argparse.Namespace) -> int:
+    from boat_twin.cable.problems import tow_speed_for_depth
+
     case = _case(args)
     _progress("searching the tow speed ...")
     speed = tow_speed_for_depth(case, args.depth, args.length)
@@ -112,9 +126,13 @@ def _speed(args: argparse.Namespace) -> int:
 
 
 def _common(parser: argparse.ArgumentParser, outputs: bool = True) -> None:
+    """The options every sub-verb takes; ``outputs=False`` (``speed``: no plot, and the tow speed is the answer,
+    not an input): without --tow-speed, --plot, --out and --force."""
     parser.add_argument("--case", type=Path, required=True, help="case YAML file (see config/cable/)")
-    parser.add_argument("--tow-speed", type=float, metavar="MPS", help="override tow speed V_k, m/s")
-    parser.add_argument("--segment-length", type=float, metavar="M", help="override link length l, m")
+    if outputs:
+        parser.add_argument("--tow-speed", type=float, metavar="MPS", help="tow speed, m/s (default: the case's)")
+    parser.add_argument("--segment-length", type=float, metavar="M",
+                        help="length l of the rigid links the cable is cut into, m (default: the case's)")
     parser.add_argument("--json", action="store_true", help="machine-readable result on stdout")
     if outputs:
         parser.add_argument("--plot", action="store_true", help="write a PNG into --out")
@@ -140,13 +158,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                          description="Problem 2: given the vehicle depth (m), find the cable length (m), "
                                      "shape and tensions (N); the length is cut inside the last link.")
     _common(p)
-    p.add_argument("--depth", type=float, metavar="M", help="vehicle depth, m (default: target_depth_m)")
+    p.add_argument("--depth", type=float, metavar="M",
+                   help="vehicle depth, m (default: the case file's target_depth_m)")
     p.set_defaults(handler=_length)
-    p = verbs.add_parser("convergence", help="link model against the continuous ODE as l shrinks",
+    p = verbs.add_parser("convergence", help="how the link model nears the continuous cable as the links shrink",
                          description="Errors of problems 1 and 2 against the continuous cable (ODE) for each "
                                      "link length l (m), observed order, and the l for a depth accuracy.")
     _common(p)
-    p.add_argument("--segments", type=float, nargs="+", default=list(PAPER_SEGMENTS_M), metavar="M",
+    p.add_argument("--segments", type=float, nargs="+", metavar="M",
                    help="link lengths l, m, decreasing (default: the paper's Fig. 5: 5 2.5 1.25 0.625)")
     p.add_argument("--tolerance", type=float, default=1e-3,
                    help="relative depth accuracy for the l estimate (default 0.001 = 0.1%%)")

@@ -19,13 +19,13 @@ from boat_twin.cli import verb_help
 from boat_twin.cli.options import add_trial_options, parse_remap
 from boat_twin.errors import InputError
 from boat_twin.files import refuse_input_as_output, to_json
-from boat_twin.io.log_messages import log_messages
-from boat_twin.io.trial import COMMAND_ROLES
+from boat_twin.io.roles import COMMAND_ROLES
 
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``boat-twin convert``."""
     from boat_twin.io.bags import write_bag
+    from boat_twin.io.log_messages import log_messages
     from boat_twin.io.mavlink import is_mavlink_log, read_mavlink_log, trial_from_log
 
     log_path: Path = args.log
@@ -70,8 +70,8 @@ def register(subparsers: Any) -> None:
         "convert",
         help=verb_help("convert"),
         description="Read an ArduPilot/MAVLink log (telemetry .tlog or DataFlash .BIN) and write its trial as a "
-        "rosbag2 (MCAP by default): gnss/fix, gnss/vel, imu/data (ENU/FLU, SI) and, with --calibration, the "
-        "thruster topics (N, rad). Samples keep the log's own time stamps.",
+        "rosbag2 (MCAP by default): gnss/fix, gnss/vel, imu/data (world east-north-up, body forward-left-up; SI "
+        "units) and, with --calibration, the thruster topics (N, rad). Samples keep the log's own time stamps.",
     )
     p.add_argument("log", type=Path, metavar="LOG", help="MAVLink telemetry log (.tlog) or DataFlash log (.BIN)")
     p.add_argument("--out", type=Path, required=True, metavar="BAG",

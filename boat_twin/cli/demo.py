@@ -5,19 +5,15 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from boat_twin.cli import verb_help
-from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.files import ensure_out_dir, to_json
-from boat_twin.io.bags import read_trial, write_bag
-from boat_twin.io.trial import Trial
-from boat_twin.plots import plot_trial
-from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.units import KGF_N, KNOT_MPS
-from boat_twin.vessel.scenarios import make_scenario
+
+if TYPE_CHECKING:
+    from boat_twin.io.trial import Trial
 
 SAMPLE_BAG = Path("bags/thrust_steps_sample")
 """The shipped sample trial (regenerate: ``make sample``)."""
@@ -39,6 +35,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def thrust_levels(trial: Trial) -> list[dict[str, float]]:
     """Each run of constant surge thrust: its thrust, duration and the speed over its last 10 s (mean, stdev)."""
+    import numpy as np
+
     thrust = trial.surge_thrust_N
     edges = np.flatnonzero(np.diff(thrust) != 0) + 1
     levels = []
@@ -57,7 +55,15 @@ def thrust_levels(trial: Trial) -> list[dict[str, float]]:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Handler of ``demo``."""
+    """Handler of ``demo`` (the libraries are imported here, so that ``--help`` answers at once)."""
+    import numpy as np
+
+    from boat_twin.config import TwinConfig
+    from boat_twin.io.bags import read_trial, write_bag
+    from boat_twin.plots import plot_trial
+    from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
+    from boat_twin.vessel.scenarios import make_scenario
+
     if not args.sample.exists():
         raise InputError(f"{args.sample}: sample bag not found (run from the repository root, or 'make sample')")
     out = ensure_out_dir(args.out)
@@ -93,6 +99,9 @@ def run(args: argparse.Namespace) -> int:
 
 def identification_summary(sample: Trial, out: Path) -> str:
     """Identify the sample trial (report + plots into ``out/identify``) and reproduce Dyda & Chumakova (2021)."""
+    import numpy as np
+
+    from boat_twin.config import TwinConfig
     from boat_twin.ident.paper import reproduce
     from boat_twin.ident.pipeline import identify_arrays
     from boat_twin.ident.report import write_trial_report
@@ -100,7 +109,8 @@ def identification_summary(sample: Trial, out: Path) -> str:
     keep = np.isfinite(sample.surge_thrust_N) & np.isfinite(sample.speed_mps)
     t_s, thrust, speed = sample.t_s[keep], sample.surge_thrust_N[keep], sample.speed_mps[keep]
     result = identify_arrays(t_s, thrust, speed)
-    write_trial_report(out / "identify", result, t_s, thrust, speed)
+    write_trial_report(out / "identify", result, t_s, thrust, speed,
+                       true_resistance_N=TwinConfig().vessel.resistance.force_N)  # the sample's own boat
     fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
     dyn = result["dynamic"]
     paper = reproduce()

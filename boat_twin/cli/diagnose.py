@@ -14,17 +14,7 @@ from typing import Any
 
 from boat_twin.cli import verb_help
 from boat_twin.cli.options import TRIAL_HELP, add_trial_options, claim_out_dir, trial_from_args, twin_config_from_args
-from boat_twin.config import save_config
-from boat_twin.diagnose.pipeline import WINDOW_S, diagnose_paper_table, diagnose_trial
-from boat_twin.diagnose.report import (
-    concerned_signals,
-    evidence_figure,
-    residual_figure,
-    signal_figure,
-    table_figure,
-    table_text,
-    text_report,
-)
+from boat_twin.diagnose.defaults import WINDOW_S
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_save_figure, atomic_write_text, atomic_write_yaml, to_json
 
@@ -38,6 +28,16 @@ def _progress(message: str) -> None:
 
 
 def _run_trial(args: argparse.Namespace) -> int:
+    from boat_twin.config import save_config
+    from boat_twin.diagnose.pipeline import diagnose_trial
+    from boat_twin.diagnose.report import (
+        concerned_signals,
+        evidence_figure,
+        residual_figure,
+        signal_figure,
+        text_report,
+    )
+
     out = claim_out_dir(args.out, (EXTENDED_MODEL_NAME, "diagnosis_signals.png", "diagnosis_residuals.png",
                                    "diagnosis_evidence.png", "diagnosis.json"), args.force)
     trial = trial_from_args(args.trial, args)
@@ -62,6 +62,9 @@ def _run_trial(args: argparse.Namespace) -> int:
 
 
 def _run_table(args: argparse.Namespace) -> int:
+    from boat_twin.diagnose.pipeline import diagnose_paper_table
+    from boat_twin.diagnose.report import table_figure, table_text
+
     if args.table != "dyda2021":
         raise InputError(f"--table {args.table!r}: the built-in table is 'dyda2021'")
     result, diag, resistance = diagnose_paper_table(args.model_order)
@@ -93,15 +96,18 @@ def register(subparsers: Any) -> None:
     """Add the ``diagnose`` verb."""
     p = subparsers.add_parser(
         "diagnose", help=verb_help("diagnose"),
-        description=__doc__.splitlines()[0])
+        description="Find what the model gets wrong on measured data (a recorded trial, or a steady-state "
+        "table), name the cause from a catalogue of effects, and write the extended model with the gain.")
     p.add_argument("trial", nargs="?", type=Path, help=TRIAL_HELP)
     add_trial_options(p)
     p.add_argument("--table", help="diagnose a built-in steady-state table instead: dyda2021")
     p.add_argument("--model-order", type=int, default=1, help="with --table: the paper's fit to start from (1, 3, 5)")
     p.add_argument("--config", type=Path,
-                   help="twin configuration YAML of the model to diagnose (default: the seed boat)")
+                   help="twin configuration YAML of the model to diagnose (default: the built-in boat)")
     p.add_argument("--model", type=Path, help="identified model YAML overriding the vessel (resistance, mass)")
-    p.add_argument("--window", type=float, default=WINDOW_S, help=f"replay window, s (default {WINDOW_S:g})")
+    p.add_argument("--window", type=float, default=WINDOW_S,
+                   help=f"replay window, s: the model restarts from the measured state every window "
+                   f"(default {WINDOW_S:g})")
     p.add_argument("--out", type=Path, help="directory for the extended model YAML, JSON and PNG plots")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs in --out")
     p.add_argument("--json", action="store_true", help="machine-readable result on stdout")

@@ -1,16 +1,20 @@
 """Command-line options shared by the verbs: reading a trial (--topic, --namespace, --calibration) and building the
-twin configuration (--config, --model, --current)."""
+twin configuration (--config, --model, --current). Cheap to import (the libraries load when a verb runs), so that
+``--help`` answers at once."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from boat_twin.config import TwinConfig, load_twin_config
 from boat_twin.errors import InputError
 from boat_twin.files import ensure_out_dir
-from boat_twin.io.sources import TRIAL_ROLES, read_trial_file
-from boat_twin.io.trial import Trial
+from boat_twin.io.roles import TRIAL_ROLES
+
+if TYPE_CHECKING:
+    from boat_twin.config import TwinConfig
+    from boat_twin.io.trial import Trial
 
 TRIAL_HELP = ("recorded trial: rosbag2 directory (MCAP or sqlite3), bare .mcap file, MAVLink telemetry log (.tlog) "
               "or DataFlash log (.BIN)")
@@ -49,7 +53,9 @@ def add_trial_options(parser: argparse.ArgumentParser, *, bags: bool = True) -> 
 
 
 def trial_from_args(path: Path | str, args: argparse.Namespace) -> Trial:
-    """:func:`read_trial_file` with the options :func:`add_trial_options` added."""
+    """:func:`~boat_twin.io.sources.read_trial_file` with the options :func:`add_trial_options` added."""
+    from boat_twin.io.sources import read_trial_file
+
     return read_trial_file(path, remap=parse_remap(getattr(args, "topic", None)),
                            namespace=getattr(args, "namespace", "") or "",
                            calibration=getattr(args, "calibration", None))
@@ -57,6 +63,8 @@ def trial_from_args(path: Path | str, args: argparse.Namespace) -> Trial:
 
 def twin_config_from_args(args: argparse.Namespace) -> TwinConfig:
     """:func:`~boat_twin.config.load_twin_config` from --config, --model and --current (where the verb has them)."""
+    from boat_twin.config import load_twin_config
+
     current = getattr(args, "current", None)
     return load_twin_config(args.config, args.model, tuple(current) if current else None)
 

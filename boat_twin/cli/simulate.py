@@ -1,24 +1,24 @@
-"""``boat-twin simulate``: run a scenario (or a command file / recorded trial's commands) into a ROS 2 bag."""
+"""``boat-twin simulate``: run a scenario (or a command file / recorded trial's commands) into a ROS 2 bag.
+
+The simulator is imported by the handler, so that ``--help`` answers at once."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from boat_twin.cli import verb_help
 from boat_twin.cli.options import twin_config_from_args
-from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.files import refuse_input_as_output, to_json
-from boat_twin.twin.sea_trial import compact_trial_messages, run_compact_trial
-from boat_twin.vessel.manoeuvres import manoeuvre_figures
-from boat_twin.vessel.params import describe
-from boat_twin.vessel.scenarios import SCENARIO_NAMES, CommandProfile, make_scenario, read_command_csv
-from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
-from boat_twin.vessel.truth import TruthSeries
+from boat_twin.vessel.scenario_names import SCENARIO_NAMES
+
+if TYPE_CHECKING:
+    from boat_twin.config import TwinConfig
+    from boat_twin.vessel.scenarios import CommandProfile, Scenario
+    from boat_twin.vessel.truth import TruthSeries
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -33,14 +33,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--commands", type=Path, metavar="FILE",
                    help="command profile: CSV 't,thrust_left_N,thrust_right_N,angle_left_rad,angle_right_rad' "
                    "(zero-order hold) or a recorded bag whose thruster topics are replayed")
-    p.add_argument("--config", type=Path, help="twin configuration YAML (sections vessel, environment, gnss, um7)")
-    p.add_argument("--model", type=Path, help="identified model YAML overriding the vessel (resistance, mass)")
+    p.add_argument("--config", type=Path, metavar="FILE",
+                   help="twin configuration YAML (sections vessel, environment, gnss, um7; e.g. config/boat.yaml)")
+    p.add_argument("--model", type=Path, metavar="FILE",
+                   help="identified model YAML overriding the vessel (resistance, mass): identify's model.yaml")
     p.add_argument("--current", type=float, nargs=2, metavar=("EAST", "NORTH"),
-                   help="water current over ground, m/s (ENU components)")
-    p.add_argument("--duration", type=float, help="trial length, s (default: the scenario's own)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the one random generator (default 0)")
+                   help="water current over ground, m/s (its east and north components)")
+    p.add_argument("--duration", type=float, metavar="S", help="trial length, s (default: the scenario's own)")
+    p.add_argument("--seed", type=int, default=0, help="random seed: the same seed gives the same bag (default 0)")
     p.add_argument("--no-noise", action="store_true", help="exact measurements (no noise, dropouts or bias)")
-    p.add_argument("--out", type=Path, help="output bag: a directory, or a file ending in .mcap")
+    p.add_argument("--out", type=Path, metavar="BAG", help="output bag: a directory, or a file ending in .mcap")
     p.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap", help="rosbag2 storage (default mcap)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output")
     p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")
@@ -62,7 +64,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run)
 
 
-def _scenario(args: argparse.Namespace, config: TwinConfig):
+def _scenario(args: argparse.Namespace, config: TwinConfig) -> Scenario:
+    import numpy as np
+
+    from boat_twin.vessel.scenarios import CommandProfile, make_scenario, read_command_csv
+
     if args.commands and args.scenario:
         raise InputError("give a scenario or --commands, not both")
     if args.commands:
@@ -85,6 +91,8 @@ def _scenario(args: argparse.Namespace, config: TwinConfig):
 
 def make_scenario_with_duration(profile: CommandProfile, duration_s: float) -> CommandProfile:
     """The same command profile run for ``duration_s`` (the last row held)."""
+    from boat_twin.vessel.scenarios import CommandProfile
+
     if not duration_s > 0.0:
         raise InputError(f"--duration must be a positive number of seconds, got {duration_s!r}")
     return CommandProfile(profile.name, profile.times_s, profile.values, duration_s, profile.initial_surge_mps)
@@ -93,6 +101,8 @@ def make_scenario_with_duration(profile: CommandProfile, duration_s: float) -> C
 def summarize(truth: TruthSeries) -> dict[str, float | None]:
     """Figures of a simulated trial's truth: duration, top speed, extreme yaw rate, and the final steady
     turning diameter 2·U/|r| (averaged over the last 20 s; None unless the boat ends in a turn)."""
+    import numpy as np
+
     t_s = truth.t_s
     last = t_s >= t_s[-1] - 20.0
     u, v, r = truth.surge_mps[last], truth.sway_mps[last], truth.yaw_rate_radps[last]
@@ -108,6 +118,10 @@ def summarize(truth: TruthSeries) -> dict[str, float | None]:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``simulate``."""
+    from boat_twin.twin.sea_trial import compact_trial_messages, run_compact_trial
+    from boat_twin.vessel.manoeuvres import manoeuvre_figures
+    from boat_twin.vessel.params import describe
+
     refuse_input_as_output(args.out, args.commands, args.config, args.model, args.tlog)
     refuse_input_as_output(args.tlog, args.commands, args.config, args.model)
     config = twin_config_from_args(args)
@@ -150,6 +164,7 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
     from boat_twin.files import prepare_output
     from boat_twin.link.mavlink_boat import MavlinkBoat, parse_stream_rates, progress_to_stderr
     from boat_twin.twin.live import LiveTwin
+    from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 
     if math.isnan(args.mavlink_speed) or args.mavlink_speed < 0.0:
         raise InputError(f"--mavlink-speed must be a non-negative factor, got {args.mavlink_speed!r}")

@@ -2,6 +2,25 @@
 (causes), held-out fits and a decision rule naming the cause, the extended model and the gain; also the
 steady-state table case. :func:`diagnose_trial` is the pipeline ``boat-twin diagnose`` runs."""
 
-from boat_twin.diagnose.pipeline import WINDOW_S, TrialDiagnosis, diagnose_paper_table, diagnose_trial
+from __future__ import annotations
 
-__all__ = ["WINDOW_S", "TrialDiagnosis", "diagnose_paper_table", "diagnose_trial"]
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "WINDOW_S": "boat_twin.diagnose.defaults",
+    "DiagnosisResult": "boat_twin.diagnose.report",
+    "TrialDiagnosis": "boat_twin.diagnose.pipeline",
+    "diagnose_paper_table": "boat_twin.diagnose.pipeline",
+    "diagnose_trial": "boat_twin.diagnose.pipeline",
+}
+"""Public name → its module, imported on first use (``boat-twin diagnose --help`` reads the light
+:mod:`boat_twin.diagnose.defaults` without loading the pipeline)."""
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -10,13 +10,16 @@
 | ``mass_error`` | ``mass_factor`` | ``vessel.mass_kg`` ×= factor (every inertia and derived damping follows) |
 | ``resistance_shape`` | ``change_at_<u>_mps`` per knot | ``vessel.resistance`` ×= 1 + piecewise-linear change(u) |
 | ``tow_load`` | ``drag_scale`` | ``tow`` = the packaged towed body on 50 m of cable, drag × scale |
+| ``wind`` | ``east_mps``, ``north_mps`` | ``environment.wind_*`` = (east, north): air over ground, flowing *to* |
 
 Each parameter has a *null* value (the effect absent) and a *scale* (a size the data resolve easily), so the
 fit works in ``x = (p − null) / scale``. Each effect has a *size* (:attr:`EffectSpec.magnitude`), a detection
 *threshold* (the size the diagnosis promises to detect: what the tests and the accuracy study hide, at 1.2-2×)
 and a *minimum size* (the decision rule's floor, half the threshold), all in the effect's ``size_unit``.
 ``tow_load``'s size is its ``drag_scale`` (dimensionless: the towed system's drag relative to the packaged body
-on its 50 m cable, which stays 50 m): threshold 0.6, floor 0.3, towed at 1-2 m/s.
+on its 50 m cable, which stays 50 m): threshold 0.6, floor 0.3, towed at 1-2 m/s. ``wind``'s size is the length
+of the change of the wind's velocity, m/s: threshold 4 m/s, floor 2 m/s (its force is the twin's windage model,
+:mod:`boat_twin.vessel.dynamics`, quadratic in the apparent wind).
 
 Adding a diagnosis effect
 -------------------------
@@ -52,6 +55,10 @@ MIN_KNOT_SPACING_MPS = 0.1
 """Smallest distance between two knots of the resistance correction, m/s."""
 BAND_TIME_SHARE = 0.4
 """A hidden resistance change covers the speeds where the trial spends this share of its time."""
+
+WIND_LIMIT_MPS = 25.0
+"""Physical range of each wind component, m/s: a 6 m open boat is not tried in more than a gale (Beaufort 9 is
+21-24 m/s); a fit that wants more stands in for another cause."""
 
 Draw = Callable[[TwinConfig, float, float, np.random.Generator, np.ndarray | None], tuple[TwinConfig, dict[str, Any]]]
 """(base config, size, sign ±1, generator, speeds the trial visits in m/s or None) → (true config, truth)."""
@@ -271,6 +278,20 @@ def _draw_tow(base: TwinConfig, size: float, sign: float, rng: np.random.Generat
     return replace(base, tow=TowConfig(drag_scale=scale)), {"drag_scale": scale}
 
 
+def _wind(config: TwinConfig, p: np.ndarray) -> TwinConfig:
+    return replace(config, environment=replace(config.environment, wind_east_mps=float(p[0]),
+                                               wind_north_mps=float(p[1])))
+
+
+def _draw_wind(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+               speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    """A wind of speed ``size`` from a random direction, added to the base config's wind."""
+    angle = rng.uniform(-math.pi, math.pi)
+    env = base.environment
+    east, north = env.wind_east_mps + size * math.cos(angle), env.wind_north_mps + size * math.sin(angle)
+    return _wind(base, np.array([east, north])), {"east_mps": east, "north_mps": north}
+
+
 # --- the registry -------------------------------------------------------------------------------------------
 
 EFFECTS: Mapping[str, EffectSpec] = MappingProxyType({spec.name: spec for spec in (
@@ -321,6 +342,14 @@ EFFECTS: Mapping[str, EffectSpec] = MappingProxyType({spec.name: spec for spec i
                               lower=0.0, upper=50.0),),
         apply=_tow, magnitude=lambda p, null: float(p[0]), size_unit="- (drag_scale, towing at 1-2 m/s)",
         threshold=0.6, min_size=0.3, draw=_draw_tow),
+    EffectSpec(
+        name="wind",
+        parameters=(Parameter("east_mps", "m/s", scale=1.0, lower=-WIND_LIMIT_MPS, upper=WIND_LIMIT_MPS,
+                              null=lambda c: c.environment.wind_east_mps),
+                    Parameter("north_mps", "m/s", scale=1.0, lower=-WIND_LIMIT_MPS, upper=WIND_LIMIT_MPS,
+                              null=lambda c: c.environment.wind_north_mps)),
+        apply=_wind, magnitude=lambda p, null: float(np.hypot(p[0] - null[0], p[1] - null[1])),
+        size_unit="m/s (change of the wind's speed over ground)", threshold=4.0, min_size=2.0, draw=_draw_wind),
 )})
 """Every diagnosis effect by canonical name, in the order the report lists them."""
 EFFECT_NAMES = tuple(EFFECTS)

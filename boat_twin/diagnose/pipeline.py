@@ -12,9 +12,10 @@ from typing import Any
 
 from boat_twin.config import TwinConfig
 from boat_twin.data import dyda2021_table1
+from boat_twin.diagnose.defaults import WINDOW_S
 from boat_twin.diagnose.effects import catalogue
 from boat_twin.diagnose.replay import Prediction, Windows, cut_windows
-from boat_twin.diagnose.report import result_dict
+from boat_twin.diagnose.report import DiagnosisResult, result_dict
 from boat_twin.diagnose.search import Diagnosis, Selection, forward_select
 from boat_twin.diagnose.structure import residual_structure
 from boat_twin.diagnose.table import TableDiagnosis, diagnose_table, table_result
@@ -24,9 +25,7 @@ from boat_twin.io.trial import Trial
 from boat_twin.units import KGF_N, KNOT_MPS
 from boat_twin.vessel.resistance import TableResistance
 
-WINDOW_S = 20.0
-"""Default replay window, s: long enough for a 1.5° steering offset to turn the track by several degrees,
-short enough that a heading error from the start does not dominate."""
+
 @dataclass
 class TrialDiagnosis:
     """Everything one diagnosis of a trial produced."""
@@ -37,7 +36,7 @@ class TrialDiagnosis:
     extended: TwinConfig
     baseline_prediction: Prediction
     extended_prediction: Prediction
-    result: dict[str, Any]
+    result: DiagnosisResult
 
 
 def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,

@@ -30,6 +30,16 @@ from boat_twin.vessel.truth import ground_velocity_enu
 
 SIGNALS = ("vel_east_mps", "vel_north_mps", "yaw_rate_radps", "heading_rad")
 """Measured signals the diagnosis compares: GNSS velocity over ground (ENU), gyro yaw rate, IMU heading."""
+ANGLE_SIGNALS = ("heading_rad",)
+"""Signals that are angles: their residuals are wrapped to (−π, π]."""
+
+
+def residual(signal: str, measured: np.ndarray, predicted: np.ndarray) -> np.ndarray:
+    """measured − predicted of ``signal``; for an angle, wrapped to (−π, π] (a heading 2π off is no error)."""
+    diff = np.asarray(measured) - np.asarray(predicted)
+    return np.pi - np.mod(np.pi - diff, 2.0 * np.pi) if signal in ANGLE_SIGNALS else diff
+
+
 HEADING_SMOOTHING_S = 5.0
 """A window's initial heading averages IMU yaw minus integrated gyro over ± this long, s (3° noise → 0.3°)."""
 SETTLING_S = 1.0

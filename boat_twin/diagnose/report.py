@@ -2,26 +2,95 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 from matplotlib.figure import Figure
 
-from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows
+from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, residual
 from boat_twin.diagnose.search import BIC_THRESHOLD, MIN_HELDOUT_GAIN, Candidate, Fit, Selection, ci95
-from boat_twin.diagnose.structure import Signature
+from boat_twin.diagnose.structure import Signature, SignatureResult
 from boat_twin.diagnose.table import TableDiagnosis
 
 UNITS = {"vel_east_mps": "m/s", "vel_north_mps": "m/s", "yaw_rate_radps": "rad/s", "heading_rad": "rad",
          "speed_mps": "m/s", "position_m": "m"}
 """Unit of every reported signal."""
+NAMES = {"vel_east_mps": "east velocity (GNSS)", "vel_north_mps": "north velocity (GNSS)",
+         "yaw_rate_radps": "yaw rate (gyro)", "heading_rad": "heading (IMU)"}
+"""Axis label of every compared signal (its unit follows, "name, unit")."""
+
+
+class CandidateResult(TypedDict):
+    """One effect tried in one round of the forward selection."""
+
+    effect: str
+    parameters: dict[str, float]
+    """Fitted parameters, named with their units (EffectSpec.parameter_names)."""
+    delta_bic: float
+    """BIC of the model with this effect minus BIC without it (negative: better)."""
+    round: int
+    heldout_gain: float | None
+    """1 − held-out SSE with / without; None when it failed the in-sample conditions and was not judged."""
+    named: bool
+    on_bound: bool
+    takes_over: bool
+    claims: list[str]
+    """The signals carrying its held-out gain."""
+    misfit_share: float | None
+    """Share of those signals' misfit above the noise floor that it removes (the share rule)."""
+
+
+class VerdictResult(TypedDict):
+    """One named effect: final parameters, their 95 % intervals and the held-out gain per signal."""
+
+    effect: str
+    parameters: dict[str, float]
+    ci95: dict[str, list[float]]
+    gain: dict[str, float]
+
+
+class AmbiguousResult(TypedDict):
+    """Causes the trial cannot tell apart: none of them named."""
+
+    effects: list[str]
+    parameters: dict[str, dict[str, float]]
+    round: int
+    reason: str
+
+
+class _DiagnosisResultBase(TypedDict):
+    trial: str
+    windows: dict[str, float]
+    """count (number of replay windows) and length_s."""
+    noise: dict[str, float]
+    """Measured noise floor per signal (white-noise stdev), SI."""
+    baseline: dict[str, dict[str, float]]
+    """{"rmse": signal → RMSE} of the model as given."""
+    extended: dict[str, dict[str, float]]
+    """{"rmse": signal → RMSE} of the model with the named effects."""
+    candidates: list[CandidateResult]
+    verdict: list[VerdictResult]
+    ambiguous: AmbiguousResult | None
+    unexplained: bool
+    """True when a signal stays above the misfit factor times its noise after the named effects."""
+    signature: list[SignatureResult]
+    """Per unexplained signal: misfit, held-out R², correlated regressors, worst time (Signature.to_dict)."""
+    extended_model: str | None
+    """Path of the written extended twin config, when one was written."""
+
+
+class DiagnosisResult(_DiagnosisResultBase, total=False):
+    """The ``--json`` contract of ``boat-twin diagnose TRIAL`` (SI units), as :func:`result_dict` builds it."""
+
+    evaluations: int
+    """Model replays the search ran."""
 
 
 def signal_rmse(windows: Windows, prediction: Prediction) -> dict[str, float]:
-    """RMS of measured − predicted per signal, speed over ground and horizontal position, SI."""
+    """RMS of measured − predicted per signal (heading wrapped), speed over ground and horizontal position, SI."""
     out = {}
     for s in SIGNALS:
-        out[s] = float(np.sqrt(np.nanmean((windows.measured[s] - prediction.signals[s]) ** 2)))
+        out[s] = float(np.sqrt(np.nanmean(residual(s, windows.measured[s], prediction.signals[s]) ** 2)))
     measured_speed = np.hypot(windows.measured["vel_east_mps"], windows.measured["vel_north_mps"])
     predicted_speed = np.hypot(prediction.signals["vel_east_mps"], prediction.signals["vel_north_mps"])
     out["speed_mps"] = float(np.sqrt(np.nanmean((measured_speed - predicted_speed) ** 2)))
@@ -35,18 +104,32 @@ def _signal_gain(new: Fit, old: Fit) -> dict[str, float]:
     return {s: float(1.0 - new.heldout_sse[i] / old.heldout_sse[i]) for i, s in enumerate(SIGNALS)}
 
 
-def _candidate_dict(candidate: Candidate, round_index: int) -> dict[str, Any]:
+def _candidate_dict(candidate: Candidate, round_index: int) -> CandidateResult:
     _, values, _ = candidate.fit.split()[-1]
     return {"effect": candidate.effect.name, "parameters": candidate.effect.named(values),
             "delta_bic": candidate.delta_bic, "round": round_index + 1,
             # null: it failed the in-sample conditions, so it was not judged on held-out time
             "heldout_gain": candidate.heldout_gain if np.isfinite(candidate.heldout_gain) else None,
-            "named": candidate.named, "on_bound": candidate.at_bound, "takes_over": candidate.takes_over}
+            "named": candidate.named, "on_bound": candidate.at_bound, "takes_over": candidate.takes_over,
+            # the signals carrying its held-out gain and the share of their excess over the noise it removes
+            "claims": list(candidate.claims), "misfit_share": candidate.share if np.isfinite(candidate.share) else None}
 
 
-def verdict(selection: Selection) -> list[dict[str, Any]]:
+def ambiguity(selection: Selection) -> AmbiguousResult | None:
+    """The candidates this trial cannot tell apart (none of them named), with why; None when there are none."""
+    if not selection.ambiguous:
+        return None
+    return {"effects": [c.effect.name for c in selection.ambiguous],
+            "parameters": {c.effect.name: c.effect.named(c.fit.split()[-1][1]) for c in selection.ambiguous},
+            "round": len(selection.rounds),
+            "reason": "the trial holds one heading: a wind is a constant force in the body frame there, as the "
+                      "other cause is; a trial that turns through many headings tells them apart"}
+
+
+def verdict(selection: Selection) -> list[VerdictResult]:
     """The named effects with their final parameters, 95 % intervals and held-out gain per signal."""
-    out, previous = [], selection.baseline
+    out: list[VerdictResult] = []
+    previous = selection.baseline
     final = {e.name: (v, s) for e, v, s in selection.final.split()}
     for candidate in selection.named:
         values, stderr = final[candidate.effect.name]
@@ -63,7 +146,7 @@ def verdict(selection: Selection) -> list[dict[str, Any]]:
 
 
 def result_dict(windows: Windows, selection: Selection, baseline: Prediction, extended: Prediction,
-                signatures: list[Signature], extended_model: str | None, sigma: dict[str, float]) -> dict[str, Any]:
+                signatures: list[Signature], extended_model: str | None, sigma: dict[str, float]) -> DiagnosisResult:
     """The ``--json`` contract (SI units)."""
     candidates = [_candidate_dict(c, i) for i, r in enumerate(selection.rounds) for c in r]
     return {
@@ -74,13 +157,14 @@ def result_dict(windows: Windows, selection: Selection, baseline: Prediction, ex
         "extended": {"rmse": signal_rmse(windows, extended)},
         "candidates": candidates,
         "verdict": verdict(selection),
+        "ambiguous": ambiguity(selection),
         "unexplained": bool(signatures),
         "signature": [s.to_dict() for s in signatures],
         "extended_model": extended_model,
     }
 
 
-def text_report(result: dict[str, Any]) -> str:
+def text_report(result: DiagnosisResult) -> str:
     """What was wrong, where, the cause, its size ± uncertainty, the gain per signal."""
     lines = [f"trial       {result['trial']}: {result['windows']['count']} windows of "
              f"{result['windows']['length_s']:g} s replayed from the sensors"]
@@ -96,6 +180,10 @@ def text_report(result: dict[str, Any]) -> str:
         gains = ", ".join(f"{s} {g:+.0%}" for s, g in v["gain"].items() if abs(g) >= 0.005)
         lines.append(f"verdict     {v['effect']}: " + "; ".join(parts))
         lines.append(f"            held-out gain: {gains}")
+    if result["ambiguous"]:
+        amb = result["ambiguous"]
+        lines.append(f"ambiguous   {' or '.join(amb['effects'])} (round {amb['round']}, neither named): "
+                     f"{amb['reason']}")
     first = [c for c in result["candidates"] if c["round"] == 1]
     lines.append("candidates (round 1)  ΔBIC      held-out gain")
     for c in sorted(first, key=lambda c: c["delta_bic"]):
@@ -118,50 +206,82 @@ def _concatenated(windows: Windows, values: np.ndarray) -> tuple[np.ndarray, np.
     return t, v
 
 
+def _same_prediction(baseline: Prediction, extended: Prediction, signals: list[str] | tuple[str, ...]) -> bool:
+    """No effect named: the extended model is the baseline (one line is drawn, not two on top of each other)."""
+    return all(np.array_equal(baseline.signals[s], extended.signals[s], equal_nan=True) for s in signals)
+
+
 def signal_figure(windows: Windows, baseline: Prediction, extended: Prediction, signals: list[str]) -> Figure:
-    """Measured vs baseline vs extended prediction for each signal concerned."""
+    """Measured vs baseline vs extended prediction for each signal concerned (the baseline drawn wide and light
+    under the extended model, so that both show where they agree)."""
+    same = _same_prediction(baseline, extended, signals)
     fig = Figure(figsize=(10, 2.6 * len(signals)), layout="constrained")
-    for ax, s in zip(fig.subplots(len(signals), 1, squeeze=False)[:, 0], signals, strict=True):
-        ax.plot(*_concatenated(windows, windows.measured[s]), ".", ms=1.5, color="0.5", label="measured")
-        ax.plot(*_concatenated(windows, baseline.signals[s]), lw=1.0, label="baseline model")
-        ax.plot(*_concatenated(windows, extended.signals[s]), lw=1.0, label="extended model")
-        ax.set_ylabel(f"{s} [{UNITS[s]}]")
-    ax.set_xlabel("trial time [s]")
-    ax.legend(loc="upper right", fontsize=8)
+    for ax, s in zip(fig.subplots(len(signals), 1, squeeze=False, sharex=True)[:, 0], signals, strict=True):
+        ax.plot(*_concatenated(windows, windows.measured[s]), ".", ms=1.5, color="0.6", label="measured")
+        if same:
+            ax.plot(*_concatenated(windows, baseline.signals[s]), lw=1.2, color="C0",
+                    label="model (no effect named: extended = baseline)")
+        else:
+            ax.plot(*_concatenated(windows, baseline.signals[s]), lw=3.0, color="C0", alpha=0.45,
+                    label="baseline model")
+            ax.plot(*_concatenated(windows, extended.signals[s]), lw=1.0, color="C3", label="extended model")
+        ax.set_ylabel(f"{NAMES[s]}, {UNITS[s]}")
+    ax.set_xlabel("trial time, s")
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside upper center", ncols=3, fontsize=8, markerscale=4)
     return fig
 
 
 def residual_figure(windows: Windows, baseline: Prediction, extended: Prediction) -> Figure:
     """Residuals (measured − predicted) of every signal before and after the extension."""
+    same = _same_prediction(baseline, extended, SIGNALS)
     fig = Figure(figsize=(10, 9), layout="constrained")
-    for ax, s in zip(fig.subplots(len(SIGNALS), 1)[:], SIGNALS, strict=True):
-        ax.plot(*_concatenated(windows, windows.measured[s] - baseline.signals[s]), lw=0.6, label="baseline")
-        ax.plot(*_concatenated(windows, windows.measured[s] - extended.signals[s]), lw=0.6, label="extended")
+    for ax, s in zip(fig.subplots(len(SIGNALS), 1, sharex=True)[:], SIGNALS, strict=True):
+        if same:
+            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], baseline.signals[s])), lw=0.6, color="C0",
+                    label="model (no effect named: extended = baseline)")
+        else:
+            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], baseline.signals[s])), lw=1.6, color="C0",
+                    alpha=0.45, label="baseline")
+            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], extended.signals[s])), lw=0.6, color="C3",
+                    label="extended")
         ax.axhline(0.0, color="k", lw=0.5)
-        ax.set_ylabel(f"Δ{s} [{UNITS[s]}]", fontsize=8)
-    ax.set_xlabel("trial time [s]")
-    ax.legend(loc="upper right", fontsize=8)
+        ax.set_ylabel(f"{NAMES[s]}\nresidual, {UNITS[s]}", fontsize=8)
+    ax.set_xlabel("trial time, s")
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside upper center", ncols=2, fontsize=8)
     return fig
 
 
-def evidence_figure(result: dict[str, Any]) -> Figure:
+def evidence_figure(result: DiagnosisResult) -> Figure:
     """ΔBIC and held-out gain of every candidate in round 1, with the decision thresholds."""
     first = sorted([c for c in result["candidates"] if c["round"] == 1], key=lambda c: c["delta_bic"])
     names = [c["effect"] for c in first]
-    fig = Figure(figsize=(10, 4), layout="constrained")
-    ax_bic, ax_gain = fig.subplots(1, 2)
-    ax_bic.barh(names, [c["delta_bic"] for c in first], color=["C3" if c["named"] else "C0" for c in first])
+    from matplotlib.ticker import FuncFormatter
+
+    fig = Figure(figsize=(10, 1.2 + 0.4 * max(len(first), 2)), layout="constrained")
+    ax_bic, ax_gain = fig.subplots(1, 2, sharey=True)
+    colors = ["C3" if c["named"] else "C0" for c in first]
+    ax_bic.barh(names, [c["delta_bic"] for c in first], color=colors)
     ax_bic.axvline(BIC_THRESHOLD, color="k", ls="--", lw=0.8)
-    ax_bic.set_xscale("symlog")
-    ax_bic.set_xlabel("ΔBIC against the baseline (named: red; threshold dashed)")
-    ax_gain.barh(names, [np.nan if c["heldout_gain"] is None else 100 * c["heldout_gain"] for c in first])
+    ax_bic.set_xscale("symlog", linthresh=10.0)  # linear within ±10 (the threshold), logarithmic beyond
+    ax_bic.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
+    ax_bic.set_title(f"ΔBIC against the baseline: lower is better\n(dashed: {BIC_THRESHOLD:g}, needed to name; "
+                     "red: named)", fontsize=9)
+    gains = [np.nan if c["heldout_gain"] is None else 100 * c["heldout_gain"] for c in first]
+    ax_gain.barh(names, gains, color=colors)
     ax_gain.axvline(100 * MIN_HELDOUT_GAIN, color="k", ls="--", lw=0.8)
-    ax_gain.set_xlabel("held-out gain [%] (no bar: not judged, the in-sample conditions failed)")
-    ax_gain.set_yticklabels([])
+    ax_gain.axvline(0.0, color="k", lw=0.5)
+    ax_gain.set_title(f"held-out gain, %: higher is better\n(dashed: {100 * MIN_HELDOUT_GAIN:g} %, needed to "
+                      "name; no bar: not judged)", fontsize=9)
+    if all(np.isnan(gains)):
+        ax_gain.set_xlim(-10.0, 10.0)
+        ax_gain.text(0.5, 0.5, "no candidate judged on held-out data:\nnone passed the in-sample conditions\n"
+                     "(ΔBIC below the threshold and a plausible size)", transform=ax_gain.transAxes, ha="center",
+                     va="center", fontsize=9, bbox={"facecolor": "white", "edgecolor": "0.7"})
+    ax_gain.tick_params(labelleft=False)
     return fig
 
 
-def concerned_signals(result: dict[str, Any]) -> list[str]:
+def concerned_signals(result: DiagnosisResult) -> list[str]:
     """Signals the named effects improved by ≥ 5 % (all when none did)."""
     gains = [v["gain"] for v in result["verdict"]]
     concerned = [s for s in SIGNALS if any(g.get(s, 0.0) >= 0.05 for g in gains)]
@@ -200,12 +320,12 @@ def table_figure(diag: TableDiagnosis) -> Figure:
     ax.plot(diag.speed, diag.extended, label="extended (resistance_shape)")
     if diag.plateau:
         ax.axvspan(*diag.plateau, color="0.9", label="plateau (regime change)")
-    ax.set_ylabel("thrust [kgf]")
+    ax.set_ylabel("thrust, kgf")
     ax.legend()
     ax_r.plot(diag.speed, diag.force - diag.baseline, "o-", ms=3, label="baseline")
     ax_r.plot(diag.speed, diag.force - diag.extended, "o-", ms=3, label="extended")
     ax_r.axhline(0.0, color="k", lw=0.5)
-    ax_r.set_xlabel("speed [kn]")
-    ax_r.set_ylabel("residual [kgf]")
+    ax_r.set_xlabel("speed, kn")
+    ax_r.set_ylabel("residual, kgf")
     ax_r.legend()
     return fig

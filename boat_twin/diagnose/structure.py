@@ -16,6 +16,7 @@ carry it and the time where the residual is largest.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TypedDict
 
 import numpy as np
 
@@ -30,9 +31,21 @@ of every kind give in the accuracy study, docs/diagnosis.md)."""
 MISFIT_FACTOR = 2.0
 """A signal whose residual RMS, after the named effects, stays above this many times its measured noise floor is
 unexplained, whatever was named: on clean simulated trials (thrust steps, zigzag, random) the ratio is 0.97-1.3
-(the replay's initialization error adds to the noise); a 7 m/s wind the catalogue lacks leaves 7-11."""
+(the replay's initialization error adds to the noise); a 7 m/s wind diagnosed without the catalogue's ``wind``
+leaves 7-11."""
 RIDGE = 1e-3
 """Ridge regularization relative to the regressors' scale (they are standardized)."""
+
+
+class SignatureResult(TypedDict):
+    """An unexplained signal in the ``--json`` report (:meth:`Signature.to_dict`)."""
+
+    signal: str
+    misfit: float
+    """Residual RMS over the measured noise floor."""
+    heldout_r2: float
+    correlated_with: list[str]
+    worst_time_s: float
 
 
 @dataclass(frozen=True)
@@ -48,7 +61,7 @@ class Signature:
     worst_time_s: float
     """Trial time of the middle of the window where the residual is largest, s."""
 
-    def to_dict(self) -> dict[str, object]:
+    def to_dict(self) -> SignatureResult:
         """Plain data for the JSON report."""
         return {"signal": self.signal, "misfit": self.misfit, "heldout_r2": self.heldout_r2,
                 "correlated_with": list(self.correlated_with), "worst_time_s": self.worst_time_s}

@@ -12,21 +12,23 @@ from typing import Any
 
 import numpy as np
 
-from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadySegment
+from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadyCriteria, SteadySegment
 from boat_twin.vessel.resistance import PowerSeriesResistance
 
 
 class LiveIdentifier:
     """Holds the last command of each outboard; turns each velocity fix into an identifier sample."""
 
-    def __init__(self, order: int = 3, memory_s: float = 3600.0) -> None:
+    def __init__(self, order: int = 3, memory_s: float = 3600.0, criteria: SteadyCriteria | None = None) -> None:
         self.order = order
         self.memory_s = memory_s
+        self.criteria = criteria or SteadyCriteria()
+        """Steady-state criteria (window, thrust tolerance): fixed live, where the boat is not known in advance."""
         self.reset()
 
     def reset(self) -> None:
         """Forget everything (a new trial)."""
-        self.core = OnlineThrustSpeedIdentifier(self.order, memory_s=self.memory_s)
+        self.core = OnlineThrustSpeedIdentifier(self.order, memory_s=self.memory_s, criteria=self.criteria)
         self.commands = np.array([math.nan, math.nan, 0.0, 0.0])
         self.max_speed_mps = 0.0
         self.first_stamp_ns: int | None = None

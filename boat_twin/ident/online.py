@@ -1,8 +1,8 @@
 """Online identification: recursive least squares, a steady-state detector, and the one identifier class
 that the ROS node and bag replay both feed sample by sample (no ROS here).
 
-Steady-state criterion (stated): thrust is constant while it stays within max(5 N, 1 %) of the segment's
-first value. When the segment ends, its speed is tested over tails of growing length (``window_s`` = 20 s,
+Steady-state criterion (stated): thrust is constant while it stays within max(``thrust_tolerance_N``, 1 %) of the
+segment's first value. When the segment ends, its speed is tested over tails of growing length (``window_s``,
 then in steps of ``window_s``/2, up to the whole segment, at most its last ``max_segment_s``): a straight
 line v = a + b·t is fitted by least squares, and the tail passes when
 
@@ -16,6 +16,9 @@ line v = a + b·t is fitted by least squares, and the tail passes when
 The steady point is the mean over the longest tail whose shorter tails all pass and whose drift bound is no
 looser than the shortest tail's (so a slow approach is not averaged in). A segment whose shortest tail fails
 never settled: it is rejected with the reason, never averaged into a biased point.
+
+The defaults (window 20 s, tolerance 5 N) suit the 6 m boat and its GNSS, and are what the live identifier
+uses; ``boat-twin identify`` sizes both from the recording (:mod:`boat_twin.ident.settling`).
 """
 
 from __future__ import annotations
@@ -121,9 +124,16 @@ class SteadyCriteria:
     """Only the last this-many seconds of a segment are kept and analysed (bounded memory online), s."""
     max_gap_s: float = 1.0
     """A sampling gap longer than this splits the analysable tail, s."""
+    noise_correlation_s: float = 0.0
+    """Time over which the speed's noise is correlated, s (0: white noise, as a receiver's velocity; a speed
+    smoothed from positions: the smoother's window). The trend's standard error counts one independent sample
+    per this much time."""
 
     def __post_init__(self) -> None:
-        if not all(math.isfinite(v) and v > 0.0 for v in asdict(self).values()):
+        values = asdict(self)
+        if not (math.isfinite(values.pop("noise_correlation_s")) and self.noise_correlation_s >= 0.0):
+            raise InputError("steady-state criteria: noise_correlation_s must be a number >= 0")
+        if not all(math.isfinite(v) and v > 0.0 for v in values.values()):
             raise InputError("steady-state criteria: every setting must be a positive number")
         if self.max_segment_s < self.window_s:
             raise InputError("steady-state criteria: max_segment_s must be at least window_s")
@@ -196,7 +206,7 @@ def analyse_segment(
     if held < criteria.window_s - EDGE_TOLERANCE_S or t.size - first < 4:
         after = " after a sampling gap" if gaps.size else ""
         return rejected(
-            f"held {held:.1f} s{after}, shorter than the {criteria.window_s:g} s test window",
+            f"held {held:.1f} s{after}, shorter than the {criteria.window_s:.3g} s test window",
             float(np.mean(speed[first:])),
         )
     starts = np.maximum(_tail_starts(t, first, criteria.window_s), first)
@@ -214,9 +224,12 @@ def analyse_segment(
     syy = svv - sv * sv / n
     slope = sxy / sxx
     spread = np.sqrt(np.maximum(syy - slope * sxy, 0.0) / (n - 2.0))
-    se = spread / np.sqrt(sxx)
     length = t[-1] - t[starts]
-    drift = (np.abs(slope) + stats.t.ppf(0.975, n - 2.0) * se) * length
+    # correlated noise: one independent sample per noise_correlation_s (at most n)
+    per_sample = np.maximum(criteria.noise_correlation_s * (n - 1.0) / np.maximum(length, 1e-9), 1.0)
+    se = spread / np.sqrt(sxx) * np.sqrt(per_sample)
+    dof = np.maximum(n / per_sample - 2.0, 1.0)
+    drift = (np.abs(slope) + stats.t.ppf(0.975, dof) * se) * length
     bound = np.maximum(criteria.max_drift_mps, criteria.max_drift_rel * np.abs(speed[-1] + sv / n))
     # a longer tail is used only while it bounds the drift at least as tightly as the shortest one
     ok = (drift <= bound) & (spread <= criteria.max_spread_mps) & (drift <= drift[0])
@@ -242,7 +255,7 @@ def analyse_segment(
         float(length[j]),
         float(drift[j]),
         float(spread[j]),
-        float(spread[j] / np.sqrt(n[j])),
+        float(spread[j] / np.sqrt(n[j] / per_sample[j])),
     )
 
 

@@ -1,14 +1,16 @@
 """The identification pipelines: a recorded trial, or a table of steady points, to the model m·dv/dt = F − Fc(v).
 
-:func:`identify_trial` is what ``boat-twin identify TRIAL`` runs; :func:`identify_arrays` runs every identifier
-on a trial's arrays (steady points, batch fits with order selection, mass from transients, the online identifier
-replayed over the same samples); :func:`identify_table` reproduces the paper's table. Results are the
-``--json`` contract (SI; JSON-ready dicts); :func:`model_dict` / :func:`write_model_yaml` give the identified
-model that the vessel loader accepts as an override.
+:func:`identify_trials` is what ``boat-twin identify TRIAL [TRIAL ...]`` runs; :func:`identify_recordings` runs
+every identifier on the arrays of one or more recordings pooled (steady points, batch fits with order selection,
+mass from transients, the online identifier replayed over the same samples), :func:`identify_arrays` on one;
+:func:`identify_table` reproduces the paper's table. Results are the ``--json`` contract (SI; JSON-ready
+dicts); :func:`model_dict` / :func:`write_model_yaml` give the identified model that the vessel loader accepts as
+an override.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, TypedDict
 
@@ -22,6 +24,7 @@ from boat_twin.ident.dynamic import DynamicWindow, check_samples, identify_dynam
 from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadyCriteria, detect_steady_segments
 from boat_twin.ident.paper import reproduce
 from boat_twin.ident.resimulate import Resimulation, resimulate
+from boat_twin.ident.settling import derive_criteria
 from boat_twin.ident.steady import FitResult, fit_power_series, select_order
 from boat_twin.io.trial import COMMAND_ROLES, Trial
 from boat_twin.units import KGF_N, KNOT_MPS
@@ -36,9 +39,12 @@ class IdentifyResult(TypedDict):
     """What :func:`identify_arrays` returns: the ``--json`` contract of ``boat-twin identify`` (SI, JSON-ready)."""
 
     steady_points: list[dict[str, float]]
-    """Accepted constant-thrust segments: speed_mps, thrust_N, duration_s, start_s, end_s, speed_stderr_mps."""
+    """Accepted constant-thrust segments: speed_mps, thrust_N, duration_s, start_s, end_s, speed_stderr_mps,
+    recording (index of the pooled recording it came from)."""
     rejected_segments: list[dict[str, Any]]
-    """Segments refused by the steady-state detector, each with its reason."""
+    """Segments refused by the steady-state detector, each with its reason and recording."""
+    steady_criteria: dict[str, Any]
+    """The detector's window and thrust tolerance and the figures they were derived from (DerivedCriteria)."""
     fits: list[dict[str, Any]]
     """Steady power-series fits (FitResult.to_dict): coefficients N/(m/s)^i, intervals, RMSE, CV, BIC, ..."""
     selected_order: int
@@ -56,9 +62,11 @@ class TrialIdentifyResult(IdentifyResult, total=False):
     """What :func:`identify_trial` returns: :class:`IdentifyResult` plus the trial and the re-simulation."""
 
     trial: dict[str, Any]
-    """Source, summary line, gaps and missing roles of the trial."""
+    """Source, summary line, gaps, missing and derived roles of the (first) trial."""
     resimulation: dict[str, Any]
-    """Resimulation.to_dict(), or ``{"error": why}`` when the loop could not be closed."""
+    """Resimulation.to_dict() of the (first) trial, or ``{"error": why}`` when the loop could not be closed."""
+    trials: list[dict[str, Any]]
+    """Every pooled trial: source, metadata line, gaps, missing, derived and its own ``resimulation``."""
 
 
 def model_dict(fit: FitResult, effective_mass_kg: float | None = None) -> dict[str, Any]:
@@ -133,32 +141,89 @@ def replay_online(
     return identifier
 
 
+POOL_GAP_S = 1000.0
+"""Pooled recordings are placed on one time axis this far apart, s: no steady segment or dynamic window spans two."""
+EXTRAPOLATION_MARGIN = 0.05
+"""The trial's top speed may exceed the steady points' by this share (or 3 noise σ) before it is flagged, -."""
+
+
+def pool(pieces: list[tuple[Any, Any, Any]]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Checked (t s, thrust N, speed m/s) recordings, each shifted to start :data:`POOL_GAP_S` after the last one
+    ends (the first keeps its times), so that they share one time axis without touching."""
+    out: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    for i, (t_s, thrust_N, speed_mps) in enumerate(pieces):
+        try:
+            t, f, v = check_samples(t_s, thrust_N, speed_mps)
+        except InputError as err:
+            raise InputError(f"recording {i + 1}: {err}" if len(pieces) > 1 else str(err)) from None
+        if out:
+            t = t - t[0] + out[-1][0][-1] + POOL_GAP_S
+        out.append((t, f, v))
+    return out
+
+
+def _extrapolation_warning(pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], fit: FitResult,
+                           dyn_domain: tuple[float, float] | None, noise_mps: float) -> str | None:
+    """A warning when the trial ran well above the steady points' top speed (the model extrapolates there)."""
+    top_trial = float(np.quantile(np.concatenate([v for _, _, v in pieces]), 0.995))
+    top_fit = fit.domain[1]
+    if top_trial <= top_fit + max(EXTRAPOLATION_MARGIN * top_fit, 3.0 * noise_mps):
+        return None
+    dyn = (f"; the fit from the transients spans {dyn_domain[0]:.2f}-{dyn_domain[1]:.2f} m/s"
+           if dyn_domain is not None else "")
+    return (f"extrapolation: the trial reaches {top_trial:.2f} m/s but the steady points span "
+            f"{fit.domain[0]:.2f}-{top_fit:.2f} m/s; above {top_fit:.2f} m/s the model follows the quadratic law, "
+            f"not data{dyn}: hold thrust levels up to the top speed")
+
+
 def identify_arrays(
     t_s: Any,
     thrust_N: Any,
     speed_mps: Any,
+    **options: Any,
+) -> IdentifyResult:
+    """Identify one recording from its arrays: time (s), total thrust (N), speed over ground (m/s).
+    :func:`identify_recordings` with one recording; ``options`` are its keyword arguments."""
+    return identify_recordings([(t_s, thrust_N, speed_mps)], **options)
+
+
+def identify_recordings(
+    recordings: list[tuple[Any, Any, Any]],
     *,
     order: int | None = None,
     max_order: int = 6,
     monotone: bool = False,
     through_origin: bool = True,
     criteria: SteadyCriteria | None = None,
+    window_s: float | None = None,
+    thrust_tolerance_N: float | None = None,
+    noise_correlation_s: float = 0.0,
+    speed_noise_mps: float | None = None,
     window: DynamicWindow | None = None,
     memory_s: float = 3600.0,
 ) -> IdentifyResult:
-    """Identify a trial from its arrays: time (s), total thrust (N), speed through water or over ground (m/s).
+    """Identify a boat from one or more recordings of (time s, total thrust N, speed m/s), pooled in one fit.
 
-    Steady points (detector), steady fits of N = 1..``max_order`` with CV/BIC selection (or ``order``),
-    mass + Fc from transients (own order selection), and the online identifier replayed over the same
-    samples with its agreement with batch. Steady fits impose Fc(0) = 0 unless ``through_origin`` is False
+    Steady points (detector, run on each recording; its criteria derived from the data by
+    :func:`~boat_twin.ident.settling.derive_criteria`, ``window_s`` / ``thrust_tolerance_N`` overriding,
+    ``noise_correlation_s`` > 0 and ``speed_noise_mps`` for a speed smoothed from positions; or ``criteria``
+    taken as given), steady fits of N = 1..``max_order`` with CV/BIC selection (or ``order``), mass + Fc from
+    transients (own order selection), and the online identifier replayed over the same samples with its agreement
+    with batch. Steady fits impose Fc(0) = 0 unless ``through_origin`` is False
     (trial steady points start above rest: a free c_0 would be an extrapolation). Returns the ``--json``
-    contract (SI): ``steady_points``, ``rejected_segments``, ``fits``, ``selected_order``,
+    contract (SI): ``steady_points``, ``rejected_segments``, ``steady_criteria``, ``fits``, ``selected_order``,
     ``selection_reason``, ``dynamic``, ``online``, ``model`` (for :func:`write_model_yaml`) and ``warnings``.
     A trial whose transients cannot give the mass still yields the steady model; ``dynamic`` then holds
-    ``{"error": why}``.
+    ``{"error": why}``. Pooled recordings share one time axis (:func:`pool`); each steady point and rejected
+    segment names its ``recording`` (0-based).
     """
-    t, f, v = check_samples(t_s, thrust_N, speed_mps)
-    criteria = criteria or SteadyCriteria()
+    pieces = pool(recordings)
+    derived = derive_criteria(pieces, criteria, window_s=window_s, thrust_tolerance_N=thrust_tolerance_N,
+                              noise_correlation_s=noise_correlation_s, speed_noise_mps=speed_noise_mps)
+    if criteria is not None and window_s is None and thrust_tolerance_N is None:
+        derived = replace(derived, criteria=criteria, given=("all",))
+    criteria = derived.criteria
+    t, f, v = (np.concatenate(column) for column in zip(*pieces, strict=True))
     if np.ptp(f) <= max(
         criteria.thrust_tolerance_N, criteria.thrust_tolerance_rel * float(np.max(np.abs(f)))
     ):
@@ -166,19 +231,19 @@ def identify_arrays(
             f"thrust is constant ({np.mean(f):.1f} N) over the whole trial: Fc(v) and the mass are "
             "unidentifiable from one thrust level; record thrust steps"
         )
-    segments = detect_steady_segments(t, f, v, criteria)
-    points = [s for s in segments if s.accepted]
-    rejected = [s for s in segments if not s.accepted]
+    segments = [(i, s) for i, piece in enumerate(pieces) for s in detect_steady_segments(*piece, criteria)]
+    points = [(i, s) for i, s in segments if s.accepted]
+    rejected = [(i, s) for i, s in segments if not s.accepted]
     needed = (order or 1) + 2
     if len(points) < needed:
-        why = "; ".join(f"{s.thrust_N:.0f} N at {s.start_s:.0f} s: {s.reason}" for s in rejected[:3])
+        why = "; ".join(f"{s.thrust_N:.0f} N at {s.start_s:.0f} s: {s.reason}" for _, s in rejected[:3])
         raise InputError(
             f"{len(points)} steady point(s) found, order {order or 1} needs at least {needed} (N + 2): "
-            f"hold more thrust levels until the speed settles ({criteria.window_s:g} s without a trend)"
+            f"hold more thrust levels until the speed settles ({criteria.window_s:.3g} s without a trend)"
             + (f"; rejected: {why}" if why else "")
         )
-    speed = np.array([s.speed_mps for s in points])
-    thrust = np.array([s.thrust_N for s in points])
+    speed = np.array([s.speed_mps for _, s in points])
+    thrust = np.array([s.thrust_N for _, s in points])
     if order is None:
         selection = select_order(speed, thrust, max_order, monotone, through_origin=through_origin)
         fits: tuple[FitResult, ...] = selection.fits
@@ -211,6 +276,10 @@ def identify_arrays(
     except InputError as err:
         dyn = None
         dynamic = {"error": str(err)}
+    extrapolation = _extrapolation_warning(pieces, fit, dyn.speed_domain_mps if dyn else None,
+                                           derived.speed_noise_mps)
+    if extrapolation:
+        warnings.append(extrapolation)
     online = OnlineThrustSpeedIdentifier(
         chosen,
         dyn.order if dyn else chosen,
@@ -219,7 +288,9 @@ def identify_arrays(
         criteria=criteria,
         window=window,
     )
-    snap = replay_online(t, f, v, online).snapshot()
+    for piece in pieces:
+        replay_online(*piece, online)
+    snap = online.snapshot()
     grid = np.linspace(speed.min(), speed.max(), 200)
     agreement: dict[str, Any] = {}
     if snap["coefficients"] is not None:
@@ -238,10 +309,12 @@ def identify_arrays(
                 "start_s": s.start_s,
                 "end_s": s.end_s,
                 "speed_stderr_mps": s.speed_stderr_mps,
+                "recording": i,
             }
-            for s in points
+            for i, s in points
         ],
-        "rejected_segments": [s.to_dict() for s in rejected],
+        "rejected_segments": [{**s.to_dict(), "recording": i} for i, s in rejected],
+        "steady_criteria": derived.to_dict(),
         "fits": [fr.to_dict() for fr in fits],
         "selected_order": chosen,
         "selection_reason": reason,
@@ -252,26 +325,58 @@ def identify_arrays(
     }
 
 
-def identify_trial(trial: Trial, *, order: int | None = None, max_order: int = 6,
-                   monotone: bool = False) -> tuple[TrialIdentifyResult, Resimulation | None]:
-    """A recorded trial: :func:`identify_arrays` on its known samples, then the trial re-simulated with the
-    identified model (closing the loop). Returns the result (``trial`` and ``resimulation`` added; the latter
-    ``{"error": why}`` when the loop cannot be closed) and the re-simulation, if any."""
-    t_s, thrust, speed = trial_samples(trial)
-    result = TrialIdentifyResult(**identify_arrays(t_s, thrust, speed, order=order, max_order=max_order,
-                                                   monotone=monotone))
-    result["trial"] = {"source": str(trial.metadata.source), "metadata": trial.metadata.summary_line(),
-                       "gaps": trial.metadata.gaps, "missing": trial.metadata.missing}
-    result["warnings"] += [f"{role}: {count} sample(s) whose stamp ran backwards (up to {back_s:.3g} s) were dropped: "
-                           "the recording's clock is faulty there" for role, (count, back_s) in
-                           trial.metadata.backward_stamps.items()]
-    try:
-        resim = resimulate(trial, result["model"])
-    except InputError as err:  # the identification stands; say why the loop could not be closed
-        result["resimulation"] = {"error": str(err)}
-        return result, None
-    result["resimulation"] = resim.to_dict()
-    return result, resim
+def identify_trial(trial: Trial, **options: Any) -> tuple[TrialIdentifyResult, Resimulation | None]:
+    """One recorded trial: :func:`identify_trials` with it alone; returns the result and its re-simulation."""
+    result, resims = identify_trials([trial], **options)
+    return result, resims[0]
+
+
+def identify_trials(trials: list[Trial], *, order: int | None = None, max_order: int = 6, monotone: bool = False,
+                    window_s: float | None = None, thrust_tolerance_N: float | None = None,
+                    ) -> tuple[TrialIdentifyResult, list[Resimulation | None]]:
+    """Recorded trials pooled in one identification (:func:`identify_recordings` on their known samples), then
+    each trial re-simulated with the identified model (closing the loop). ``trial`` and ``resimulation`` (the
+    latter ``{"error": why}`` when the loop cannot be closed) describe the first trial; ``trials`` lists every
+    trial with its own re-simulation. Returns the result and the re-simulations (None where not done)."""
+    samples = []
+    for trial in trials:
+        samples.append(trial_samples(trial))
+    result = TrialIdentifyResult(**identify_recordings(
+        samples, order=order, max_order=max_order, monotone=monotone, window_s=window_s,
+        thrust_tolerance_N=thrust_tolerance_N,
+        noise_correlation_s=max(trial.metadata.speed_smoothing_s for trial in trials),
+        speed_noise_mps=max(trial.metadata.derived_speed_noise_mps for trial in trials) or None))
+    result["warnings"] += [w for trial in trials for w in trial_warnings(trial)]
+    entries: list[dict[str, Any]] = []
+    resims: list[Resimulation | None] = []
+    for trial in trials:
+        entry: dict[str, Any] = {"source": str(trial.metadata.source), "metadata": trial.metadata.summary_line(),
+                                 "gaps": trial.metadata.gaps, "missing": trial.metadata.missing,
+                                 "derived": trial.metadata.derived}
+        resim: Resimulation | None = None
+        try:
+            resim = resimulate(trial, result["model"])
+            entry["resimulation"] = resim.to_dict()
+        except InputError as err:  # the identification stands; say why the loop could not be closed
+            entry["resimulation"] = {"error": str(err)}
+        entries.append(entry)
+        resims.append(resim)
+    result["trial"] = {k: x for k, x in entries[0].items() if k != "resimulation"}
+    result["resimulation"] = entries[0]["resimulation"]
+    result["trials"] = entries
+    return result, resims
+
+
+def trial_warnings(trial: Trial) -> list[str]:
+    """What a trial's reading did to its data, as identify warnings: clock faults, dropouts, derived streams."""
+    source = trial.metadata.source
+    meta = trial.metadata
+    return ([f"{source}: {role}: {count} sample(s) whose stamp ran backwards (up to {back_s:.3g} s) were dropped: "
+             "the recording's clock is faulty there" for role, (count, back_s) in meta.backward_stamps.items()]
+            + [f"{source}: {role}: {count} sample(s) with NaN values dropped as dropouts (gaps)"
+               for role, count in meta.dropouts.items()]
+            + [f"{source}: {role} {how}" for role, how in meta.derived.items()]
+            + [f"{source}: {note}" for note in meta.stream_choices])
 
 
 def identify_table(monotone: bool = False, order: int | None = None, max_order: int = 8,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -23,9 +24,11 @@ def write_trial_report(
     thrust_N: np.ndarray,
     speed_mps: np.ndarray,
     resimulation: Resimulation | None = None,
+    true_resistance_N: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> list[Path]:
     """Write identify.json, model.yaml, trial.png, resistance.png (and resimulation.png: measured vs
-    re-simulated speed, when ``resimulation`` is given) for an :func:`identify_arrays` result."""
+    re-simulated speed, when ``resimulation`` is given) for an :func:`identify_arrays` result.
+    ``true_resistance_N`` (speed m/s → N): the true curve, drawn when known (a simulated trial)."""
     out = ensure_out_dir(out_dir)
     written = [out / "identify.json", out / "model.yaml", out / "trial.png", out / "resistance.png"]
     if resimulation is not None:
@@ -46,33 +49,48 @@ def write_trial_report(
     ax_f.set_ylabel("total thrust, N")
     ax_f.set_xlabel("time, s")
     atomic_save_figure(written[2], fig)
-    fig = Figure(figsize=(7, 5))
+    atomic_save_figure(written[3], resistance_figure(result, true_resistance_N))
+    return written
+
+
+def unvisited_bands(speeds_mps: np.ndarray) -> list[tuple[float, float]]:
+    """Speed intervals (m/s) with no steady point inside: gaps between neighbouring steady speeds wider than
+    twice their median spacing. The fitted curve there is an interpolation the data do not check."""
+    speeds = np.sort(np.asarray(speeds_mps, dtype=float))
+    if speeds.size < 3:
+        return []
+    gaps = np.diff(speeds)
+    wide = np.flatnonzero(gaps > 2.0 * np.median(gaps))
+    return [(float(speeds[i]), float(speeds[i + 1])) for i in wide]
+
+
+def resistance_figure(result: IdentifyResult,
+                      true_resistance_N: Callable[[np.ndarray], np.ndarray] | None = None) -> Figure:
+    """Steady points and the identified curves Fc(v) (drawn so that coinciding curves all show), the true curve
+    when known, and the speed bands with no steady point."""
+    fig = Figure(figsize=(7, 5), layout="constrained")
     ax = fig.subplots()
     pts = result["steady_points"]
     sv = np.array([p["speed_mps"] for p in pts])
     grid = np.linspace(0.0, sv.max(), 300)
-    ax.plot(sv, [p["thrust_N"] for p in pts], "ko", label="steady points")
+    for k, (lo, hi) in enumerate(unvisited_bands(sv)):
+        ax.axvspan(lo, hi, color="0.92", label="no steady point: curves interpolate" if k == 0 else None)
+    if true_resistance_N is not None:
+        ax.plot(grid, true_resistance_N(grid), color="k", lw=1.0, label="true Fc (the simulated boat)")
     fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
-    ax.plot(
-        grid,
-        np.polynomial.polynomial.polyval(grid, fit["coefficients"]),
-        label=f"steady LSQ, N = {fit['order']}",
-    )
+    ax.plot(grid, np.polynomial.polynomial.polyval(grid, fit["coefficients"]), color="C0", lw=4.0, alpha=0.45,
+            label=f"steady least squares, N = {fit['order']}")
     if "coefficients" in result["dynamic"]:
         c = result["dynamic"]["coefficients"]
-        ax.plot(grid, np.polynomial.polynomial.polyval(grid, c), "--", label="from transients")
+        ax.plot(grid, np.polynomial.polynomial.polyval(grid, c), "--", color="C1", lw=1.5, label="from transients")
     if result["online"]["coefficients"] is not None:
-        ax.plot(
-            grid,
-            np.polynomial.polynomial.polyval(grid, result["online"]["coefficients"]),
-            ":",
-            label="online RLS",
-        )
+        ax.plot(grid, np.polynomial.polynomial.polyval(grid, result["online"]["coefficients"]), ":", color="C2",
+                lw=2.0, label="online recursive least squares")
+    ax.plot(sv, [p["thrust_N"] for p in pts], "ko", ms=5, mfc="white", label="steady points", zorder=5)
     ax.set_xlabel("speed, m/s")
     ax.set_ylabel("resistance Fc, N")
-    ax.legend()
-    atomic_save_figure(written[3], fig)
-    return written
+    ax.legend(fontsize=8)
+    return fig
 
 
 def table_report(result: dict[str, Any], si_fit: FitResult) -> str:
@@ -154,20 +172,21 @@ def table_figures(result: dict[str, Any]) -> tuple[Figure, Figure]:
     grid = np.linspace(0.0, speed.max(), 300)
     fits = {f["order"]: f for f in result["fits"]}
     orders = sorted(set(PAPER_ORDERS) | {result["selected_order"]})
-    fig = Figure(figsize=(11, 4.5))
+    fig = Figure(figsize=(11, 4.5), layout="constrained")
     ax_paper, ax_lsq = fig.subplots(1, 2, sharey=True)
-    res = Figure(figsize=(11, 4.5))
+    res = Figure(figsize=(11, 4.5), layout="constrained")
     rx_paper, rx_lsq = res.subplots(1, 2, sharey=True)
     for n in PAPER_ORDERS:
         ax_paper.plot(
             grid, np.polynomial.polynomial.polyval(grid, PAPER_COEFFICIENTS[n]), label=f"paper N = {n}"
         )
         rx_paper.plot(speed, thrust - paper_model_values(n), "o-", ms=3, label=f"paper N = {n}")
-    for n in orders:
+    for k, n in enumerate(orders):  # each order drawn thinner than the one before: close curves all show
         c = fits[n]["coefficients"]
-        ax_lsq.plot(grid, np.polynomial.polynomial.polyval(grid, c), label=f"LSQ N = {n}")
+        ax_lsq.plot(grid, np.polynomial.polynomial.polyval(grid, c), lw=1.0 + 1.0 * (len(orders) - 1 - k),
+                    alpha=0.8, label=f"least squares N = {n}")
         rx_lsq.plot(
-            speed, thrust - np.polynomial.polynomial.polyval(speed, c), "o-", ms=3, label=f"LSQ N = {n}"
+            speed, thrust - np.polynomial.polynomial.polyval(speed, c), "o-", ms=3, label=f"least squares N = {n}"
         )
     for ax, title in ((ax_paper, "paper's coefficients"), (ax_lsq, "least-squares optimum")):
         ax.plot(speed, thrust, "ko", ms=4, label="Table 1")

@@ -90,7 +90,8 @@ def _fix(msg: Any, log_s: float) -> tuple[float, float, float, float] | None:
 
 
 def _vel(msg: Any, log_s: float) -> tuple[float, float, float]:
-    return _stamp_s(msg), msg.twist.linear.x, msg.twist.linear.y
+    twist = msg.twist.twist if hasattr(msg.twist, "twist") else msg.twist  # TwistWithCovarianceStamped
+    return _stamp_s(msg), twist.linear.x, twist.linear.y
 
 
 def _provided(covariance: Any) -> bool:
@@ -172,15 +173,40 @@ class RowCollector:
         return Stream(rows[:, 0], rows[:, 1:])
 
 
-def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: str, source: str) -> dict[str, str]:
-    """Role → topic in the bag: ``remap`` first, else ``namespace`` + the default name, else a unique topic
-    ending in the default name (a namespaced recording). Checks each found topic's message type."""
+ROLE_TYPES = {
+    "gnss_fix": ("sensor_msgs/msg/NavSatFix",),
+    "gnss_vel": ("geometry_msgs/msg/TwistStamped", "geometry_msgs/msg/TwistWithCovarianceStamped"),
+    "imu": ("sensor_msgs/msg/Imu",),
+}
+"""Sensor role → message types it reads (the first is what the twin writes); a role whose default name is absent
+is found by type when exactly one topic of its types is in the bag. gnss_vel is an ENU velocity over ground
+(as nmea_navsat_driver's ``/vel`` and ``/fix_velocity``)."""
+
+
+def _types(role: str) -> tuple[str, ...]:
+    return ROLE_TYPES.get(role, (TOPICS[ROLE_TOPICS[role]],))
+
+
+def holdings(available: dict[str, str]) -> str:
+    """What a bag holds, for an error: ``topic (type), ...`` sorted by topic."""
+    return ", ".join(f"{topic} ({msgtype})" for topic, msgtype in sorted(available.items())) or "no topics"
+
+
+def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: str, source: str
+                   ) -> tuple[dict[str, str], list[str]]:
+    """Role → topic in the bag, and how each role not found by name was chosen (in words).
+
+    ``remap`` first, else ``namespace`` + the default name, else a unique topic ending in the default name (a
+    namespaced recording), else, for a sensor role, the one topic whose type the role reads (:data:`ROLE_TYPES`;
+    e.g. nmea_navsat_driver's ``/fix`` and ``/vel``, an IMU driver's ``/imu/data``). Checks each found topic's
+    type. No GNSS stream at all is an error that lists what the bag holds."""
     chosen: dict[str, str] = {}
     for role, name in ROLE_TOPICS.items():
         if role in remap:
             topic = remap[role] if remap[role].startswith("/") else "/" + remap[role]
             if topic not in available:
-                raise InputError(f"{source}: remapped topic {topic} for '{role}' is not in the bag")
+                raise InputError(f"{source}: remapped topic {topic} for '{role}' is not in the bag; it holds: "
+                                 f"{holdings(available)}")
         else:
             topic = f"{namespace.rstrip('/')}/{name}" if namespace else "/" + name
             if topic not in available:
@@ -188,11 +214,29 @@ def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: 
                 if len(ends) != 1:
                     continue
                 topic = ends[0]
-        expected = TOPICS[name]
-        if available[topic] != expected:
-            raise InputError(f"{source}: topic {topic} has type {available[topic]}, expected {expected}")
+        if available[topic] not in _types(role):
+            raise InputError(f"{source}: topic {topic} has type {available[topic]}, expected "
+                             f"{' or '.join(_types(role))}")
         chosen[role] = topic
-    return chosen
+    notes = []
+    for role in ROLE_TYPES:
+        if role in chosen:
+            continue
+        taken = set(chosen.values())
+        candidates = sorted(t for t, msgtype in available.items() if msgtype in ROLE_TYPES[role] and t not in taken)
+        if len(candidates) == 1:
+            chosen[role] = candidates[0]
+            notes.append(f"{role} read from {candidates[0]} ({available[candidates[0]]}), the bag's only topic of "
+                         "that type")
+        elif len(candidates) > 1:
+            notes.append(f"{role}: several candidate topics ({', '.join(candidates)}); choose one with "
+                         f"--topic {role}=TOPIC")
+    if "gnss_fix" not in chosen and "gnss_vel" not in chosen:
+        hint = "; ".join(n for n in notes if "several" in n)
+        raise InputError(f"{source}: no GNSS fix (NavSatFix) or velocity (TwistStamped) topic found"
+                         + (f" ({hint})" if hint else "") + f"; the bag holds: {holdings(available)}; "
+                         "name them with --topic gnss_fix=TOPIC / gnss_vel=TOPIC")
+    return chosen, notes
 
 
 @contextmanager
@@ -224,7 +268,10 @@ def read_trial(
     try:
         with _rosbag2_alias(path) as readable, AnyReader([readable], default_typestore=TS) as reader:
             available = {c.topic: c.msgtype for c in reader.connections}
-            topics = resolve_topics(available, remap or {}, namespace, source)
+            topics, notes = resolve_topics(available, remap or {}, namespace, source)
+            if not any(role in topics for role in ("thrust_left", "thrust_right", "angle_left", "angle_right")):
+                raise InputError(f"{source}: no command topic (thrusters/*/thrust or pos, std_msgs/Float64) found; "
+                                 f"the bag holds: {holdings(available)}; name them with --topic thrust_left=TOPIC")
             role_of = {topic: role for role, topic in topics.items()}
             wanted = [c for c in reader.connections if c.topic in role_of]
             counts = {role: sum(c.msgcount for c in wanted if role_of[c.topic] == role) for role in topics}
@@ -239,4 +286,6 @@ def read_trial(
     except Exception as err:  # rosbags raises several types for corrupt or truncated files
         raise InputError(f"{source}: cannot read bag ({type(err).__name__}: {err})") from None
     streams = {role: rows.pop(role).stream() for role in topics}
-    return build_trial(streams, source, topics, origin, release=True)
+    trial = build_trial(streams, source, topics, origin, release=True)
+    trial.metadata.stream_choices += notes
+    return trial

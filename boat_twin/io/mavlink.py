@@ -30,11 +30,11 @@ boot, the smallest (receive − boot) seen, i.e. the least-delayed message (rece
 delay are corrupt and ignored): the receive jitter of the radio link is removed; clock drift (tens of ppm) is
 not modelled. A boot time that jumps back by more than :data:`REBOOT_BACKSTEP_S` starts a new boot (a reboot,
 counted). Messages without a clock of their own (MANUAL_CONTROL) keep the receive time. A DataFlash log's
-clock is TimeUS since boot, plus pymavlink's GPS time base when the log has GPS time (Unix time then). A stamp
-that leaps away from both neighbours and back (a corrupt time field) is dropped and counted; backward steps of
-a stream's stamps are counted (``non_monotone``) and the samples sorted; gaps and missing streams are reported
-as for bags, and a command read from periodic telemetry is NaN (unknown, reported as a gap) where that
-telemetry fell silent, not held.
+clock is TimeUS since boot (older logs: TimeMS; in GPS, T), plus pymavlink's GPS time base when the log has GPS
+time. A stamp that leaps away from both neighbours and back (a corrupt time field) is dropped and counted;
+backward steps of a stream's stamps are counted (``non_monotone``) and the samples sorted; gaps and missing
+streams are reported as for bags, and a command read from periodic telemetry is NaN (unknown, reported as a
+gap) where that telemetry fell silent, not held.
 
 Calibration. Commands are logged as PWM pulse widths (µs) or joystick axes; a YAML calibration map (see
 ``config/mavlink/``) turns them into per-engine thrust (N) and steering angle (rad)::
@@ -44,9 +44,10 @@ Calibration. Commands are logged as PWM pulse widths (µs) or joystick axes; a Y
       angle_left:   {source: SERVO2, table: [[1100, -0.5236], [1900, 0.5236]]}
       angle_right:  {value: 0.0}
 
-``source`` is ``SERVO<n>`` (SERVO_OUTPUT_RAW servo<n>_raw / RCOU C<n>), ``RC<n>`` (RC_CHANNELS chan<n>_raw /
-RCIN C<n>) or ``MANUAL_CONTROL.<x|y|z|r>`` (.tlog only, axis units −1000…1000); ``table`` lists [input, value]
-points with the input strictly increasing and the value monotone, linear in between and clamped beyond;
+``source`` is ``SERVO<n>`` (SERVO_OUTPUT_RAW servo<n>_raw / RCOU C<n>, or Ch<n>, Chan<n> in older logs), ``RC<n>``
+(RC_CHANNELS chan<n>_raw / RCIN C<n>) or ``MANUAL_CONTROL.<x|y|z|r>`` (.tlog only, axis units −1000…1000);
+``table`` lists [input, value] points with the input strictly increasing and the value monotone, linear in
+between and clamped beyond; a channel the log does not have is an error naming it.
 ``value`` gives a constant instead (e.g. outboards that do not steer). The steering angle is the twin's: the
 counter-clockwise (FLU) angle of the thrust vector, positive pushes the stern to port and turns the boat to
 starboard. A pulse width of 0 (no pulse) or 65535 (unused channel) and a MANUAL_CONTROL axis of 32767 (invalid)
@@ -608,13 +609,39 @@ def _read_tlog(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[str, 
     info["time_base"] = "Unix time: autopilot boot time + the smallest tlog receive delay, per boot"
 
 
+CHANNEL_FIELDS = ("C{}", "Ch{}", "Chan{}")
+"""Names of output/input channel n in RCOU and RCIN, newest first: C<n> (2015 on), Ch<n> and Chan<n> (older)."""
+
+
+def _channel_field(m: Any, name: str, channel: int, path: Path) -> str:
+    """The field of ``m`` (an RCOU or RCIN message) that holds ``channel``; a missing channel is an error."""
+    for pattern in CHANNEL_FIELDS:
+        if pattern.format(channel) in m._fieldnames:
+            return pattern.format(channel)
+    raise InputError(f"{path}: {name} has no channel {channel} (its fields: {', '.join(m._fieldnames)}); the "
+                     f"calibration's {'SERVO' if name == 'RCOU' else 'RC'}{channel} is not in this log")
+
+
+def _dataflash_boot_s(m: Any) -> float | None:
+    """Time since boot of a DataFlash message, s: TimeUS (2015 on), or in older logs TimeMS — except in GPS,
+    where TimeMS is the GPS time of week and T is the time since boot. None: the message has no clock."""
+    time_us = getattr(m, "TimeUS", None)
+    if time_us is not None:
+        return float(time_us) * 1e-6
+    if m.get_type() in ("GPS", "GPS2"):
+        boot_ms = getattr(m, "T", None)
+        return None if boot_ms is None else float(boot_ms) * 1e-3
+    time_ms = getattr(m, "TimeMS", None)
+    return None if time_ms is None else float(time_ms) * 1e-3
+
+
 def _read_dataflash(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[str, Any]) -> None:
-    """Stream a DataFlash log into ``rows`` (first two columns: TimeUS in s, boot index 0)."""
+    """Stream a DataFlash log into ``rows`` (first two columns: time since boot in s, boot index 0)."""
     from pymavlink import DFReader
 
     reader = DFReader.DFReader_binary(str(path))
     base = float(getattr(reader.clock, "timebase", 0.0) or 0.0) \
-        if isinstance(reader.clock, DFReader.DFReaderClock_usec) else 0.0
+        if isinstance(reader.clock, (DFReader.DFReaderClock_usec, DFReader.DFReaderClock_msec)) else 0.0
     servo_channels = plan.numbered("SERVO")
     rc_channels = plan.numbered("RC")
     if plan.channels.get("MANUAL_CONTROL"):
@@ -636,8 +663,12 @@ def _read_dataflash(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[
             rows["IMU"].add((t, 0.0, m.GyrX, -m.GyrY, -m.GyrZ, m.AccX, -m.AccY, -m.AccZ))
 
     def channels(name: str, chans: list[int]) -> Callable[[Any, float], None]:
+        fields: list[str] = []
+
         def read(m: Any, t: float) -> None:
-            rows[name].add((t, 0.0, *(float(getattr(m, f"C{c}", -1)) for c in chans)))
+            if not fields:
+                fields.extend(_channel_field(m, name, c, path) for c in chans)
+            rows[name].add((t, 0.0, *(float(getattr(m, f)) for f in fields)))
         return read
 
     handlers: dict[str, Callable[[Any, float], None]] = {"GPS": gps, "ATT": att, "IMU": imu}
@@ -657,11 +688,11 @@ def _read_dataflash(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[
             if m is None:
                 break
             name = m.get_type()
-            time_us = getattr(m, "TimeUS", None)
-            if name not in handlers or time_us is None:
+            boot_s = _dataflash_boot_s(m)
+            if name not in handlers or boot_s is None:
                 continue
             counts[name] = counts.get(name, 0) + 1
-            t = time_us * 1e-6 + base
+            t = boot_s + base
             if not first <= t:
                 first = t
             if not last >= t:
@@ -676,8 +707,9 @@ def _read_dataflash(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[
     if odd:
         info["notes"].append(f"{odd} message(s) with unexpected fields skipped")
     info.update(message_counts=counts, corrupt=0, log_span_s=(first, last), reboots=0)
-    info["time_base"] = ("Unix time: TimeUS + the log's GPS time base" if base
-                         else "seconds since autopilot boot (TimeUS; no GPS time in the log)")
+    stamp = "TimeMS" if isinstance(reader.clock, DFReader.DFReaderClock_msec) else "TimeUS"
+    info["time_base"] = (f"Unix time: {stamp} + the log's GPS time base" if base
+                         else f"seconds since autopilot boot ({stamp}; no GPS time in the log)")
 
 
 def _time_spikes(t: np.ndarray) -> np.ndarray:
@@ -940,8 +972,10 @@ def _check_grid_size(streams: dict[str, Stream], log: MavlinkLog) -> None:
                          f"(> {MAX_GRID_SAMPLES} samples): corrupt time fields?")
 
 
-def trial_from_log(log: MavlinkLog, origin: tuple[float, float, float] | None = None) -> Trial:
-    """Put a log's streams on the Trial grid with :func:`~boat_twin.io.trial.build_trial`.
+def trial_from_log(log: MavlinkLog, origin: tuple[float, float, float] | None = None, *,
+                   derive_velocity: bool = True) -> Trial:
+    """Put a log's streams on the Trial grid with :func:`~boat_twin.io.trial.build_trial` (``derive_velocity``:
+    a missing velocity is derived from the positions).
 
     A log without GNSS (a DataFlash log of a vehicle without GPS) is gridded on its attitude (or command)
     samples, with position and velocity NaN and reported missing; a log without mapped commands gives NaN
@@ -968,7 +1002,7 @@ def trial_from_log(log: MavlinkLog, origin: tuple[float, float, float] | None = 
         streams["thrust_left"] = Stream(np.array([start]), np.array([[np.nan]]))
         placeholders.append("thrust_left")
     _check_grid_size(streams, log)
-    trial = build_trial(streams, log.source, topics, origin)
+    trial = build_trial(streams, log.source, topics, origin, derive_velocity=derive_velocity)
     meta = trial.metadata
     for role in placeholders + list(log.constants):
         meta.counts.pop(role, None)
@@ -993,7 +1027,8 @@ def read_mavlink_trial(
     origin: tuple[float, float, float] | None = None,
 ) -> Trial:
     """A .tlog or DataFlash .BIN as a :class:`Trial` (metadata: :class:`MavlinkTrialMetadata`)."""
-    return trial_from_log(read_mavlink_log(path, calibration, remap, namespace), origin)
+    return trial_from_log(read_mavlink_log(path, calibration, remap, namespace), origin,
+                          derive_velocity="gnss_vel" not in (remap or {}))  # a named velocity source stays missing
 
 
 def is_mavlink_log(path: Path) -> bool:

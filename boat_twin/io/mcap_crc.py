@@ -10,7 +10,6 @@ uncompressed_crc u32, compression (u32 length + UTF-8), records (u64 length + by
 
 from __future__ import annotations
 
-import mmap
 import struct
 from binascii import crc32
 from pathlib import Path
@@ -35,26 +34,30 @@ def _uncompressed(compression: str, records: bytes, size: int) -> bytes:
 
 
 def fill_chunk_crcs(path: Path) -> int:
-    """Write the CRC-32 of every chunk of the MCAP file ``path`` in place; returns the number of chunks."""
+    """Write the CRC-32 of every chunk of the MCAP file ``path`` in place; returns the number of chunks.
+
+    Reads one record header, and one chunk, at a time (a mapped file would count every page of a long
+    recording in the process's resident memory)."""
     count = 0
-    with path.open("r+b") as fh, mmap.mmap(fh.fileno(), 0) as data:
-        if data[:8] != MAGIC:
+    with path.open("r+b") as fh:
+        if fh.read(len(MAGIC)) != MAGIC:
             raise InputError(f"{path}: not an MCAP file")
         pos = len(MAGIC)
-        while pos + 9 <= len(data):
-            opcode = data[pos]
-            (length,) = struct.unpack_from("<Q", data, pos + 1)
-            if opcode == CHUNK_OPCODE:
-                body = pos + 9
-                (size,) = struct.unpack_from("<Q", data, body + 16)
-                (name_length,) = struct.unpack_from("<I", data, body + 28)
-                compression = bytes(data[body + 32:body + 32 + name_length]).decode()
-                records_at = body + 32 + name_length
-                (records_length,) = struct.unpack_from("<Q", data, records_at)
-                records = bytes(data[records_at + 8:records_at + 8 + records_length])
-                struct.pack_into("<I", data, pos + _CRC_OFFSET, crc32(_uncompressed(compression, records, size)))
-                count += 1
+        while len(header := fh.read(9)) == 9:
+            opcode, length = header[0], struct.unpack_from("<Q", header, 1)[0]
             if opcode == FOOTER_OPCODE:
                 break
+            if opcode == CHUNK_OPCODE:
+                body = fh.read(length)
+                (size,) = struct.unpack_from("<Q", body, 16)
+                (name_length,) = struct.unpack_from("<I", body, 28)
+                compression = body[32:32 + name_length].decode()
+                records_at = 32 + name_length
+                (records_length,) = struct.unpack_from("<Q", body, records_at)
+                records = body[records_at + 8:records_at + 8 + records_length]
+                fh.seek(pos + _CRC_OFFSET)
+                fh.write(struct.pack("<I", crc32(_uncompressed(compression, records, size))))
+                count += 1
             pos += 9 + length
+            fh.seek(pos)
     return count

@@ -9,14 +9,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from boat_twin.errors import InputError
-from boat_twin.io.trial import COMMAND_ROLES, SENSOR_ROLES
 
 if TYPE_CHECKING:
     from boat_twin.io.mavlink import Calibration
     from boat_twin.io.trial import Trial
 
-TRIAL_ROLES = COMMAND_ROLES + SENSOR_ROLES
-"""Roles a topic remap may name."""
 
 
 def read_trial_file(

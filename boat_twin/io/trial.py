@@ -15,11 +15,8 @@ import numpy as np
 import pymap3d
 
 from boat_twin.errors import InputError
+from boat_twin.io.roles import COMMAND_ROLES, SENSOR_ROLES
 
-COMMAND_ROLES = ("thrust_left", "thrust_right", "angle_left", "angle_right")
-"""Command streams, each one scalar per message (N or rad)."""
-SENSOR_ROLES = ("gnss_fix", "gnss_vel", "imu")
-"""Measured streams: GNSS fix (lat, lon, alt), GNSS velocity (east, north), IMU (yaw, yaw rate, ax, ay)."""
 GAP_TOLERANCE_PERIODS = 2.5
 """A sensor stream is interpolated only between samples at most this many nominal periods apart."""
 GRID_BLOCK = 8192
@@ -51,6 +48,16 @@ class TrialMetadata:
     """Roles with no samples at all."""
     backward_stamps: dict[str, tuple[int, float]] = field(default_factory=dict)
     """Role → (samples dropped because their stamp ran backwards, largest step back in s): a clock fault."""
+    dropouts: dict[str, int] = field(default_factory=dict)
+    """GNSS role → samples dropped because a value they normally carry was NaN (dropouts, become gaps)."""
+    derived: dict[str, str] = field(default_factory=dict)
+    """Role → how it was derived from another stream (e.g. GNSS velocity from positions), in words."""
+    speed_smoothing_s: float = 0.0
+    """Window of the smoother that derived the velocity from positions, s (0: a measured velocity)."""
+    derived_speed_noise_mps: float = 0.0
+    """Noise of that derived speed, stated by the smoother from the positions' noise, m/s (0: not derived)."""
+    stream_choices: list[str] = field(default_factory=list)
+    """How the reader chose streams it did not find by their default names, in words."""
     start_time_s: float = 0.0
     """Absolute time of t = 0 (e.g. Unix time of the first GNSS sample), s."""
     origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -66,6 +73,9 @@ class TrialMetadata:
             parts.append("missing: " + ", ".join(self.missing))
         for role, (count, back_s) in self.backward_stamps.items():
             parts.append(f"{role}: {count} stamp(s) ran backwards (up to {back_s:.3g} s), dropped")
+        parts += [f"{role}: {count} NaN sample(s) dropped" for role, count in self.dropouts.items()]
+        parts += [f"{role} {how}" for role, how in self.derived.items()]
+        parts += self.stream_choices
         return f"{self.source}: " + "; ".join(parts)
 
 
@@ -180,6 +190,72 @@ def _monotone_stream(role: str, stream: Stream, meta: TrialMetadata) -> Stream:
     return Stream(stamps, values)
 
 
+def _drop_nan_rows(role: str, stream: Stream, meta: TrialMetadata) -> Stream:
+    """Drop the samples of a GNSS stream with a NaN in a column that is finite in most samples: dropouts
+    (counted in ``meta.dropouts``), which interpolation then bridges or reports as a gap. A column NaN in most
+    samples (a field the receiver never fills) is left alone."""
+    values = stream.values
+    if values.shape[0] == 0:
+        return stream
+    finite = np.isfinite(values)
+    provided = finite.mean(axis=0) > 0.5
+    bad = ~np.all(finite[:, provided], axis=1)
+    if not np.any(bad):
+        return stream
+    meta.dropouts[role] = int(bad.sum())
+    return Stream(stream.stamps_s[~bad], values[~bad])
+
+
+SPEED_NOISE_TARGET_MPS = 0.05
+"""Velocity from positions: the smoothing window is sized for this noise (a u-blox M8's velocity stdev), m/s."""
+SPEED_WINDOW_S = (1.0, 10.0)
+"""Velocity from positions: the shortest and longest smoothing window, s."""
+
+
+def velocity_from_positions(east_m: np.ndarray, north_m: np.ndarray, period_s: float
+                            ) -> tuple[np.ndarray, np.ndarray, float, float, str]:
+    """ENU velocity (m/s) from positions on a uniform grid, the smoothing window (s), the speed noise it states
+    (m/s) and how it was derived, in words.
+
+    Smoother: Savitzky–Golay, a local quadratic fitted over a centred window of N samples, differentiated at its
+    centre — no lag for motion up to constant acceleration. For white position noise σ_p its velocity noise is
+    σ_v = σ_p·√(12/(N(N²−1)))/dt; N is the smallest odd count giving σ_v ≤ :data:`SPEED_NOISE_TARGET_MPS`, within
+    :data:`SPEED_WINDOW_S`. σ_p comes from the positions' second differences (white-noise estimate: a receiver
+    whose error wanders slowly has more low-frequency error than this states). Each run of known positions is
+    smoothed alone; runs shorter than the window stay unknown (NaN)."""
+    from scipy.signal import savgol_filter
+
+    from boat_twin.signal_noise import white_noise_stdev
+
+    sigma_p = float(np.nanmax([white_noise_stdev(east_m), white_noise_stdev(north_m), 0.0]))
+    wanted = (12.0 * sigma_p**2 / (period_s**2 * SPEED_NOISE_TARGET_MPS**2)) ** (1.0 / 3.0)
+    lo, hi = (max(5, int(np.ceil(w / period_s))) for w in SPEED_WINDOW_S)
+    n = int(np.clip(np.ceil(wanted), lo, hi)) | 1
+    sigma_v = sigma_p * np.sqrt(12.0 / (n * (n * n - 1.0))) / period_s
+    vel = np.full((east_m.size, 2), np.nan)
+    known = np.isfinite(east_m) & np.isfinite(north_m)
+    edges = np.flatnonzero(np.diff(np.r_[0, known.astype(np.int8), 0]))
+    for start, stop in zip(edges[::2], edges[1::2], strict=True):
+        if stop - start >= n:
+            for k, pos in enumerate((east_m, north_m)):
+                vel[start:stop, k] = savgol_filter(pos[start:stop], n, 2, deriv=1, delta=period_s, mode="interp")
+    how = (f"derived from GNSS positions (no velocity stream): Savitzky-Golay local quadratic over "
+           f"{n * period_s:.3g} s, no lag; position noise {sigma_p:.3g} m gives speed noise {sigma_v:.3g} m/s")
+    return vel[:, 0], vel[:, 1], n * period_s, float(sigma_v), how
+
+
+def _nan_runs(role: str, t_s: np.ndarray, values: np.ndarray) -> list[tuple[str, float, float]]:
+    """(role, start_s, end_s) of each run of NaN in ``values`` after its first known sample: the known neighbours'
+    times bound it (the end of the trial when no known sample follows)."""
+    known = np.isfinite(values)
+    if not np.any(known):
+        return []
+    unknown = ~known & (np.arange(values.size) > np.argmax(known))
+    edges = np.flatnonzero(np.diff(np.r_[0, unknown.astype(np.int8), 0]))
+    return [(role, float(t_s[start - 1]), float(t_s[min(stop, t_s.size - 1)]))
+            for start, stop in zip(edges[::2], edges[1::2], strict=True)]
+
+
 MAX_GRID_PER_SAMPLE = 20
 """The trial grid may hold at most this many samples per GNSS sample (gaps included): more means a stamp far off
 the recording's time (a clock error), which would allocate a grid of the whole empty span."""
@@ -203,13 +279,16 @@ def build_trial(
     origin: tuple[float, float, float] | None = None,
     *,
     release: bool = False,
+    derive_velocity: bool = True,
 ) -> Trial:
     """Put the streams of one trial on a common grid (see the module docstring).
 
     Requires a GNSS fix or velocity stream (it sets the grid) and at least one command overlapping it.
     ``origin`` is the geodetic origin of the local ENU frame (default: the first fix). With ``release`` the
     caller hands the streams over: each is removed from ``streams`` once it is on the grid, so a long trial's
-    samples and its grid are not both held in full.
+    samples and its grid are not both held in full. Without a velocity stream, the velocity is derived from the
+    positions (:func:`velocity_from_positions`) unless ``derive_velocity`` is False (a velocity source was
+    named and is absent: it stays missing).
     """
     meta = TrialMetadata(source=source, topics=dict(topics))
     data = {}
@@ -219,6 +298,8 @@ def build_trial(
             meta.missing.append(role)
             continue
         data[role] = _monotone_stream(role, stream, meta)
+        if role in ("gnss_fix", "gnss_vel"):  # an IMU field may be NaN by design (REP-145: not provided)
+            data[role] = _drop_nan_rows(role, data[role], meta)
         meta.counts[role] = int(np.asarray(stream.stamps_s).size)
         period = _median_period_s(data[role].stamps_s)
         meta.rates_hz[role] = 1.0 / period if np.isfinite(period) and period > 0 else 0.0
@@ -275,6 +356,15 @@ def build_trial(
     for start in range(0, grid_abs.size, GRID_BLOCK):
         block = slice(start, start + GRID_BLOCK)
         east[block], north[block], _ = pymap3d.geodetic2enu(fix[block, 0], fix[block, 1], fix[block, 2], *origin)
+    vel = columns["gnss_vel"]
+    if derive_velocity and "gnss_vel" in meta.missing and "gnss_fix" in meta.counts:
+        vel_east, vel_north, meta.speed_smoothing_s, meta.derived_speed_noise_mps, how = velocity_from_positions(
+            east, north, period)
+        vel = np.column_stack([vel_east, vel_north])
+        meta.missing.remove("gnss_vel")
+        meta.derived["gnss_vel"] = how
+        meta.topics["gnss_vel"] = f"derived from {meta.topics.get('gnss_fix', 'gnss_fix')}"
+        meta.gaps += _nan_runs("gnss_vel", grid_abs - t0, vel_east)
     imu = columns["imu"]
     return Trial(
         t_s=grid_abs - t0,
@@ -286,8 +376,8 @@ def build_trial(
         lon_deg=fix[:, 1],
         east_m=east,
         north_m=north,
-        vel_east_mps=columns["gnss_vel"][:, 0],
-        vel_north_mps=columns["gnss_vel"][:, 1],
+        vel_east_mps=vel[:, 0],
+        vel_north_mps=vel[:, 1],
         heading_rad=imu[:, 0],
         yaw_rate_radps=imu[:, 1],
         accel_x_mps2=imu[:, 2],

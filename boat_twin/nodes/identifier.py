@@ -13,6 +13,10 @@ Parameters (read at start-up)
                             8 N or less below 7 m/s), N = 5 is the paper's highest order, and `boat-twin identify`
                             selects it by BIC on the thrust-steps trial
   memory_s (double, 3600)   forgetting time constant of the recursive least squares, s
+  steady_window_s (double, 20)      shortest settled tail the steady-state detector tests, s. Live, nothing is
+                            known of the boat in advance: the default suits the 6 m boat's GNSS (0.05 m/s at
+                            10 Hz); `boat-twin identify` derives it from a recording (docs/identification.md)
+  thrust_tolerance_N (double, 5)    thrust counts as constant within max(this, 1 %) of a segment's start, N
   model_path (string)       YAML written by ~/save; default $ROS_HOME/boat_twin/identified_model.yaml
                             ($ROS_HOME defaults to ~/.ros)
 """
@@ -21,6 +25,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
@@ -32,6 +37,7 @@ from std_msgs.msg import Float64, Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
 from boat_twin.ident.live import LiveIdentifier
+from boat_twin.ident.online import SteadyCriteria
 from boat_twin.ident.steady import MAX_ORDER
 from boat_twin.io.messages import COMMAND_TOPICS, TOPIC_GNSS_VEL
 from boat_twin.nodes import parameters
@@ -57,9 +63,16 @@ class IdentifierNode(Node):
         super().__init__("identifier")
         order = parameters.integer(self, "order", DEFAULT_ORDER, "order N of Fc(v)", minimum=1, maximum=MAX_ORDER)
         memory_s = parameters.double(self, "memory_s", 3600.0, "forgetting time constant, s", above=0.0)
+        default = SteadyCriteria()
+        criteria = replace(
+            default,
+            window_s=parameters.double(self, "steady_window_s", default.window_s,
+                                       "shortest settled tail of the steady-state detector, s", above=0.0),
+            thrust_tolerance_N=parameters.double(self, "thrust_tolerance_N", default.thrust_tolerance_N,
+                                                 "thrust counts as constant within this, N", above=0.0))
         model_path = parameters.string(self, "model_path", "", "YAML written by ~/save (empty: $ROS_HOME/...)")
         self.model_path = Path(model_path).expanduser() if model_path else default_model_path()
-        self.ident = LiveIdentifier(order, memory_s)
+        self.ident = LiveIdentifier(order, memory_s, criteria)
         for index, topic in enumerate(COMMAND_TOPICS):
             self.create_subscription(Float64, topic, partial(self.on_command, index), 10)
         self.create_subscription(TwistStamped, TOPIC_GNSS_VEL, self.on_velocity, SENSOR_QOS)

@@ -12,18 +12,28 @@ and :mod:`boat_twin.sensors.um7`, each as two pieces:
   ``run(n)`` the next n at once (a batch record).
 
 ``Model.measure(truth)`` is the batch composition of both; the live twin composes them per tick, keeping one
-noise process per sensor, so live noise has the batch statistics.
+noise process per sensor, so live noise has the batch statistics. ``Model.measure_chunks(truth, ticks)`` gives
+the same measurements a block of truth ticks at a time, bit for bit (:func:`positioned_generators`), so a long
+trial never holds all its measurements.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Literal
 
 import numpy as np
 
 from boat_twin.errors import InputError
 
-__all__ = ["RATE_TOLERANCE", "GaussMarkov", "decimation_step", "gauss_markov"]
+__all__ = ["RATE_TOLERANCE", "GaussMarkov", "decimation_step", "gauss_markov", "positioned_generators"]
+
+DrawKind = Literal["normal", "uniform"]
+"""What a block of draws is: standard normal (``Generator.standard_normal``) or uniform on [0, 1)
+(``Generator.random``)."""
+SKIP_PIECE_VALUES = 1 << 16
+"""Values drawn (and discarded) at a time while skipping a block in :func:`positioned_generators`."""
 
 RATE_TOLERANCE = 1e-6
 """Relative tolerance when checking that a sensor rate divides the truth output rate."""
@@ -46,6 +56,28 @@ def decimation_step(t_s: np.ndarray, rate_hz: float, where: str) -> int:
             f"(one sample in every whole number of truth samples)"
         )
     return step
+
+
+def positioned_generators(rng: np.random.Generator, blocks: Sequence[tuple[DrawKind, int]]
+                          ) -> list[np.random.Generator]:
+    """One generator per block of ``blocks`` (kind, number of values), the blocks being drawn one after the
+    other from ``rng``: generator i starts where block i starts in ``rng``'s stream, and ``rng`` is left after
+    the last block.
+
+    A record's noise drawn kind by kind (all position errors, then all velocity errors, ...) can then be drawn
+    chunk by chunk with the same values: numpy's Generator fills arrays value after value, so drawing n values
+    in pieces gives the same values as drawing them at once. Skipping a block draws it in pieces of
+    :data:`SKIP_PIECE_VALUES` (memory bounded, about 10 ns per value).
+    """
+    generators = []
+    for kind, count in blocks:
+        copy = np.random.Generator(type(rng.bit_generator)())
+        copy.bit_generator.state = rng.bit_generator.state
+        generators.append(copy)
+        draw = rng.standard_normal if kind == "normal" else rng.random
+        for start in range(0, count, SKIP_PIECE_VALUES):
+            draw(min(SKIP_PIECE_VALUES, count - start))
+    return generators
 
 
 class GaussMarkov:

@@ -14,13 +14,14 @@ them over a batch record.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
 import pymap3d
 
-from boat_twin.sensors import GaussMarkov, decimation_step
+from boat_twin.sensors import DrawKind, GaussMarkov, decimation_step, positioned_generators
 from boat_twin.validation import config_from_mapping, number
 from boat_twin.vessel.truth import TruthSeries
 
@@ -186,19 +187,30 @@ class GnssNoise:
 
     Per fix it draws, in this order: position error (Gauss-Markov, stdev horizontal/horizontal/vertical),
     velocity error (white, ``velocity_stdev_mps``), loss (probability ``dropout_probability``).
+    :meth:`for_record` gives a process whose ``run`` calls over a record draw what one ``run(n)`` would.
     """
 
-    def __init__(self, config: GnssConfig, rng: np.random.Generator) -> None:
+    DRAWS: tuple[tuple[DrawKind, int], ...] = (("normal", 3), ("normal", 3), ("uniform", 1))
+    """Per fix, in draw order: position (3 normals), velocity (3 normals), loss (1 uniform)."""
+
+    def __init__(self, config: GnssConfig, rng: np.random.Generator,
+                 streams: Sequence[np.random.Generator] | None = None) -> None:
         self.config = config
-        self.rng = rng
+        position_rng, self._velocity_rng, self._loss_rng = streams if streams is not None else (rng, rng, rng)
         stdev = np.array([config.horizontal_stdev_m, config.horizontal_stdev_m, config.vertical_stdev_m])
-        self.position = GaussMarkov(rng, 3, stdev, 1.0 / config.rate_hz, config.position_correlation_time_s)
+        self.position = GaussMarkov(position_rng, 3, stdev, 1.0 / config.rate_hz, config.position_correlation_time_s)
+
+    @classmethod
+    def for_record(cls, config: GnssConfig, rng: np.random.Generator, n: int) -> GnssNoise:
+        """The process for a record of ``n`` fixes read in chunks: its ``run`` calls (n fixes in all) give
+        exactly the errors of ``GnssNoise(config, rng).run(n)``, and ``rng`` is left where that leaves it."""
+        return cls(config, rng, positioned_generators(rng, [(kind, n * width) for kind, width in cls.DRAWS]))
 
     def run(self, n: int) -> GnssErrors:
         """Errors of the next ``n`` fixes (each kind drawn as one block: the batch draw order)."""
         position = self.position.run(n)
-        velocity = self.rng.standard_normal((n, 3)) * self.config.velocity_stdev_mps
-        received = self.rng.random(n) >= self.config.dropout_probability
+        velocity = self._velocity_rng.standard_normal((n, 3)) * self.config.velocity_stdev_mps
+        received = self._loss_rng.random(n) >= self.config.dropout_probability
         return GnssErrors(position_m=position, velocity_mps=velocity, received=received)
 
     def step(self) -> GnssErrors:
@@ -251,12 +263,30 @@ class GnssModel:
 
     def measure(self, truth: TruthSeries) -> GnssMeasurements:
         """Fixes at the decimated truth times whose delayed state lies inside the truth series: the
-        :func:`expected_fix` plus a fresh :class:`GnssNoise` run over the record."""
+        :func:`expected_fix` plus a :class:`GnssNoise` run over the record."""
+        return next(self.measure_chunks(truth, max(1, len(truth))))
+
+    def measure_chunks(self, truth: TruthSeries, chunk_ticks: int) -> Iterator[GnssMeasurements]:
+        """:meth:`measure` a block of ``chunk_ticks`` truth ticks at a time: the fixes stamped inside each block
+        (one item per block, possibly empty), the same values bit for bit, memory bounded by the block.
+        The noise takes its place in ``rng``'s stream at this call, before any block is read."""
         cfg = self.config
         t_s = np.asarray(truth.t_s, dtype=float)
         step = decimation_step(t_s, cfg.rate_hz, "gnss.rate_hz")
-        expected = expected_fix(cfg, t_s, truth.east_m, truth.north_m, truth.vel_east_mps, truth.vel_north_mps)
+        has_state = t_s - cfg.latency_s >= (t_s[0] if t_s.size else 0.0) - 1e-9
         index = np.arange(0, t_s.size, step)
-        index = index[expected.has_state[index]]
-        errors = GnssNoise(cfg, self.rng).run(index.size) if self.noise else None
-        return fixes(cfg, t_s[index], expected.at(index), errors)
+        index = index[has_state[index]]
+        noise = GnssNoise.for_record(cfg, self.rng, index.size) if self.noise else None
+        dt_s = float(t_s[1] - t_s[0]) if t_s.size > 1 else 1.0
+        lead = math.ceil(cfg.latency_s / dt_s) + 1  # ticks before a block that its delayed states need
+
+        def block(start: int) -> GnssMeasurements:
+            stop = min(start + chunk_ticks, t_s.size)
+            fix = index[(index >= start) & (index < stop)]
+            ticks = slice(max(0, start - lead), stop)
+            expected = expected_fix(cfg, t_s[ticks], truth.east_m[ticks], truth.north_m[ticks],
+                                    truth.vel_east_mps[ticks], truth.vel_north_mps[ticks])
+            errors = noise.run(fix.size) if noise is not None else None
+            return fixes(cfg, t_s[fix], expected.at(fix - ticks.start), errors)
+
+        return (block(start) for start in range(0, max(t_s.size, 1), chunk_ticks))

@@ -25,12 +25,13 @@ any array shape), :class:`Um7Noise` (orientation Gauss-Markov state, gyro bias r
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from boat_twin.sensors import GaussMarkov, decimation_step
+from boat_twin.sensors import DrawKind, GaussMarkov, decimation_step, positioned_generators
 from boat_twin.units import STANDARD_GRAVITY_MPS2
 from boat_twin.validation import config_from_mapping, number, vector3
 from boat_twin.vessel.truth import TruthSeries
@@ -199,21 +200,32 @@ class Um7Noise:
     magnetometer white noise. The bias walk starts at 0 (the bias at its constant value) on the first sample.
     """
 
-    def __init__(self, config: Um7Config, rng: np.random.Generator) -> None:
+    DRAWS: tuple[tuple[DrawKind, int], ...] = (("normal", 3),) * 5
+    """Per sample, in draw order: orientation, bias walk, gyro, accelerometer, magnetometer (3 normals each)."""
+
+    def __init__(self, config: Um7Config, rng: np.random.Generator,
+                 streams: Sequence[np.random.Generator] | None = None) -> None:
         self.config = config
-        self.rng = rng
         self.dt_s = 1.0 / config.rate_hz
         """Sample period, s."""
+        attitude_rng, self._walk_rng, self._gyro_rng, self._accel_rng, self._mag_rng = (
+            streams if streams is not None else (rng,) * 5)
         stdev = np.array([config.roll_pitch_stdev_rad, config.roll_pitch_stdev_rad, config.yaw_stdev_rad])
-        self.attitude = GaussMarkov(rng, 3, stdev, self.dt_s, config.orientation_correlation_time_s)
+        self.attitude = GaussMarkov(attitude_rng, 3, stdev, self.dt_s, config.orientation_correlation_time_s)
         self.bias_walk_radps: np.ndarray | None = None
         """Gyro bias drift at the last sample (x, y, z), rad/s; None before the first sample."""
+
+    @classmethod
+    def for_record(cls, config: Um7Config, rng: np.random.Generator, n: int) -> Um7Noise:
+        """The process for a record of ``n`` samples read in chunks: its ``run`` calls (n samples in all) give
+        exactly the errors of ``Um7Noise(config, rng).run(n)``, and ``rng`` is left where that leaves it."""
+        return cls(config, rng, positioned_generators(rng, [(kind, n * width) for kind, width in cls.DRAWS]))
 
     def run(self, n: int) -> Um7Errors:
         """Errors of the next ``n`` samples (each kind drawn as one block: the batch draw order)."""
         cfg = self.config
         attitude = self.attitude.run(n)
-        walk = self.rng.standard_normal((n, 3)) * (cfg.gyro_bias_walk_radps_per_sqrt_s * math.sqrt(self.dt_s))
+        walk = self._walk_rng.standard_normal((n, 3)) * (cfg.gyro_bias_walk_radps_per_sqrt_s * math.sqrt(self.dt_s))
         if n:
             walk[0] = 0.0 if self.bias_walk_radps is None else walk[0] + self.bias_walk_radps
             bias = np.cumsum(walk, axis=0)
@@ -222,9 +234,9 @@ class Um7Noise:
             bias = walk
         return Um7Errors(
             attitude_rad=attitude,
-            gyro_radps=bias + self.rng.standard_normal((n, 3)) * cfg.gyro_stdev_radps,
-            accel_mps2=self.rng.standard_normal((n, 3)) * cfg.accel_stdev_mps2,
-            mag_tesla=self.rng.standard_normal((n, 3)) * cfg.mag_stdev_tesla,
+            gyro_radps=bias + self._gyro_rng.standard_normal((n, 3)) * cfg.gyro_stdev_radps,
+            accel_mps2=self._accel_rng.standard_normal((n, 3)) * cfg.accel_stdev_mps2,
+            mag_tesla=self._mag_rng.standard_normal((n, 3)) * cfg.mag_stdev_tesla,
         )
 
     def step(self) -> Um7Errors:
@@ -275,15 +287,26 @@ class Um7Model:
         self.noise = noise
 
     def measure(self, truth: TruthSeries) -> ImuMeasurements:
-        """Samples at the decimated truth times: the :func:`expected_imu` plus a fresh :class:`Um7Noise` run
-        over the record."""
+        """Samples at the decimated truth times: the :func:`expected_imu` plus a :class:`Um7Noise` run over
+        the record."""
+        return next(self.measure_chunks(truth, max(1, len(truth))))
+
+    def measure_chunks(self, truth: TruthSeries, chunk_ticks: int) -> Iterator[ImuMeasurements]:
+        """:meth:`measure` a block of ``chunk_ticks`` truth ticks at a time: the samples stamped inside each
+        block (one item per block, possibly empty), the same values bit for bit, memory bounded by the block.
+        The noise takes its place in ``rng``'s stream at this call, before any block is read."""
         cfg = self.config
         t_s = np.asarray(truth.t_s, dtype=float)
         step = decimation_step(t_s, cfg.rate_hz, "um7.rate_hz")
-        expected = expected_imu(cfg, np.asarray(truth.yaw_rad, dtype=float)[::step],
-                                np.asarray(truth.yaw_rate_radps, dtype=float)[::step],
-                                np.asarray(truth.accel_x_mps2, dtype=float)[::step],
-                                np.asarray(truth.accel_y_mps2, dtype=float)[::step])
-        stamp_s = t_s[::step]
-        errors = Um7Noise(cfg, self.rng).run(stamp_s.size) if self.noise else None
-        return imu_samples(cfg, stamp_s, expected, errors)
+        noise = Um7Noise.for_record(cfg, self.rng, -(-t_s.size // step)) if self.noise else None
+
+        def block(start: int) -> ImuMeasurements:
+            ticks = slice(-(-start // step) * step, min(start + chunk_ticks, t_s.size), step)
+            expected = expected_imu(cfg, np.asarray(truth.yaw_rad, dtype=float)[ticks],
+                                    np.asarray(truth.yaw_rate_radps, dtype=float)[ticks],
+                                    np.asarray(truth.accel_x_mps2, dtype=float)[ticks],
+                                    np.asarray(truth.accel_y_mps2, dtype=float)[ticks])
+            errors = noise.run(t_s[ticks].size) if noise is not None else None
+            return imu_samples(cfg, t_s[ticks], expected, errors)
+
+        return (block(start) for start in range(0, max(t_s.size, 1), chunk_ticks))

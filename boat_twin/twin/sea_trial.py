@@ -1,9 +1,10 @@
 """A simulated sea trial end to end: scenario → dynamics → GNSS and UM7 models → time-ordered ROS 2 messages.
 
-:func:`run_sea_trial` keeps the whole :class:`SimulationRecord` (every state, derivative and command).
-:func:`run_compact_trial` gives the same measurements and messages from a simulation run in chunks of
-:data:`CHUNK_S` that keeps only boat 0's truth and the published command rows; its messages are built a block
-at a time as the bag writer takes them, so a long trial holds its numeric arrays, not its messages.
+:func:`run_sea_trial` keeps the whole :class:`SimulationRecord` (every state, derivative and command) and all
+measurements. :func:`run_compact_trial` gives the same messages, bit for bit, from a simulation run in chunks
+of :data:`CHUNK_S` that keeps only boat 0's truth and the published command rows; the sensors measure that
+truth a chunk at a time while the bag writer takes the messages, so a long trial holds its truth (88 bytes per
+tick), not its measurements or messages.
 """
 
 from __future__ import annotations
@@ -41,15 +42,17 @@ class SeaTrial:
 
 @dataclass(frozen=True)
 class CompactTrial:
-    """One simulated trial as the bag needs it: boat 0's truth, the published commands, the measurements."""
+    """One simulated trial as the bag needs it: boat 0's truth, the published commands, and what measures them
+    (the sensors of ``config``, noise seeded by ``seed``)."""
 
     truth: TruthSeries
     command_t_s: np.ndarray
     """Times of the published command rows, s (see :class:`CommandLog`), shape (m,)."""
     commands: np.ndarray
     """Published command rows (m, 4): thrust_left_N, thrust_right_N, angle_left_rad, angle_right_rad."""
-    gnss: GnssMeasurements
-    imu: ImuMeasurements
+    config: TwinConfig
+    seed: int
+    noise: bool
 
 
 def run_sea_trial(config: TwinConfig, scenario: Scenario, seed: int, noise: bool = True) -> SeaTrial:
@@ -65,12 +68,9 @@ def run_sea_trial(config: TwinConfig, scenario: Scenario, seed: int, noise: bool
 
 def run_compact_trial(config: TwinConfig, scenario: Scenario, seed: int, noise: bool = True,
                       chunk_s: float = CHUNK_S) -> CompactTrial:
-    """:func:`run_sea_trial` for a long trial: the same truth, commands and measurements (bit for bit), from a
-    simulation run ``chunk_s`` seconds at a time that keeps 88 bytes of truth per tick instead of the record
-    (filled in place, chunk by chunk).
-
-    The sensors then measure the whole truth at once, so their noise is drawn as in :func:`run_sea_trial`.
-    """
+    """:func:`run_sea_trial` for a long trial: the same truth and commands (bit for bit), from a simulation run
+    ``chunk_s`` seconds at a time that keeps 88 bytes of truth per tick instead of the record (filled in place,
+    chunk by chunk). :func:`compact_trial_messages` measures it."""
     chunks = simulate_chunks(config.vessel, scenario, config.environment,
                              extra_drag_N=tow_drag_table(config.tow, config.vessel),
                              chunk_ticks=max(1, round(chunk_s * OUTPUT_RATE_HZ)))
@@ -88,10 +88,7 @@ def run_compact_trial(config: TwinConfig, scenario: Scenario, seed: int, noise: 
             column[start:stop] = getattr(piece, name)
         start = stop
     truth = TruthSeries(**columns)
-    rng = np.random.default_rng(seed)
-    gnss = GnssModel(config.gnss, rng, noise=noise).measure(truth)
-    imu = Um7Model(config.um7, rng, noise=noise).measure(truth)
-    return CompactTrial(truth, np.concatenate(command_t_s), np.concatenate(commands), gnss, imu)
+    return CompactTrial(truth, np.concatenate(command_t_s), np.concatenate(commands), config, seed, noise)
 
 
 class CommandLog:
@@ -138,6 +135,20 @@ def trial_messages(trial: SeaTrial, truth: bool = True) -> Iterator[messages.Mes
     return _merged(record.t_s[ticks], commands[ticks], trial.gnss, trial.imu, record.truth() if truth else None)
 
 
-def compact_trial_messages(trial: CompactTrial, truth: bool = True) -> Iterator[messages.Message]:
-    """:func:`trial_messages` of a :class:`CompactTrial`: the same messages, built a block at a time."""
-    return _merged(trial.command_t_s, trial.commands, trial.gnss, trial.imu, trial.truth if truth else None)
+def compact_trial_messages(trial: CompactTrial, truth: bool = True,
+                           chunk_s: float = CHUNK_S) -> Iterator[messages.Message]:
+    """:func:`trial_messages` of a :class:`CompactTrial`: the same messages, measured and built ``chunk_s``
+    seconds of truth at a time (the noise drawn as :func:`run_sea_trial` draws it: one RNG seeded by the
+    trial's seed, GNSS then UM7)."""
+    chunk_ticks = max(1, round(chunk_s * OUTPUT_RATE_HZ))
+    rng = np.random.default_rng(trial.seed)
+    gnss = GnssModel(trial.config.gnss, rng, noise=trial.noise).measure_chunks(trial.truth, chunk_ticks)
+    imu = Um7Model(trial.config.um7, rng, noise=trial.noise).measure_chunks(trial.truth, chunk_ticks)
+    t_s = trial.truth.t_s
+    for start, gnss_block, imu_block in zip(range(0, max(t_s.size, 1), chunk_ticks), gnss, imu, strict=True):
+        stop = start + chunk_ticks
+        lo, hi = t_s[start] if t_s.size else 0.0, t_s[stop] if stop < t_s.size else np.inf
+        rows = (trial.command_t_s >= lo) & (trial.command_t_s < hi)
+        piece = TruthSeries(**{f.name: getattr(trial.truth, f.name)[start:stop] for f in fields(TruthSeries)})
+        yield from _merged(trial.command_t_s[rows], trial.commands[rows], gnss_block, imu_block,
+                           piece if truth else None)

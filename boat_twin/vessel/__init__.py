@@ -13,7 +13,7 @@ _EXPORTS = {
     "PowerSeriesResistance": "boat_twin.vessel.resistance",
     "ResistanceModel": "boat_twin.vessel.resistance",
     "SCENARIOS": "boat_twin.vessel.scenarios",
-    "SCENARIO_NAMES": "boat_twin.vessel.scenarios",
+    "SCENARIO_NAMES": "boat_twin.vessel.scenario_names",
     "Scenario": "boat_twin.vessel.scenarios",
     "SimulationRecord": "boat_twin.vessel.simulate",
     "TableResistance": "boat_twin.vessel.resistance",

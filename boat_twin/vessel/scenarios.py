@@ -11,9 +11,10 @@ Adding a scenario
 -----------------
 Write a factory ``(params, rng) → Scenario`` (a :class:`CommandProfile` for open-loop commands, or a frozen
 class with ``name``, ``duration_s``, ``initial_surge_mps`` and ``helm(n_boats)`` returning a new object with
-``command(t_s, states)`` for closed loop) and add it
-to :data:`SCENARIOS` under the name the command line takes; that is all. ``boat-twin simulate``, its help and
-errors, the ``player`` node and :func:`make_scenario` (with its ``--duration`` override) read the registry.
+``command(t_s, states)`` for closed loop) and add it to :data:`SCENARIOS` under the name the command line
+takes, and that name to :data:`~boat_twin.vessel.scenario_names.SCENARIO_NAMES` (a light module, for
+``--help``); that is all. ``boat-twin simulate``, its help and errors, the ``player`` node and
+:func:`make_scenario` (with its ``--duration`` override) read the registry.
 Give the scenario the same ``name``, which the run reports.
 """
 
@@ -33,6 +34,7 @@ from scipy.optimize import brentq
 from boat_twin.errors import InputError
 from boat_twin.units import KGF_N
 from boat_twin.vessel.params import VesselParams, max_thrust_N, surge_time_constant_s
+from boat_twin.vessel.scenario_names import SCENARIO_NAMES
 
 SETTLED_RECORD_S = 30.0
 """Time each thrust step is held after settling, s: the identifier's steady-state detector judges and averages
@@ -263,8 +265,6 @@ SCENARIOS: Mapping[str, ScenarioFactory] = MappingProxyType({
     "random": lambda params, rng: random_commands(params, rng),
 })
 """Every named scenario: name (as the command line takes it) → factory."""
-SCENARIO_NAMES = tuple(SCENARIOS)
-"""Scenario names the command line accepts."""
 
 
 def make_scenario(name: str, params: VesselParams, rng: np.random.Generator,

@@ -1,0 +1,6 @@
+"""Default settings of the diagnosis, in a module free of heavy imports (``boat-twin diagnose --help`` shows
+them at once)."""
+
+WINDOW_S = 20.0
+"""Default replay window, s: long enough for a 1.5° steering offset to turn the track by several degrees,
+short enough that a heading error from the start does not dominate."""

@@ -1,0 +1,127 @@
+"""The figures say what they show: tracks to scale unless a straight run would be a line in an empty square, no
+curve hidden under another, no empty panel, plain tick labels, the true curve and the unvisited speeds marked."""
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from matplotlib.colors import to_rgba
+
+from boat_twin.diagnose.report import evidence_figure
+from boat_twin.ident.report import resistance_figure, unvisited_bands
+from boat_twin.plots import trial_figure
+
+
+@dataclass
+class _Trial:
+    """What trial_figure reads of a Trial (10 Hz)."""
+
+    t_s: np.ndarray
+    east_m: np.ndarray
+    north_m: np.ndarray
+    speed_mps: np.ndarray
+    surge_thrust_N: np.ndarray
+    yaw_rate_radps: np.ndarray
+
+    def __len__(self) -> int:
+        return self.t_s.size
+
+
+def _trial(east_m, north_m, yaw_rate_radps) -> _Trial:
+    t = np.arange(east_m.size) / 10.0
+    return _Trial(t, east_m, north_m, np.full(t.size, 3.0), np.full(t.size, 300.0), yaw_rate_radps)
+
+
+def test_a_straight_run_is_stretched_and_says_so_a_turn_is_drawn_to_scale() -> None:
+    rng = np.random.default_rng(0)
+    t = np.arange(6000) / 10.0
+    straight = trial_figure(_trial(3.0 * t, rng.normal(0.0, 2.0, t.size), rng.normal(0.0, 1e-3, t.size)), "s")
+    track = straight.axes[0]
+    assert track.get_aspect() == "auto" and "not to scale" in track.get_title()
+    angle = 0.05 * t
+    circle = trial_figure(_trial(60.0 * np.sin(angle), 60.0 * (1 - np.cos(angle)), np.full(t.size, 0.05)), "c")
+    assert circle.axes[0].get_aspect() == 1.0 and "not to scale" not in circle.axes[0].get_title()
+
+
+def test_yaw_rate_of_a_straight_run_shows_its_mean_not_a_block_of_noise() -> None:
+    rng = np.random.default_rng(1)
+    t = np.arange(6000) / 10.0
+    fig = trial_figure(_trial(3.0 * t, np.zeros(t.size), rng.normal(0.0, 1e-3, t.size)), "s")
+    yaw = fig.axes[2]
+    (line,) = [ln for ln in yaw.get_lines() if np.size(ln.get_xdata()) == t.size]  # the zero line has 2 points
+    assert np.nanstd(line.get_ydata()) < 0.3e-3  # the 5 s mean: noise cut ~7x
+    assert "not drawn" in line.get_label()
+
+
+def test_unvisited_bands_are_the_wide_gaps_between_steady_speeds() -> None:
+    speeds = np.array([0.51, 1.04, 1.54, 2.06, 2.83, 6.16, 6.94, 7.72, 8.23, 9.26])
+    assert unvisited_bands(speeds) == [(2.83, 6.16)]
+    assert unvisited_bands(np.linspace(1.0, 9.0, 9)) == []
+
+
+def _result(online_same: bool) -> dict:
+    speeds = np.array([0.5, 1.0, 1.5, 2.0, 6.0, 6.5, 7.0])
+    coefficients = [0.0, 100.0, 5.0]
+    return {"steady_points": [{"speed_mps": v, "thrust_N": 100 * v + 5 * v * v} for v in speeds],
+            "fits": [{"order": 2, "coefficients": coefficients}], "selected_order": 2, "dynamic": {},
+            "online": {"coefficients": coefficients if online_same else [0.0, 90.0, 6.0]}}
+
+
+def test_resistance_figure_draws_the_truth_the_band_and_coinciding_curves_visibly() -> None:
+    fig = resistance_figure(_result(online_same=True), lambda v: 100 * v + 5 * v * v)
+    ax = fig.axes[0]
+    labels = [ln.get_label() for ln in ax.get_lines()]
+    assert "true Fc (the simulated boat)" in labels
+    assert any(p.get_label().startswith("no steady point") for p in ax.patches)
+    lsq = next(ln for ln in ax.get_lines() if ln.get_label().startswith("steady least squares"))
+    online = next(ln for ln in ax.get_lines() if ln.get_label().startswith("online"))
+    # the same curve twice: the later one is thinner and of another colour and dash, so both show
+    assert lsq.get_linewidth() > online.get_linewidth() and online.get_linestyle() != "-"
+    assert to_rgba(lsq.get_color()) != to_rgba(online.get_color())
+    without_truth = resistance_figure(_result(online_same=False))
+    assert "true Fc (the simulated boat)" not in [ln.get_label() for ln in without_truth.axes[0].get_lines()]
+
+
+def _candidate(effect: str, delta_bic: float, gain: float | None, named: bool = False) -> dict:
+    return {"round": 1, "effect": effect, "delta_bic": delta_bic, "heldout_gain": gain, "named": named}
+
+
+@pytest.mark.parametrize("judged", [False, True])
+def test_evidence_figure_has_plain_ticks_and_no_empty_panel(judged: bool) -> None:
+    candidates = [_candidate("gyro_bias", -3000.0 if judged else 6.0, 0.4 if judged else None, named=judged),
+                  _candidate("mass_error", -5.0, None), _candidate("tow_load", 12.0, None)]
+    fig = evidence_figure({"candidates": candidates})
+    fig.canvas.draw()
+    ax_bic, ax_gain = fig.axes
+    ticks = [t.get_text() for t in ax_bic.get_xticklabels() if t.get_text()]
+    assert ticks and not any("^" in t or "$" in t for t in ticks), ticks
+    message = [t.get_text() for t in ax_gain.texts]
+    assert bool(message) is not judged  # the panel explains itself when no bar can be drawn
+
+
+def _windows_and_predictions(same: bool):
+    from types import SimpleNamespace
+
+    from boat_twin.diagnose.replay import SIGNALS, Prediction
+
+    t = np.arange(200.0).reshape(100, 2, order="F")  # two windows of 100 samples
+    rng = np.random.default_rng(2)
+    measured = {s: rng.normal(size=t.shape) for s in SIGNALS}
+    baseline = Prediction({s: np.zeros(t.shape) for s in SIGNALS}, np.zeros((*t.shape, 2)))
+    extended = baseline if same else Prediction({s: np.full(t.shape, 0.5) for s in SIGNALS}, baseline.position)
+    return SimpleNamespace(t_s=t, measured=measured), baseline, extended
+
+
+@pytest.mark.parametrize("same", [True, False])
+def test_diagnosis_figures_never_draw_a_line_hidden_under_another(same: bool) -> None:
+    from boat_twin.diagnose.report import residual_figure, signal_figure
+
+    windows, baseline, extended = _windows_and_predictions(same)
+    for fig in (signal_figure(windows, baseline, extended, ["vel_east_mps"]),
+                residual_figure(windows, baseline, extended)):
+        models = [ln for ax in fig.axes for ln in ax.get_lines() if ln.get_linestyle() == "-" and
+                  np.size(ln.get_xdata()) > 2]  # model lines (not the measured dots, not the zero line)
+        per_axis = len(models) // len(fig.axes)
+        assert per_axis == (1 if same else 2)
+        if not same:  # the baseline underneath is wider than the extended model on top
+            assert models[0].get_linewidth() > models[1].get_linewidth()
