@@ -94,11 +94,11 @@ def test_ensemble_matches_single_runs_exactly() -> None:
 
 
 def test_zigzag_executes_to_starboard_first_and_overshoots() -> None:
-    zig = Zigzag(PARAMS, math.radians(20), math.radians(20), initial_surge_mps=6.0)
+    zig = Zigzag(PARAMS, math.radians(20), math.radians(20))
     yaw = np.degrees(simulate(PARAMS, zig).truth().yaw_rad)
     first = np.flatnonzero(np.abs(yaw) > 1.0)[0]
     assert yaw[first] < 0.0  # starboard = clockwise = negative ENU yaw
-    assert 20.0 < -yaw.min() < 40.0 and 20.0 < yaw.max() < 40.0
+    assert 20.0 < -yaw.min() < 45.0 and 20.0 < yaw.max() < 45.0  # overshoots grow to ~20° at the 18°/s swing
 
 
 @pytest.mark.parametrize("name", SCENARIO_NAMES)

@@ -124,6 +124,7 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``simulate``."""
     from boat_twin.twin.sea_trial import compact_trial_messages, run_compact_trial
     from boat_twin.validation import integer
+    from boat_twin.vessel.manoeuvres import manoeuvre_figures
     from boat_twin.vessel.params import describe
 
     integer("--seed", args.seed, minimum=0, maximum=SEED_MAX)
@@ -141,6 +142,9 @@ def run(args: argparse.Namespace) -> int:
     trial = run_compact_trial(config, scenario, args.seed, noise=not args.no_noise)
     result = {"scenario": scenario.name, "seed": args.seed, **summarize(trial.truth),
               "vessel": describe(config.vessel)}
+    figures = manoeuvre_figures(scenario, trial.truth, config.vessel.length_m)
+    if figures is not None:
+        result["manoeuvre"] = figures
     if args.out is not None:
         from boat_twin.io.bags import write_bag
 
@@ -151,6 +155,10 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(f"simulated {scenario.name}: {result['duration_s']:.1f} s, top surge {result['max_surge_mps']:.2f} m/s",
               file=sys.stdout)
+        if figures is not None:
+            print("IMO figures (--json for all): " + ", ".join(
+                f"{key} {value:.3g}" for key, value in figures.items()
+                if isinstance(value, float) and key.endswith(("_L", "_deg", "_s")) and "limit" not in key))
         if args.out is not None:
             print(f"wrote {result['messages']} messages to {args.out}")
     return 0

@@ -26,7 +26,8 @@ from boat_twin.diagnose.effects import EFFECTS
 from boat_twin.io.bags import write_bag
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.params import VesselParams
-from boat_twin.vessel.scenarios import CommandProfile, Scenario, make_scenario, random_commands
+from boat_twin.vessel.scenarios import CommandProfile, Helm, Scenario, Zigzag, make_scenario, random_commands
+from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 from boat_twin.vessel.tow import TowConfig, tow_drag_N
 
 TRIAL_SCENARIOS = {"thrust-steps": "thrust-steps", "zigzag": "zigzag-20-20", "random": "random"}
@@ -61,7 +62,13 @@ def scenario(kind: str, params: VesselParams, rng: np.random.Generator, duration
         raise ValueError(f"unknown trial kind {kind!r}")
     if kind == "random":  # commands drawn over the whole trial (the registry's draws 600 s, then holds the last)
         return random_commands(params, rng, duration_s)
-    return make_scenario(TRIAL_SCENARIOS[kind], params, rng, duration_s)
+    chosen = make_scenario(TRIAL_SCENARIOS[kind], params, rng, duration_s)
+    if isinstance(chosen, Zigzag):
+        # A helm deciding at the 10 Hz log rate: the replay holds commands over the log's samples, so a reversal
+        # between two samples (a faster helm) would be logged up to a sample late, a timing error the replay
+        # cannot see (docs/diagnosis.md, limitations).
+        return replace(chosen, decision_rate_hz=OUTPUT_RATE_HZ)
+    return chosen
 
 
 def visited_speeds_mps(config: TwinConfig, kind: str, seed: int, duration_s: float) -> np.ndarray:
@@ -105,7 +112,7 @@ class _Delivered:
     scenario: Scenario
     deliver: Callable[[np.ndarray], np.ndarray]
     commanded: list[np.ndarray] = field(default_factory=list)
-    """The commanded (N, 4) rows, one per call: the simulator calls once per output tick."""
+    """The commanded (N, 4) rows at the output ticks (what the command log records)."""
 
     @property
     def name(self) -> str:
@@ -122,11 +129,28 @@ class _Delivered:
         """Its initial surge, m/s."""
         return self.scenario.initial_surge_mps
 
+    def helm(self, n_boats: int) -> _DeliveredHelm:
+        """The commanded scenario's own fresh helm, its commands changed on the way to the outboards."""
+        return _DeliveredHelm(self, self.scenario.helm(n_boats))
+
+
+class _DeliveredHelm:
+    """One run of a :class:`_Delivered`. The simulator asks a closed-loop helm at every integration step; this
+    one asks the scenario at the output ticks only and holds what it delivers in between, as the simulator holds
+    an open-loop scenario's commands, so the trial has the same commands as :func:`write_trial`'s."""
+
+    def __init__(self, delivered: _Delivered, inner: Helm) -> None:
+        self.delivered = delivered
+        self.inner = inner
+        self.held: np.ndarray | None = None
+
     def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
-        """What the outboards deliver of the scenario's command at ``t_s``."""
-        row = self.scenario.command(t_s, states)
-        self.commanded.append(row.copy())
-        return self.deliver(row)
+        """What the outboards deliver of the scenario's command at the last output tick up to ``t_s``."""
+        if self.held is None or abs(t_s * OUTPUT_RATE_HZ - round(t_s * OUTPUT_RATE_HZ)) < 1e-6:
+            row = self.inner.command(t_s, states)
+            self.delivered.commanded.append(row.copy())
+            self.held = self.delivered.deliver(row)
+        return self.held
 
 
 def _thrust_loss(params: VesselParams, rows: np.ndarray) -> np.ndarray:

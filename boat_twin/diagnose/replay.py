@@ -163,10 +163,11 @@ def _integrated(rate: np.ndarray, dt: float) -> np.ndarray:
 
 
 def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, heading: np.ndarray,
-                   surge: np.ndarray, yaw_rate: np.ndarray) -> np.ndarray:
+                   surge: np.ndarray, yaw_rate: np.ndarray, steering: np.ndarray) -> np.ndarray:
     """(m,) sway through water at each window's start, m/s: the model's sway equation run over the
     :data:`SWAY_OBSERVER_S` before it, from rest, driven by the recorded commands and the *measured* heading,
-    surge (GNSS) and yaw rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length).
+    surge (GNSS) and yaw rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length)
+    and the outboards' angles that the recorded commands drive (``steering``, (n, 2)).
 
     Sway is a fast state (time constant m22 / (Y_v·u): 0.4 s at 10 m/s), so it forgets its start; the gyro
     that drives it through the m11·u·r term is 50× less noisy than a sway read from GNSS velocity and IMU
@@ -183,7 +184,8 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
         states = np.zeros((sway.size, 6))
         states[:, 2], states[:, 3], states[:, 4], states[:, 5] = heading[index], surge[index], sway, yaw_rate[index]
         commands = trial.commands[index][None]
-        _, derivative = dynamics.run(states, commands, environments, dt, 1)
+        angles = np.where(np.isfinite(steering[index]), steering[index], dynamics.steering_targets(commands[0]))
+        _, derivative, _ = dynamics.run(states, commands, environments, dt, 1, angles)
         rate = derivative[0, :, 4]
         sway = np.where(inside & np.isfinite(rate), sway + dt * rate, sway)
     return sway
@@ -219,9 +221,10 @@ def measured_motion(windows: Windows, config: TwinConfig) -> MeasuredMotion:
     return MeasuredMotion(heading, surge, yaw_rate)
 
 
-def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics,
+def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, steering: np.ndarray,
                    motion: MeasuredMotion | None = None) -> np.ndarray:
-    """(m, 6) state at each window's start, from the sensors as ``config`` says they err.
+    """(m, 6) state at each window's start, from the sensors as ``config`` says they err (``steering``: the
+    outboards' angles over the trial, :meth:`~boat_twin.vessel.dynamics.Dynamics.steering_history`).
 
     Heading, surge and yaw rate: :func:`measured_motion` (``motion``, if already computed for ``config``'s
     sensors and current); sway: the :func:`_sway_observer`. Every term is a measurement or driven by
@@ -235,7 +238,7 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics,
     states[:, 3] = motion.surge_mps[start]
     states[:, 5] = motion.yaw_rate_radps[start]
     states[:, 4] = _sway_observer(windows, config, dynamics, motion.heading_rad, motion.surge_mps,
-                                  motion.yaw_rate_radps)
+                                  motion.yaw_rate_radps, steering)
     return states
 
 
@@ -254,10 +257,12 @@ def predict(windows: Windows, config: TwinConfig, motion: MeasuredMotion | None 
     plus the gyro bias), noise-free; and the lateral accelerometer (:data:`LATERAL_ACCEL`, v̇ + u·r).
     ``motion``: :func:`measured_motion` for ``config``'s sensors and current, when the caller keeps it."""
     dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
-    states = initial_states(windows, config, dynamics, motion)
+    steering = dynamics.steering_history(windows.dt_s, windows.trial.commands)
+    states = initial_states(windows, config, dynamics, steering, motion)
     substeps = max(1, int(round(windows.dt_s * REPLAY_INTEGRATION_RATE_HZ)))
     environments = np.tile(config.environment.as_vector(), (states.shape[0], 1))
-    path, rates = dynamics.run(states, windows.commands, environments, windows.dt_s / substeps, substeps)
+    path, rates, _ = dynamics.run(states, windows.commands, environments, windows.dt_s / substeps, substeps,
+                                  steering[windows.start_index])
     east, north, yaw, u, v, r = (path[..., j] for j in range(6))
     env = config.environment
     vel_east, vel_north = ground_velocity_enu(yaw, u, v, env.current_east_mps, env.current_north_mps)

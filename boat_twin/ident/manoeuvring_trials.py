@@ -24,6 +24,7 @@ from boat_twin.io.trial import Trial
 from boat_twin.twin.sea_trial import SeaTrial, run_sea_trial, trial_messages
 from boat_twin.vessel.params import MANOEUVRING_KEYS, derive_coefficients
 from boat_twin.vessel.scenarios import CommandProfile, Scenario, Zigzag
+from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 
 SPREAD = 0.3
 """Relative spread of each hidden coefficient (uniform ±30 %)."""
@@ -67,9 +68,11 @@ def mirrored(trial: SeaTrial, name: str) -> CommandProfile:
 def zigzag_scenarios(config: TwinConfig, speeds_mps: Sequence[float] = ZIGZAG_SPEEDS_MPS,
                      angles_deg: Sequence[float] = ZIGZAG_ANGLES_DEG, duration_s: float = ZIGZAG_S
                      ) -> list[Scenario]:
-    """Starboard-first zigzags of the set (each angle at each speed)."""
-    return [Zigzag(config.vessel, math.radians(a), math.radians(a), speed_mps=s, initial_surge_mps=s,
-                   duration_s=duration_s, name=f"zigzag-{a:g}-{a:g}-{s:g}mps")
+    """Starboard-first zigzags of the set (each angle at each speed), with a helm deciding at the 10 Hz log rate
+    so that the recorded commands are the ones that steered (a helm between log samples is a replay timing
+    error the fit would absorb: docs/diagnosis.md, known limits)."""
+    return [Zigzag(config.vessel, math.radians(a), math.radians(a), speed_mps=s, duration_s=duration_s,
+                   name=f"zigzag-{a:g}-{a:g}-{s:g}mps", decision_rate_hz=OUTPUT_RATE_HZ)
             for s in speeds_mps for a in angles_deg]
 
 

@@ -322,7 +322,8 @@ class MavlinkBoat:
     ``url``: :data:`DEFAULT_URL` form (None: no network, e.g. only a .tlog). ``tlog``: record every packet sent
     and received as MAVProxy does (8-byte big-endian µs since the Unix epoch, then the packet), stamped with
     the twin's time (``twin.epoch_s`` + simulated time; pass a Unix epoch to the twin for wall-clock stamps).
-    ``scenario``: base commands per tick (``command(t, states)``, t since the first tick; its initial surge
+    ``scenario``: base commands per tick (its helm's ``command(t, states)``, asked once per output tick, t since
+    the first tick; its initial surge
     speed is given to a fresh twin, as the batch simulation does) that overrides from the ground station
     replace while active. ``rates_hz``: stream group → Hz (default Rover's).
     """
@@ -353,6 +354,7 @@ class MavlinkBoat:
         self.endpoint = parse_url(url, allow_remote) if url is not None else None
         self.twin = twin
         self.scenario = scenario
+        self._helm = scenario.helm(1) if scenario is not None else None
         self.system_id = system_id
         self.component_id = component_id
         self.stats = LinkStats()
@@ -371,7 +373,7 @@ class MavlinkBoat:
         self._mav = mavlink2.MAVLink(self, system_id, component_id)
         self._stamp_s = twin.time_s
         if scenario is not None and twin.tick_index == 0:  # the scenario's initial condition, as in batch
-            twin.state[:, 3] = float(getattr(scenario, "initial_surge_mps", 0.0))
+            twin.state[:, 3] = scenario.initial_surge_mps
         if self.endpoint is not None:
             self._sock = self._open_socket(self.endpoint)
         if tlog is not None:
@@ -590,8 +592,8 @@ class MavlinkBoat:
             value = getattr(self, attr)
             if value is not None and t_rel - value[1] > OVERRIDE_TIMEOUT_S + 1e-6:
                 setattr(self, attr, None)
-        if self.scenario is not None:
-            row = self.scenario.command(t_rel, self.twin.state)[0]
+        if self._helm is not None:
+            row = self._helm.command(t_rel, self.twin.state)[0]
             base = [float(v) for v in row]
         else:
             base = list(self._base)

@@ -40,6 +40,8 @@ class LiveTwin:
         self.config = config
         self.dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
         self.state = np.zeros((1, 6))
+        self.steering_rad: np.ndarray | None = None
+        """(1, 2) the outboards' real angles; None until the first tick starts them where it drives them."""
         self.environments = config.environment.as_vector()[None, :]
         self.commands = np.zeros(4)
         self.epoch_s = epoch_s
@@ -56,7 +58,8 @@ class LiveTwin:
         self._gnss_step = decimation_step(tick_times_s, config.gnss.rate_hz, "gnss.rate_hz")
         self._imu_step = decimation_step(tick_times_s, config.um7.rate_hz, "um7.rate_hz")
         history_ticks = math.ceil(config.gnss.latency_s * OUTPUT_RATE_HZ) + 2  # covers the fix's delayed state
-        self._history: deque[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = deque(maxlen=history_ticks)
+        self._history: deque[tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = deque(
+            maxlen=history_ticks)
 
     @property
     def time_s(self) -> float:
@@ -72,10 +75,12 @@ class LiveTwin:
         """Record this tick under the held commands, step the dynamics one output period, return the messages."""
         commands = self.commands[None, None, :].copy()
         substeps = round(INTEGRATION_RATE_HZ / OUTPUT_RATE_HZ)
-        states, derivatives = self.dynamics.run(self.state, commands, self.environments, 1.0 / INTEGRATION_RATE_HZ,
-                                                substeps)
+        if self.steering_rad is None:
+            self.steering_rad = self.dynamics.steering_targets(commands[0])
+        states, derivatives, steering = self.dynamics.run(self.state, commands, self.environments,
+                                                          1.0 / INTEGRATION_RATE_HZ, substeps, self.steering_rad)
         now = self.time_s
-        self._history.append((now, states[0], commands[0], derivatives[0]))
+        self._history.append((now, states[0], commands[0], derivatives[0], steering[0]))
         out = list(messages.command_messages(np.array([now]), commands[0]))
         out += self._sensor_messages()
         self.tick_index += 1
@@ -90,6 +95,7 @@ class LiveTwin:
             commands=np.array([i[2] for i in items]),
             derivatives=np.array([i[3] for i in items]),
             environment=self.config.environment,
+            steering_rad=np.array([i[4] for i in items]),
         ).truth()
 
     def _sensor_messages(self) -> list[messages.Message]:

@@ -21,11 +21,14 @@ _EXPORTS = {
     "derive_coefficients": "boat_twin.vessel.params",
     "load_params": "boat_twin.vessel.params",
     "make_scenario": "boat_twin.vessel.scenarios",
+    "manoeuvre_figures": "boat_twin.vessel.manoeuvres",
     "resistance_from_dict": "boat_twin.vessel.resistance",
     "save_params": "boat_twin.vessel.params",
     "similar_boat": "boat_twin.vessel.params",
     "simulate": "boat_twin.vessel.simulate",
     "thrust_steps": "boat_twin.vessel.scenarios",
+    "turning_figures": "boat_twin.vessel.manoeuvres",
+    "zigzag_figures": "boat_twin.vessel.manoeuvres",
 }
 """Public name → its module. Imported on first use: importing one light module of the package (e.g. from a
 sensor model) must not load the compiled simulator."""

@@ -15,8 +15,11 @@ with the outboards' thrust vectors (thrust T_i at steering angle δ_i, at (x_e, 
     X = Σ T_i·cos δ_i + X_w,   Y = Σ T_i·sin δ_i + Y_w,   N = Σ (x_e·T_i·sin δ_i − y_i·T_i·cos δ_i) + x_w·Y_w
 
 Delivered thrust is the engine's factor k_i times the command limited to the engine's envelope: astern down to
-−k·T_bollard, ahead up to min(T_bollard, η·P/|u|); the real steering angle is the command plus a constant
-offset, limited to ±δ_max. The wind force is quadratic drag on the above-water areas in the apparent wind
+−k·T_bollard, ahead up to min(T_bollard, η·P/|u|). The outboards swing at a finite rate: each real steering
+angle δ_i is an actuator state that moves towards its target (the command plus a constant offset, limited to
+±δ_max) at the steering rate ρ and stops there, δ_i(t + τ) = δ_i + clip(target − δ_i, −ρτ, ρτ) under a held
+command — solved exactly inside every RK4 stage, so the actuator runs at the integration rate (ρ = 0: the
+angle is the target at once). The wind force is quadratic drag on the above-water areas in the apparent wind
 (u_a, v_a) (body frame, air relative to the hull): X_w = ½ρ_a·C_a·A_F·(|V_a|·u_a + |V|·u), Y_w likewise with
 A_L and v, acting at x_w (the centre of windage); the |V|·u term removes the calm-air drag the measured
 resistance already holds, so the wind force vanishes in calm air and still water.
@@ -61,7 +64,7 @@ class CompiledModel:
 # Indices into CompiledModel.coefficients.
 _K_M11, _K_M22, _K_M33, _K_AV, _K_XC, _K_AR, _K_YVV, _K_NRR = range(8)
 _K_XE, _K_YE, _K_ETA_P, _K_BOLLARD, _K_REVERSE, _K_MAX_STEER = range(8, 14)
-_K_FACTOR_LEFT, _K_FACTOR_RIGHT, _K_STEER_OFFSET, _K_WIND_X, _K_WIND_Y, _K_WIND_XC = range(14, 20)
+_K_FACTOR_LEFT, _K_FACTOR_RIGHT, _K_STEER_OFFSET, _K_WIND_X, _K_WIND_Y, _K_WIND_XC, _K_STEER_RATE = range(14, 21)
 
 
 def resistance_grid_mps(params: VesselParams) -> np.ndarray:
@@ -101,6 +104,7 @@ def compile_model(params: VesselParams, extra_drag_N: np.ndarray | None = None) 
             0.5 * AIR_DENSITY_KGPM3 * WINDAGE_DRAG_COEFFICIENT * params.frontal_windage_area_m2,
             0.5 * AIR_DENSITY_KGPM3 * WINDAGE_DRAG_COEFFICIENT * params.lateral_windage_area_m2,
             params.windage_centre_x_m,
+            params.steering_rate_radps,
         ]
     )
     return CompiledModel(values, table, float(u_max), extra)
@@ -129,9 +133,27 @@ def _delivered_thrust(command: float, u: float, k: np.ndarray) -> float:
 
 
 @numba.njit(cache=True)
+def _steering_target(command: float, k: np.ndarray) -> float:
+    """Where the outboard is driven: the commanded angle plus the offset, within ±δ_max, rad."""
+    return min(max(command + k[_K_STEER_OFFSET], -k[_K_MAX_STEER]), k[_K_MAX_STEER])
+
+
+@numba.njit(cache=True)
+def _steering_after(angle: float, target: float, k: np.ndarray, tau: float) -> float:
+    """The steering angle ``tau`` seconds on, swinging from ``angle`` towards ``target`` at the rate limit."""
+    rate = k[_K_STEER_RATE]
+    if rate <= 0.0:
+        return target
+    reach = rate * tau
+    return angle + min(max(target - angle, -reach), reach)
+
+
+@numba.njit(cache=True)
 def _derivative(
     s: np.ndarray,
     cmd: np.ndarray,
+    d_left: float,
+    d_right: float,
     k: np.ndarray,
     table: np.ndarray,
     u_max: float,
@@ -139,12 +161,11 @@ def _derivative(
     env: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """Time derivative of one boat's state ``s`` under command ``cmd``, written into ``out``."""
+    """Time derivative of one boat's state ``s`` under thrust command ``cmd`` and real steering angles
+    ``d_left``, ``d_right`` (rad), written into ``out``."""
     psi, u, v, r = s[2], s[3], s[4], s[5]
     t_left = k[_K_FACTOR_LEFT] * _delivered_thrust(cmd[0], u, k)
     t_right = k[_K_FACTOR_RIGHT] * _delivered_thrust(cmd[1], u, k)
-    d_left = min(max(cmd[2] + k[_K_STEER_OFFSET], -k[_K_MAX_STEER]), k[_K_MAX_STEER])
-    d_right = min(max(cmd[3] + k[_K_STEER_OFFSET], -k[_K_MAX_STEER]), k[_K_MAX_STEER])
     x_force = t_left * np.cos(d_left) + t_right * np.cos(d_right)
     y_force = t_left * np.sin(d_left) + t_right * np.sin(d_right)
     n_moment = k[_K_XE] * y_force - k[_K_YE] * (t_left * np.cos(d_left) - t_right * np.cos(d_right))
@@ -181,6 +202,7 @@ def _derivative(
 @numba.njit(cache=True)
 def _step_boat(
     s: np.ndarray,
+    steer: np.ndarray,
     cmd: np.ndarray,
     k: np.ndarray,
     table: np.ndarray,
@@ -190,30 +212,40 @@ def _step_boat(
     dt: float,
     substeps: int,
 ) -> None:
-    """Advance one boat's state ``s`` in place by ``substeps`` RK4 steps of ``dt`` under a held command."""
+    """Advance one boat's state ``s`` and steering angles ``steer`` (2,) in place by ``substeps`` RK4 steps of
+    ``dt`` under a held command; every stage sees the steering angle of its own instant."""
     k1 = np.empty(6)
     k2 = np.empty(6)
     k3 = np.empty(6)
     k4 = np.empty(6)
     tmp = np.empty(6)
+    target_left = _steering_target(cmd[2], k)
+    target_right = _steering_target(cmd[3], k)
     for _ in range(substeps):
-        _derivative(s, cmd, k, table, u_max, extra, env, k1)
+        half_left = _steering_after(steer[0], target_left, k, 0.5 * dt)
+        half_right = _steering_after(steer[1], target_right, k, 0.5 * dt)
+        end_left = _steering_after(steer[0], target_left, k, dt)
+        end_right = _steering_after(steer[1], target_right, k, dt)
+        _derivative(s, cmd, steer[0], steer[1], k, table, u_max, extra, env, k1)
         for j in range(6):
             tmp[j] = s[j] + 0.5 * dt * k1[j]
-        _derivative(tmp, cmd, k, table, u_max, extra, env, k2)
+        _derivative(tmp, cmd, half_left, half_right, k, table, u_max, extra, env, k2)
         for j in range(6):
             tmp[j] = s[j] + 0.5 * dt * k2[j]
-        _derivative(tmp, cmd, k, table, u_max, extra, env, k3)
+        _derivative(tmp, cmd, half_left, half_right, k, table, u_max, extra, env, k3)
         for j in range(6):
             tmp[j] = s[j] + dt * k3[j]
-        _derivative(tmp, cmd, k, table, u_max, extra, env, k4)
+        _derivative(tmp, cmd, end_left, end_right, k, table, u_max, extra, env, k4)
         for j in range(6):
             s[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        steer[0] = end_left
+        steer[1] = end_right
 
 
 @numba.njit(cache=True)
 def _run_ticks(
     states: np.ndarray,
+    steering: np.ndarray,
     commands: np.ndarray,
     k: np.ndarray,
     table: np.ndarray,
@@ -224,13 +256,40 @@ def _run_ticks(
     substeps: int,
     out_states: np.ndarray,
     out_derivatives: np.ndarray,
+    out_steering: np.ndarray,
 ) -> None:
-    """For each boat and output tick i: record state and derivative under ``commands[i]``, then step the tick."""
+    """For each boat and output tick i: record state, steering and derivative under ``commands[i]``, then step
+    the tick."""
     for b in range(states.shape[0]):
         for i in range(commands.shape[0]):
+            # An instantaneous actuator (rate 0) is at the new command's angle from the tick's first instant.
+            steering[b, 0] = _steering_after(steering[b, 0], _steering_target(commands[i, b, 2], k), k, 0.0)
+            steering[b, 1] = _steering_after(steering[b, 1], _steering_target(commands[i, b, 3], k), k, 0.0)
             out_states[i, b] = states[b]
-            _derivative(states[b], commands[i, b], k, table, u_max, extra, environments[b], out_derivatives[i, b])
-            _step_boat(states[b], commands[i, b], k, table, u_max, extra, environments[b], dt, substeps)
+            out_steering[i, b] = steering[b]
+            _derivative(states[b], commands[i, b], steering[b, 0], steering[b, 1], k, table, u_max, extra,
+                        environments[b], out_derivatives[i, b])
+            _step_boat(states[b], steering[b], commands[i, b], k, table, u_max, extra, environments[b], dt,
+                       substeps)
+
+
+@numba.njit(cache=True)
+def _step_all(
+    states: np.ndarray,
+    steering: np.ndarray,
+    commands: np.ndarray,
+    k: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    environments: np.ndarray,
+    dt: float,
+) -> None:
+    """Advance every boat one RK4 step of ``dt`` under its command ``commands[b]``, recording nothing."""
+    for b in range(states.shape[0]):
+        steering[b, 0] = _steering_after(steering[b, 0], _steering_target(commands[b, 2], k), k, 0.0)
+        steering[b, 1] = _steering_after(steering[b, 1], _steering_target(commands[b, 3], k), k, 0.0)
+        _step_boat(states[b], steering[b], commands[b], k, table, u_max, extra, environments[b], dt, 1)
 
 
 class Dynamics:
@@ -240,18 +299,53 @@ class Dynamics:
         self.params = params
         self.model = compile_model(params, extra_drag_N)
 
+    def steering_targets(self, commands: np.ndarray) -> np.ndarray:
+        """(N, 2) angles the outboards are driven to under ``commands`` (N, 4): command + offset, within ±δ_max."""
+        p = self.params
+        return np.clip(commands[:, 2:4] + p.steering_offset_rad, -p.max_steering_rad, p.max_steering_rad)
+
+    def steering_history(self, dt_s: float, commands: np.ndarray) -> np.ndarray:
+        """(n, 2) the outboards' real angles at each of ``n`` samples ``dt_s`` apart of a recorded command series
+        (n, 4) held from sample to sample, rad: the rate-limited swing towards each target, starting at the first
+        known one; NaN where the commands are unknown (the next known command starts afresh at its target)."""
+        targets = self.steering_targets(commands)
+        rate = self.params.steering_rate_radps
+        reach = rate * dt_s if rate > 0.0 else np.inf
+        out = np.empty_like(targets)
+        angle = np.full(2, np.nan)
+        for i, target in enumerate(targets):
+            out[i] = angle = np.where(np.isnan(angle), target, angle)
+            angle = angle + np.clip(target - angle, -reach, reach)
+        return out
+
+    def step(self, states: np.ndarray, commands: np.ndarray, environments: np.ndarray, dt_s: float,
+             steering_rad: np.ndarray) -> None:
+        """Advance ``states`` (N, 6) and ``steering_rad`` (N, 2) in place by one RK4 step of ``dt_s`` under
+        ``commands`` (N, 4): :meth:`run` of one tick and one substep without its records (a closed-loop helm's
+        steps between output ticks)."""
+        m = self.model
+        _step_all(states, steering_rad, commands, m.coefficients, m.resistance_N, m.resistance_max_speed_mps,
+                  m.extra_drag_N, environments, dt_s)
+
     def run(
-        self, states: np.ndarray, commands: np.ndarray, environments: np.ndarray, dt_s: float, substeps: int
-    ) -> tuple[np.ndarray, np.ndarray]:
+        self, states: np.ndarray, commands: np.ndarray, environments: np.ndarray, dt_s: float, substeps: int,
+        steering_rad: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Run len(commands) output ticks of ``substeps``·``dt_s`` each, commands held over a tick.
 
         ``states`` (N, 6) is advanced in place; ``commands`` is (ticks, N, 4), ``environments`` (N, 4)
-        :meth:`Environment.as_vector` rows (current and wind over ground, ENU, m/s).
-        Returns the states at the start of every tick and their time derivatives, both (ticks, N, 6).
+        :meth:`Environment.as_vector` rows (current and wind over ground, ENU, m/s). ``steering_rad`` (N, 2)
+        holds the outboards' real angles (left, right), advanced in place; None: they start where the first
+        command drives them (an outboard that has been held there).
+        Returns the states at the start of every tick and their time derivatives, both (ticks, N, 6), and
+        the real steering angles then, (ticks, N, 2).
         """
         m = self.model
+        if steering_rad is None:
+            steering_rad = self.steering_targets(commands[0]) if len(commands) else np.zeros((len(states), 2))
         out_states = np.empty((commands.shape[0],) + states.shape)
         out_derivatives = np.empty_like(out_states)
-        _run_ticks(states, commands, m.coefficients, m.resistance_N, m.resistance_max_speed_mps,
-                   m.extra_drag_N, environments, dt_s, substeps, out_states, out_derivatives)
-        return out_states, out_derivatives
+        out_steering = np.empty((commands.shape[0], states.shape[0], 2))
+        _run_ticks(states, steering_rad, commands, m.coefficients, m.resistance_N, m.resistance_max_speed_mps,
+                   m.extra_drag_N, environments, dt_s, substeps, out_states, out_derivatives, out_steering)
+        return out_states, out_derivatives, out_steering

@@ -29,8 +29,9 @@ WINDAGE_DRAG_COEFFICIENT = 0.8
 
 SIGNED_FIELDS = ("engine_x_m", "lateral_centre_x_m", "steering_offset_rad", "windage_centre_x_m")
 """Parameters that may be zero or negative (positions and offsets)."""
-NON_NEGATIVE_FIELDS = ("frontal_windage_area_m2", "lateral_windage_area_m2")
-"""Parameters that may be zero (0 m² of windage: no wind force); all others must be positive."""
+NON_NEGATIVE_FIELDS = ("frontal_windage_area_m2", "lateral_windage_area_m2", "steering_rate_radps")
+"""Parameters that may be zero (0 m² of windage: no wind force; a steering rate of 0: outboards that swing
+instantly); all others must be positive."""
 MANOEUVRING_KEYS = ("m22_kg", "m33_kgm2", "sway_damping_Nspm2", "yaw_damping_Nms", "sway_quadratic_Ns2pm2",
                     "yaw_quadratic_Nms2")
 """Coefficients (:class:`ModelCoefficients` fields) that ``VesselParams.manoeuvring`` may set from trials."""
@@ -72,6 +73,12 @@ class VesselParams:
     """Astern thrust available as a fraction of the bollard thrust, -: propellers are ~half as good astern."""
     max_steering_rad: float = math.radians(30.0)
     """Outboard steering limit, rad: ±30°, typical of hydraulic outboard steering."""
+    steering_rate_radps: float = math.radians(18.0)
+    """Fastest swing of the outboards, rad/s (0: instantaneous, no actuator). Manual hydraulic outboard
+    steering turns the wheel (cylinder displacement / helm displacement) times lock to lock: 5.7 in³ / 1.7 in³
+    per turn = 3.35 turns for a SeaStar-class outboard cylinder and helm (SeaStar Solutions, Hydraulic Steering
+    Selection Guide); at a brisk one turn per second (assumed) the 60° from lock to lock take 3.35 s: 18°/s.
+    Autopilot pumps are slower (a 13-15 s hard-over to hard-over is their sizing target, ~4°/s)."""
     turn_speed_mps: float = 6.0
     """Reference turn: speed through water, m/s (11.7 kn: above the flat 8.5-10.5 kn stretch of Table 1)."""
     turn_steering_rad: float = math.radians(20.0)
@@ -239,6 +246,28 @@ def yaw_time_constant_s(params: VesselParams, speed_mps: float) -> float:
     return coeff.m33_kgm2 / (coeff.yaw_damping_Nms * speed_mps)
 
 
+def sway_yaw_time_constants_s(params: VesselParams, speed_mps: float) -> tuple[float, float]:
+    """Time constants of the coupled sway-yaw motion on a straight course at ``speed_mps``, s (fast, slow).
+
+    The linearized sway and yaw equations (cross-flow terms vanish at v = r = 0)::
+
+        m22·v̇ = −a_v·u·v − m11·u·r
+        m33·ṙ = −(m22 − m11 + x_c·a_v)·u·v − a_r·u·r
+
+    form a 2×2 system ẋ = A·x; its eigenvalues λ are real and negative for this stable hull and each
+    time constant is −1/λ. The yaw-only m33/(a_r·u) of :func:`yaw_time_constant_s` ignores the coupling.
+    """
+    coeff = derive_coefficients(params)
+    u = speed_mps
+    m11, m22, m33, a_v, a_r = coeff.m11_kg, coeff.m22_kg, coeff.m33_kgm2, coeff.sway_damping_Nspm2, \
+        coeff.yaw_damping_Nms
+    a = np.array([[-a_v * u / m22, -m11 * u / m22],
+                  [-(m22 - m11 + coeff.lateral_centre_x_m * a_v) * u / m33, -a_r * u / m33]])
+    eigenvalues = np.linalg.eigvals(a)
+    times = sorted(float(-1.0 / lam.real) for lam in eigenvalues)
+    return times[0], times[1]
+
+
 def surge_time_constant_s(params: VesselParams, speed_mps: float) -> float:
     """Surge time constant at ``speed_mps``: m11 / (dFc/du), s (central difference, 1 cm/s)."""
     h = 0.01
@@ -347,7 +376,7 @@ def save_params(params: VesselParams, path: Path) -> None:
     atomic_write_yaml(path, {"vessel": params_to_dict(params)})
 
 
-def describe(params: VesselParams) -> dict[str, float]:
+def describe(params: VesselParams) -> dict[str, float | list[float]]:
     """Derived figures a reader checks for plausibility (docs/model.md)."""
     coeff = derive_coefficients(params)
     top = _top_speed_mps(params)
@@ -355,6 +384,7 @@ def describe(params: VesselParams) -> dict[str, float]:
         **{k: float(v) for k, v in asdict(coeff).items()},
         "reference_turn_thrust_per_engine_N": reference_turn_thrust_N(params),
         "yaw_time_constant_at_turn_speed_s": yaw_time_constant_s(params, params.turn_speed_mps),
+        "sway_yaw_time_constants_at_turn_speed_s": list(sway_yaw_time_constants_s(params, params.turn_speed_mps)),
         "surge_time_constant_at_4mps_s": surge_time_constant_s(params, 4.0),
         "top_speed_mps": top,
     }

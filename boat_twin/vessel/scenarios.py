@@ -1,18 +1,20 @@
 """Trial scenarios: what the helmsman commands, open loop (a profile) or closed loop (zigzag, turning circle).
 
 A scenario gives the four commands (thrust_left_N, thrust_right_N, angle_left_rad, angle_right_rad) for every
-boat of an ensemble at each output tick; the simulator holds them until the next tick (zero-order hold).
+boat of an ensemble through a *helm* made fresh for each run (:meth:`Scenario.helm`): an open-loop profile is
+its own helm and is held from one output tick to the next (zero-order hold); a closed-loop helm (zigzag) keeps
+its per-run, per-boat state (initial heading, steering side) and is asked at every integration step.
 Steering sign: a positive outboard angle points the thrust to port, which pushes the stern to port and turns
 the bow to starboard (yaw rate < 0, REP-103).
 
 Adding a scenario
 -----------------
-Write a factory ``(params, rng) → Scenario`` (a :class:`CommandProfile` for open-loop commands, or a class
-with ``name``, ``duration_s``, ``initial_surge_mps`` and ``command(t_s, states)`` for closed loop) and add it
-to :data:`SCENARIOS` under the name the command line takes, and that name to
-:data:`~boat_twin.vessel.scenario_names.SCENARIO_NAMES` (a light module, for ``--help``); that is all.
-``boat-twin simulate``, its help and errors, the ``player`` node and :func:`make_scenario` (with its
-``--duration`` override) read the registry.
+Write a factory ``(params, rng) → Scenario`` (a :class:`CommandProfile` for open-loop commands, or a frozen
+class with ``name``, ``duration_s``, ``initial_surge_mps`` and ``helm(n_boats)`` returning a new object with
+``command(t_s, states)`` for closed loop) and add it to :data:`SCENARIOS` under the name the command line
+takes, and that name to :data:`~boat_twin.vessel.scenario_names.SCENARIO_NAMES` (a light module, for
+``--help``); that is all. ``boat-twin simulate``, its help and errors, the ``player`` node and
+:func:`make_scenario` (with its ``--duration`` override) read the registry.
 Give the scenario the same ``name``, which the run reports.
 """
 
@@ -21,7 +23,7 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Protocol
@@ -50,8 +52,15 @@ THRUST_STEP_LEVELS_KGF = (6.0, 14.0, 23.0, 31.0, 38.0, 53.0, 65.0, 80.0, 100.0, 
 flat stretch (44-50 kgf) where the measured curve has no unique steady speed."""
 
 
+class Helm(Protocol):
+    """Who steers during one run: ``command(t, states)`` → (N, 4) commands for the run's N boats."""
+
+    def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
+        """Commands for every boat at time ``t_s`` (s since the start) given their states (N, 6)."""
+
+
 class Scenario(Protocol):
-    """What is commanded: ``command(t, states)`` → (N, 4) commands for N boats, over ``duration_s``."""
+    """What is commanded over ``duration_s``; :meth:`helm` gives a fresh helm for each run."""
 
     @property
     def name(self) -> str:
@@ -65,8 +74,8 @@ class Scenario(Protocol):
     def initial_surge_mps(self) -> float:
         """Surge speed the boat starts with, m/s."""
 
-    def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
-        """Commands for every boat at time ``t_s`` given their states (N, 6)."""
+    def helm(self, n_boats: int) -> Helm:
+        """A helm for one run of ``n_boats`` boats, holding no state from any earlier run."""
 
 
 @dataclass(frozen=True)
@@ -78,6 +87,10 @@ class CommandProfile:
     values: np.ndarray
     duration_s: float
     initial_surge_mps: float = 0.0
+
+    def helm(self, n_boats: int) -> CommandProfile:
+        """Open loop: the profile is its own (stateless) helm."""
+        return self
 
     def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
         """The row in force at ``t_s`` (the last with time ≤ t), for every boat."""
@@ -131,12 +144,15 @@ def _approach_thrust_N(params: VesselParams, speed_mps: float) -> float:
     return min(need, float(max_thrust_N(params, np.array(speed_mps))))
 
 
-@dataclass
+@dataclass(frozen=True)
 class Zigzag:
     """IMO zigzag δ/ψ (MSC.137(76)): steer ±δ, reverse whenever the heading passes ±ψ of the initial heading.
 
     The boat starts at ``speed_mps`` and runs straight for ``approach_s`` at the thrust that holds it; the first
     execute is to starboard. ``steering_rad`` and ``heading_change_rad`` are δ and ψ (20°/20° or 10°/10°).
+    ``decision_rate_hz``: how often the helm checks the heading, Hz; 0 (default): at every integration step, so
+    it reverses within one step of ±ψ. A helm as slow as the 10 Hz command log reverses up to a tick late
+    (20.5-20.85° on the 20°/20°) but only at logged instants, so a replay of the log has its commands exactly.
     """
 
     params: VesselParams
@@ -146,34 +162,66 @@ class Zigzag:
     approach_s: float = 10.0
     duration_s: float = 130.0
     name: str = "zigzag"
-    initial_surge_mps: float = 6.0
-    _sign: np.ndarray | None = field(default=None, repr=False)
-    _initial_yaw: np.ndarray | None = field(default=None, repr=False)
+    decision_rate_hz: float = 0.0
+
+    @property
+    def initial_surge_mps(self) -> float:
+        """The boat starts at the approach speed, m/s."""
+        return self.speed_mps
+
+    def helm(self, n_boats: int) -> ZigzagHelm:
+        """A fresh zigzag helm for ``n_boats`` boats."""
+        return ZigzagHelm(self, n_boats)
+
+
+class ZigzagHelm:
+    """One run of a :class:`Zigzag`: each boat's initial heading (taken at the first execute) and steering side."""
+
+    def __init__(self, zigzag: Zigzag, n_boats: int) -> None:
+        self.zigzag = zigzag
+        self.sign = np.ones(n_boats)  # +1: steering to starboard (positive angle)
+        self.initial_yaw_rad: np.ndarray | None = None
+        self._out = np.zeros((n_boats, 4))
+        self._out[:, :2] = _approach_thrust_N(zigzag.params, zigzag.speed_mps)
 
     def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
-        """Thrust held; steering flips when the heading deviation exceeds the threshold (per boat)."""
-        n = states.shape[0]
-        thrust = _approach_thrust_N(self.params, self.speed_mps)
-        out = np.zeros((n, 4))
-        out[:, :2] = thrust
-        if t_s < self.approach_s:
+        """Thrust held; steering flips when the heading deviation reaches the threshold (per boat)."""
+        zig = self.zigzag
+        if states.shape[0] != self.sign.size:
+            raise ValueError(f"this helm steers {self.sign.size} boats, got states of {states.shape[0]}")
+        out = self._out.copy()
+        if t_s < zig.approach_s - 1e-9:
             return out
-        if self._sign is None:
-            self._sign = np.ones(n)  # +1: steering to starboard (positive angle)
-            self._initial_yaw = states[:, 2].copy()
-        deviation = states[:, 2] - self._initial_yaw  # > 0: bow to port
-        self._sign = np.where(deviation <= -self.heading_change_rad, -1.0, self._sign)
-        self._sign = np.where(deviation >= self.heading_change_rad, 1.0, self._sign)
-        out[:, 2:] = (self._sign * self.steering_rad)[:, None]
+        if self.initial_yaw_rad is None:
+            self.initial_yaw_rad = states[:, 2].copy()
+        rate = zig.decision_rate_hz
+        if rate > 0.0 and abs(t_s * rate - round(t_s * rate)) > 1e-6:
+            out[:, 2] = out[:, 3] = self.sign * zig.steering_rad  # between decisions: the last one holds
+            return out
+        deviation = states[:, 2] - self.initial_yaw_rad  # > 0: bow to port
+        self.sign[deviation <= -zig.heading_change_rad] = -1.0
+        self.sign[deviation >= zig.heading_change_rad] = 1.0
+        out[:, 2] = out[:, 3] = self.sign * zig.steering_rad
         return out
 
 
+@dataclass(frozen=True)
+class TurningCircle(CommandProfile):
+    """A turning circle (open loop): straight approach, then full steering held from ``execute_s``, s."""
+
+    execute_s: float = 0.0
+
+
 def turning_circle(params: VesselParams, speed_mps: float = 6.0, approach_s: float = 10.0,
-                   turn_s: float = 120.0) -> CommandProfile:
-    """Start at ``speed_mps``, run straight, then full steering to starboard with the approach thrust held."""
+                   turn_s: float = 120.0) -> TurningCircle:
+    """Start at ``speed_mps``, run straight, then full steering to starboard with the approach thrust held.
+
+    ``approach_s`` falls on an output tick (10 Hz), so the execute is exact; the steering then swings over at
+    the outboards' rate (:attr:`VesselParams.steering_rate_radps`)."""
     thrust = _approach_thrust_N(params, speed_mps)
     rows = np.array([[thrust, thrust, 0.0, 0.0], [thrust, thrust, params.max_steering_rad, params.max_steering_rad]])
-    return CommandProfile("turning-circle", np.array([0.0, approach_s]), rows, approach_s + turn_s, speed_mps)
+    return TurningCircle("turning-circle", np.array([0.0, approach_s]), rows, approach_s + turn_s, speed_mps,
+                         execute_s=approach_s)
 
 
 def random_commands(params: VesselParams, rng: np.random.Generator, duration_s: float = 600.0,
@@ -203,9 +251,7 @@ def _zigzag(name: str, angle_deg: float) -> ScenarioFactory:
 
     def make(params: VesselParams, rng: np.random.Generator) -> Scenario:
         angle = math.radians(angle_deg)
-        zigzag = Zigzag(params, angle, angle, name=name)
-        zigzag.initial_surge_mps = zigzag.speed_mps
-        return zigzag
+        return Zigzag(params, angle, angle, name=name)
 
     return make
 

@@ -1,4 +1,9 @@
-"""Run a scenario through the dynamics: RK4 at 50 Hz inside, states and commands recorded at 10 Hz."""
+"""Run a scenario through the dynamics: RK4 at 50 Hz inside, states and commands recorded at 10 Hz.
+
+An open-loop scenario's commands change at output ticks (a 10 Hz command log); a closed-loop scenario's helm
+(zigzag) is asked at every integration step, so it reverses the steering within 1/50 s of its threshold,
+and a fresh helm is made for every run (no state carried from one run or boat to another).
+"""
 
 from __future__ import annotations
 
@@ -28,8 +33,10 @@ def output_ticks(duration_s: float) -> int:
 class SimulationRecord:
     """What happened, at the output ticks: ``t_s`` (n,), ``states`` (n, N, 6), ``commands`` (n, N, 4).
 
-    ``commands[i]`` is held from ``t_s[i]`` to ``t_s[i+1]``; ``derivatives`` (n, N, 6) are the state
-    derivatives at each tick under that command (they give the accelerometer's reading).
+    ``commands[i]`` is the command in force at ``t_s[i]`` (an open-loop scenario holds it to ``t_s[i+1]``; a
+    closed-loop helm may change it between ticks); ``derivatives`` (n, N, 6) are the state derivatives at each
+    tick (they give the accelerometer's reading); ``steering_rad`` (n, N, 2) the outboards' real angles
+    (left, right) then, which trail the commanded ones at the steering rate.
     """
 
     t_s: np.ndarray
@@ -37,6 +44,7 @@ class SimulationRecord:
     commands: np.ndarray
     derivatives: np.ndarray
     environment: Environment
+    steering_rad: np.ndarray
 
     def truth(self, boat: int = 0) -> TruthSeries:
         """The true motion of one boat of the ensemble, for the sensor models."""
@@ -88,7 +96,7 @@ def simulate_chunks(
     """:func:`simulate` as consecutive records of at most ``chunk_ticks`` output ticks each (None: one record).
 
     The boats' states carry over from chunk to chunk, so the chunks together are exactly the one record of
-    :func:`simulate`, but only one chunk (128 bytes per boat and tick) is held at a time.
+    :func:`simulate`, but only one chunk (144 bytes per boat and tick) is held at a time.
     """
     environment = environment or Environment()
     dynamics = Dynamics(params, extra_drag_N)
@@ -104,25 +112,38 @@ def simulate_chunks(
         raise ValueError(f"chunk_ticks must be at least 1, got {chunk_ticks}")
     substeps = int(round(INTEGRATION_RATE_HZ / OUTPUT_RATE_HZ))
     dt_s = 1.0 / INTEGRATION_RATE_HZ
+    helm = scenario.helm(states.shape[0])
+    steering: np.ndarray | None = None
     start = 0
     while True:
         stop = min(start + step, n_ticks)
         t_s = np.arange(start, stop) / OUTPUT_RATE_HZ
-        if isinstance(scenario, CommandProfile):
-            index = np.searchsorted(scenario.times_s, t_s + 1e-9, side="right") - 1
-            rows = np.where(index[:, None] >= 0, scenario.values[np.maximum(index, 0)], 0.0)
+        if isinstance(helm, CommandProfile):
+            index = np.searchsorted(helm.times_s, t_s + 1e-9, side="right") - 1
+            rows = np.where(index[:, None] >= 0, helm.values[np.maximum(index, 0)], 0.0)
             commands = np.repeat(rows[:, None, :], states.shape[0], axis=1)
-            out_states, derivatives = dynamics.run(states, commands, environments, dt_s, substeps)
+            if steering is None and t_s.size:
+                steering = dynamics.steering_targets(commands[0])
+            out_states, derivatives, out_steering = dynamics.run(states, commands, environments, dt_s, substeps,
+                                                                 steering)
         else:
             commands = np.empty((t_s.size, states.shape[0], 4))
             out_states = np.empty((t_s.size,) + states.shape)
             derivatives = np.empty_like(out_states)
+            out_steering = np.empty((t_s.size, states.shape[0], 2))
             for i, t in enumerate(t_s):
-                commands[i] = scenario.command(float(t), states)
-                out_states[i : i + 1], derivatives[i : i + 1] = dynamics.run(
-                    states, commands[i : i + 1], environments, dt_s, substeps
-                )
-        yield SimulationRecord(t_s, out_states, commands, derivatives, environment)
+                for j in range(substeps):
+                    command = helm.command(float(t) + j * dt_s, states)
+                    if steering is None:
+                        steering = dynamics.steering_targets(command)
+                    if j > 0:
+                        dynamics.step(states, command, environments, dt_s, steering)
+                        continue
+                    tick_states, tick_derivatives, tick_steering = dynamics.run(
+                        states, command[None], environments, dt_s, 1, steering)
+                    commands[i], out_states[i], derivatives[i] = command, tick_states[0], tick_derivatives[0]
+                    out_steering[i] = tick_steering[0]
+        yield SimulationRecord(t_s, out_states, commands, derivatives, environment, out_steering)
         start = stop
         if start >= n_ticks:
             return
