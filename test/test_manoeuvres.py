@@ -246,3 +246,10 @@ def _profile(rows: np.ndarray):
     from boat_twin.vessel.scenarios import CommandProfile
 
     return CommandProfile("rows", np.arange(rows.shape[0]) * 0.1, rows, (rows.shape[0] - 1) * 0.1)
+
+
+def test_a_run_that_ends_before_the_execute_has_no_figures(capsys: pytest.CaptureFixture[str]) -> None:
+    """A turning circle cut before its execute (10 s) reports no figures instead of failing."""
+    assert main(["simulate", "turning-circle", "--duration", "5", "--json", "--no-noise"]) == 0
+    figures = json.loads(capsys.readouterr().out)["manoeuvre"]
+    assert figures["advance_m"] is None and figures["tactical_diameter_m"] is None

@@ -119,7 +119,9 @@ class ZigzagFigures:
 
 def _crossing(t_s: np.ndarray, values: np.ndarray, level: float, start: int) -> tuple[float, int] | None:
     """First time at or after sample ``start`` where ``values`` reaches ``level`` (linear interpolation between
-    samples), with the index of the sample at or after it; None if never."""
+    samples), with the index of the sample at or after it; None if never (or ``start`` is past the record)."""
+    if start >= values.size:
+        return None
     side = np.sign(level - values[start])
     if side == 0:
         return float(t_s[start]), start
