@@ -100,7 +100,7 @@ def test_cli_text_report_and_outputs(tmp_path, capsys: pytest.CaptureFixture[str
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["identify"], "give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021"),
+        (["identify"], "give a TRIAL (bag, .mcap, .tlog, .BIN, .csv) or --table dyda2021"),
         (["identify", "--table", "dyda2021", "--order", "0"], "--order must be from 1 to 12"),
         (["identify", "--table", "dyda2021", "--order", "40"], "--order must be from 1 to 12"),
         (["identify", "--table", "dyda2021", "--max-order", "0"], "--max-order must be from 1 to 12"),

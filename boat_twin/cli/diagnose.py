@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
         with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as out:
             return _run_table(args, out)
     if args.trial is None:
-        raise InputError("give a TRIAL (bag, .mcap, .tlog, .BIN) or --table dyda2021")
+        raise InputError("give a TRIAL (bag, .mcap, .tlog, .BIN, .csv) or --table dyda2021")
     number("--window", args.window, above=0.0)
     with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force) as out:
         return _run_trial(args, out)
