@@ -195,3 +195,15 @@ def test_a_resistance_correction_above_the_base_table_acts_in_the_dynamics() -> 
     corrected_u = simulate(params, constant(thrust_n / 2.0, duration_s=300.0)).states[-1, 0, 3]
     assert base_u == pytest.approx(12.0, rel=2e-3)
     assert float(corrected.force_N(corrected_u)) == pytest.approx(thrust_n, rel=5e-3)
+
+
+def test_a_diverging_simulation_is_an_error_not_a_bag_of_nan() -> None:
+    """A non-finite state (here given as the start) stops the simulation with the time it happened."""
+    from boat_twin.vessel.scenarios import make_scenario
+    from boat_twin.vessel.simulate import simulate_chunks
+
+    params = VesselParams()
+    scenario = make_scenario("accel-stop", params, np.random.default_rng(0), 5.0)
+    start = np.array([[0.0, 0.0, 0.0, np.nan, 0.0, 0.0]])
+    with pytest.raises(InputError, match=r"diverged at t = 0\.\d s"):
+        list(simulate_chunks(params, scenario, initial_states=start))

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from boat_twin.errors import InputError
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import VesselParams
@@ -143,6 +144,11 @@ def simulate_chunks(
                         states, command[None], environments, dt_s, 1, steering)
                     commands[i], out_states[i], derivatives[i] = command, tick_states[0], tick_derivatives[0]
                     out_steering[i] = tick_steering[0]
+        if not np.all(np.isfinite(out_states)):
+            tick = int(np.flatnonzero(~np.all(np.isfinite(out_states), axis=(1, 2)))[0])
+            raise InputError(f"the simulation diverged at t = {t_s[tick]:.1f} s (a non-finite state): these vessel "
+                             f"parameters cannot be integrated at {INTEGRATION_RATE_HZ:g} Hz; check the masses, "
+                             "damping and resistance")
         yield SimulationRecord(t_s, out_states, commands, derivatives, environment, out_steering)
         start = stop
         if start >= n_ticks:
