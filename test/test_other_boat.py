@@ -22,6 +22,7 @@ import numpy as np
 import pymap3d
 import pytest
 import yaml
+from independent import rk4_held
 
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig, load_config, save_config
@@ -144,15 +145,7 @@ def integrate(seed=0):
         drag = LINEAR_DAMPING * x[0] + quadratic * x[0] * abs(x[0])
         return np.array([(x[1] - drag) / mass, (u - x[1]) / lag, x[0]])
 
-    state, rows = np.zeros(3), np.empty((t.size, 3))
-    for i, u in enumerate(command):
-        rows[i] = state
-        for _ in range(sub):
-            k1 = deriv(state, u)
-            k2 = deriv(state + h / 2 * k1, u)
-            k3 = deriv(state + h / 2 * k2, u)
-            k4 = deriv(state + h * k3, u)
-            state = state + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    rows = rk4_held(deriv, np.zeros(3), command, h, sub)
     speed, distance = rows[:, 0], rows[:, 2]
     east = distance * math.cos(COURSE) + rng.normal(0.0, 0.3, t.size)
     north = distance * math.sin(COURSE) + rng.normal(0.0, 0.3, t.size)

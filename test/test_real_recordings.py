@@ -14,6 +14,7 @@ import struct
 import numpy as np
 import pymap3d
 import pytest
+from independent import rk4_held
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from boat_twin.cli import main
@@ -58,20 +59,11 @@ def survey_boat(levels=LEVELS_N, holds=HOLDS_S, *, speed_noise=0.02, position_no
     edges = np.concatenate([[0.0], np.cumsum(holds)])
     t = np.arange(0.0, edges[-1], dt)
     command = np.asarray(levels, dtype=float)[np.searchsorted(edges, t, side="right") - 1]
-    state = np.zeros(3)  # speed m/s, delivered thrust N, distance m
 
-    def deriv(x, u):
+    def deriv(x, u):  # x: speed m/s, delivered thrust N, distance m
         return np.array([(x[1] - resistance(x[0])) / MASS_KG, (u - x[1]) / THRUSTER_LAG_S, x[0]])
 
-    rows = np.empty((t.size, 3))
-    for i, u in enumerate(command):
-        rows[i] = state
-        for _ in range(sub):
-            k1 = deriv(state, u)
-            k2 = deriv(state + h / 2 * k1, u)
-            k3 = deriv(state + h / 2 * k2, u)
-            k4 = deriv(state + h * k3, u)
-            state = state + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    rows = rk4_held(deriv, np.zeros(3), command, h, sub)
     speed, distance = rows[:, 0], rows[:, 2]
     measured = np.abs(speed + rng.normal(0.0, speed_noise, t.size))
     east = distance * math.cos(COURSE_RAD) + rng.normal(0.0, position_noise, t.size)
