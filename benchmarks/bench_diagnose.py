@@ -164,6 +164,9 @@ def size_error(effect: str, params: dict[str, float], truth: dict[str, Any], bas
         return abs(peak - truth["change"]) / abs(truth["change"])
     if effect == "tow_load":
         return abs(params["drag_scale"] - truth["drag_scale"]) / truth["drag_scale"]
+    if effect == "manoeuvring":
+        keys = ("yaw_damping_factor", "sway_damping_factor")
+        return math.hypot(*(params[k] - truth[k] for k in keys)) / math.hypot(*(truth[k] - 1.0 for k in keys))
     return None
 
 

@@ -26,13 +26,14 @@ from boat_twin.diagnose.report import text_report
 from boat_twin.diagnose.search import MIN_MISFIT_SHARE, WIND_ALIASES, Candidate, Fit, misfit_share
 from boat_twin.diagnose.table import runs_test_p
 from boat_twin.io.bags import read_trial, write_bag
+from boat_twin.vessel.params import derive_coefficients
 
 TRIAL_S = 300.0
 """Length of the test trials, s."""
 TOLERANCE = {
     "water_current": ("east_mps", 0.05), "gyro_bias": ("bias_radps", 0.0015), "gnss_latency": ("delay_s", 0.1),
     "steering_offset": ("offset_rad", 0.01), "mass_error": ("mass_factor", 0.08), "tow_load": ("drag_scale", 0.35),
-    "wind": ("east_mps", 0.5),
+    "wind": ("east_mps", 0.5), "manoeuvring": ("yaw_damping_factor", 0.03),
 }
 """(parameter checked, absolute tolerance) per effect: ~3× the jackknife standard error seen on 5-minute trials.
 A test-side accuracy bound on the fitted value, in the parameter's unit; not the registry's detection threshold
@@ -78,6 +79,7 @@ def _names(result: dict) -> list[str]:
     ("tow_load", "thrust-steps", 28),
     ("wind", "random", 29),
     ("wind", "zigzag", 30),
+    ("manoeuvring", "zigzag", 91),
 ])
 def test_hidden_effect_is_named_with_its_size(tmp_path: Path, effect: str, kind: str, seed: int) -> None:
     config, truth = _true_boat(effect, kind, seed)
@@ -87,6 +89,8 @@ def test_hidden_effect_is_named_with_its_size(tmp_path: Path, effect: str, kind:
     if effect in TOLERANCE:
         name, tol = TOLERANCE[effect]
         assert found[name] == pytest.approx(truth[name], abs=tol)
+        if effect == "manoeuvring":  # the extended model holds the corrected coefficients themselves
+            _corrected_coefficients_match(Path(result["extended_model"]), config)
     elif effect == "thrust_asymmetry":
         weak = "left_factor" if truth["left_factor"] < 1 else "right_factor"
         assert found[weak] == pytest.approx(truth[weak], abs=0.03)
@@ -94,6 +98,14 @@ def test_hidden_effect_is_named_with_its_size(tmp_path: Path, effect: str, kind:
         low, high = truth["band_mps"]
         inside = [v for k, v in found.items() if low <= float(k.split("_")[2]) <= high]
         assert inside and max(inside, key=abs) == pytest.approx(truth["change"], abs=0.06)
+
+
+def _corrected_coefficients_match(model_path: Path, true_boat: TwinConfig) -> None:
+    """The extended model's lift damping within 3 % of the true boat's (a_r) and 5 % (a_v)."""
+    found, true = derive_coefficients(load_config(model_path).vessel), derive_coefficients(true_boat.vessel)
+    assert found.yaw_damping_Nms == pytest.approx(true.yaw_damping_Nms, rel=0.03)
+    assert found.sway_damping_Nspm2 == pytest.approx(true.sway_damping_Nspm2, rel=0.05)
+    assert found.yaw_damping_Nms != pytest.approx(derive_coefficients(TwinConfig().vessel).yaw_damping_Nms, rel=0.1)
 
 
 @pytest.mark.parametrize("name", list(EFFECTS))

@@ -11,6 +11,7 @@
 | ``resistance_shape`` | ``change_at_<u>_mps`` per knot | ``vessel.resistance`` ×= 1 + piecewise-linear change(u) |
 | ``tow_load`` | ``drag_scale`` | ``tow`` = the packaged towed body on 50 m of cable, drag × scale |
 | ``wind`` | ``east_mps``, ``north_mps`` | ``environment.wind_*`` = (east, north): air over ground, flowing *to* |
+| ``manoeuvring`` | ``yaw_damping_factor``, ``sway_damping_factor`` | ``vessel.manoeuvring``: a_r, a_v ×= factor |
 
 Each parameter has a *null* value (the effect absent) and a *scale* (a size the data resolve easily), so the
 fit works in ``x = (p − null) / scale``. Each effect has a *size* (:attr:`EffectSpec.magnitude`), a detection
@@ -19,7 +20,9 @@ and a *minimum size* (the decision rule's floor, half the threshold), all in the
 ``tow_load``'s size is its ``drag_scale`` (dimensionless: the towed system's drag relative to the packaged body
 on its 50 m cable, which stays 50 m): threshold 0.6, floor 0.3, towed at 1-2 m/s. ``wind``'s size is the length
 of the change of the wind's velocity, m/s: threshold 4 m/s, floor 2 m/s (its force is the twin's windage model,
-:mod:`boat_twin.vessel.dynamics`, quadratic in the apparent wind).
+:mod:`boat_twin.vessel.dynamics`, quadratic in the apparent wind). ``manoeuvring``'s size is the largest
+|factor − 1| of the hull's two lift-damping coefficients (yaw a_r, sway a_v): threshold 15 %, floor 7.5 %; the
+extended model carries the corrected coefficients themselves (N·m·s, N·s²/m²) in ``vessel.manoeuvring``.
 
 Adding a diagnosis effect
 -------------------------
@@ -42,6 +45,8 @@ from typing import Any
 import numpy as np
 
 from boat_twin.config import TwinConfig
+from boat_twin.errors import InputError
+from boat_twin.vessel.params import derive_coefficients
 from boat_twin.vessel.resistance import CorrectedResistance
 from boat_twin.vessel.tow import TowConfig
 
@@ -59,6 +64,12 @@ BAND_TIME_SHARE = 0.4
 WIND_LIMIT_MPS = 25.0
 """Physical range of each wind component, m/s: a 6 m open boat is not tried in more than a gale (Beaufort 9 is
 21-24 m/s); a fit that wants more stands in for another cause."""
+DAMPING_FACTOR_RANGE = (0.4, 2.5)
+"""Physical range of a lift-damping factor (``manoeuvring``), -: the twin derives a_v and a_r from an assumed
+reference turn (a 60 m circle at 6 m/s, 20° of steering; :func:`~boat_twin.vessel.params.derive_coefficients`);
+a real hull of this size turns in a circle of 3-10 lengths (IMO MSC.137(76) asks a tactical diameter under
+5 lengths), i.e. a turning-rate gain of at most ~2.5× or ~0.4× the assumed one. A fit beyond stands in for
+another cause."""
 
 Draw = Callable[[TwinConfig, float, float, np.random.Generator, np.ndarray | None], tuple[TwinConfig, dict[str, Any]]]
 """(base config, size, sign ±1, generator, speeds the trial visits in m/s or None) → (true config, truth)."""
@@ -292,6 +303,27 @@ def _draw_wind(base: TwinConfig, size: float, sign: float, rng: np.random.Genera
     return _wind(base, np.array([east, north])), {"east_mps": east, "north_mps": north}
 
 
+def _manoeuvring(config: TwinConfig, p: np.ndarray) -> TwinConfig:
+    """The hull's yaw and sway lift damping (a_r, a_v) × the factors ``p``, written as the corrected coefficients
+    into ``vessel.manoeuvring`` (whatever else it holds stays)."""
+    vessel = config.vessel
+    try:
+        coeff = derive_coefficients(vessel)
+    except InputError:  # a boat the loader refuses stays refused: the replay reports it as infeasible
+        return config
+    overrides = {**vessel.manoeuvring, "yaw_damping_Nms": coeff.yaw_damping_Nms * float(p[0]),
+                 "sway_damping_Nspm2": coeff.sway_damping_Nspm2 * float(p[1])}
+    return replace(config, vessel=replace(vessel, manoeuvring=overrides))
+
+
+def _draw_manoeuvring(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+                      speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    """The yaw damping changed by ``sign``·``size``, the sway damping by a uniform share of ±``size``."""
+    factors = np.array([1.0 + sign * size, 1.0 + rng.uniform(-size, size)])
+    return _manoeuvring(base, factors), {"yaw_damping_factor": float(factors[0]),
+                                         "sway_damping_factor": float(factors[1])}
+
+
 # --- the registry -------------------------------------------------------------------------------------------
 
 EFFECTS: Mapping[str, EffectSpec] = MappingProxyType({spec.name: spec for spec in (
@@ -350,6 +382,14 @@ EFFECTS: Mapping[str, EffectSpec] = MappingProxyType({spec.name: spec for spec i
                               null=lambda c: c.environment.wind_north_mps)),
         apply=_wind, magnitude=lambda p, null: float(np.hypot(p[0] - null[0], p[1] - null[1])),
         size_unit="m/s (change of the wind's speed over ground)", threshold=4.0, min_size=2.0, draw=_draw_wind),
+    EffectSpec(
+        name="manoeuvring",
+        parameters=(Parameter("yaw_damping_factor", "- (a_r / the model's)", scale=0.03,
+                              lower=DAMPING_FACTOR_RANGE[0], upper=DAMPING_FACTOR_RANGE[1], null=1.0),
+                    Parameter("sway_damping_factor", "- (a_v / the model's)", scale=0.03,
+                              lower=DAMPING_FACTOR_RANGE[0], upper=DAMPING_FACTOR_RANGE[1], null=1.0)),
+        apply=_manoeuvring, magnitude=lambda p, null: float(np.max(np.abs(p - 1.0))),
+        size_unit="- (largest |factor − 1| of a_r, a_v)", threshold=0.15, min_size=0.075, draw=_draw_manoeuvring),
 )})
 """Every diagnosis effect by canonical name, in the order the report lists them."""
 EFFECT_NAMES = tuple(EFFECTS)

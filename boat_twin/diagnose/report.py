@@ -34,6 +34,8 @@ class CandidateResult(TypedDict):
     named: bool
     on_bound: bool
     takes_over: bool
+    outranked: bool
+    """A better-fitting candidate of its round fails only the size floor (a cause too small to name)."""
     claims: list[str]
     """The signals carrying its held-out gain."""
     misfit_share: float | None
@@ -111,6 +113,7 @@ def _candidate_dict(candidate: Candidate, round_index: int) -> CandidateResult:
             # null: it failed the in-sample conditions, so it was not judged on held-out time
             "heldout_gain": candidate.heldout_gain if np.isfinite(candidate.heldout_gain) else None,
             "named": candidate.named, "on_bound": candidate.at_bound, "takes_over": candidate.takes_over,
+            "outranked": candidate.outranked,
             # the signals carrying its held-out gain and the share of their excess over the noise it removes
             "claims": list(candidate.claims), "misfit_share": candidate.share if np.isfinite(candidate.share) else None}
 

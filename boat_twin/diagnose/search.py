@@ -22,8 +22,10 @@ Method (docs/diagnosis.md states it with the numbers):
   range (:attr:`Effect.lower`/``upper``: a current of 3 m/s or a resistance × 4 that the fit wants is a
   stand-in for another cause, e.g. a resistance change taking up a towed body's drag) **and**, from the second
   round on, it leaves the size of every effect already named within :data:`TAKEOVER_FRACTION` of what it was
-  (a candidate that takes over an earlier one's part is not separable from it on this trial) **and** it carries
-  a substantial share of the misfit it claims (:func:`misfit_share`): the signals that carry at least
+  (a candidate that takes over an earlier one's part is not separable from it on this trial) **and** no
+  candidate of its round fits better (lower ΔBIC) while failing only the size floor (:func:`below_floor`: the
+  data prefer a cause too small to name, which this one would stand in for) **and** it carries a substantial
+  share of the misfit it claims (:func:`misfit_share`): the signals that carry at least
   :data:`CLAIM_FRACTION` of its held-out SSE reduction are *its* signals; over them it removes at least
   :data:`MIN_MISFIT_SHARE` of the current model's held-out RMS misfit in excess of the noise floor, or leaves
   them within :data:`~boat_twin.diagnose.structure.MISFIT_FACTOR` of it. A cause that lowers an 8× misfit by
@@ -314,12 +316,15 @@ class Candidate:
     """Share of those signals' held-out misfit in excess of the noise floor it removes (NaN: not judged)."""
     leaves_noise: bool = False
     """It leaves its signals within MISFIT_FACTOR of their noise floor (held out)."""
+    outranked: bool = False
+    """A candidate of the same round fits better (lower ΔBIC) and fails only the size floor: the data prefer a
+    cause too small to name, and this one would stand in for it (:func:`below_floor`)."""
 
     @property
     def plausible(self) -> bool:
         """The in-sample conditions of the decision rule, checked before the held-out judgement."""
         return (self.delta_bic < BIC_THRESHOLD and self.size >= self.effect.spec.min_size and not self.at_bound
-                and not self.takes_over)
+                and not self.takes_over and not self.outranked)
 
     @property
     def carries_share(self) -> bool:
@@ -344,6 +349,13 @@ class Selection:
     ambiguous: list[Candidate] = field(default_factory=list)
     """Candidates the decision rule would name but this trial cannot tell apart (one heading: a wind and one of
     :data:`WIND_ALIASES`); none of them is named."""
+
+
+def below_floor(candidate: Candidate) -> bool:
+    """True when ``candidate`` passes the in-sample conditions except the size floor: a supported cause too
+    small to name."""
+    return (candidate.delta_bic < BIC_THRESHOLD and candidate.size < candidate.effect.spec.min_size
+            and not candidate.at_bound and not candidate.takes_over)
 
 
 def heading_spread_rad(windows: Windows) -> float:
@@ -383,14 +395,18 @@ def forward_select(diagnosis: Diagnosis, effects: dict[str, Effect]) -> Selectio
             start = np.concatenate([current.values, effect.null])
             fit = diagnosis.fit(current.effects + [effect], start)
             _, values, _ = fit.split()[-1]
-            candidate = Candidate(effect, fit, delta_bic(fit, current), effect.magnitude(values),
-                                  on_bound(effect, values), takes_over(fit, current))
+            round_.append(Candidate(effect, fit, delta_bic(fit, current), effect.magnitude(values),
+                                    on_bound(effect, values), takes_over(fit, current)))
+        small = [c.delta_bic for c in round_ if below_floor(c)]
+        for candidate in round_:
+            candidate.outranked = bool(small) and candidate.delta_bic > min(small)
+            effect, fit = candidate.effect, candidate.fit
+            _, values, _ = fit.split()[-1]
             if candidate.plausible:  # the held-out judgement costs FOLDS more fits: only where it can matter
                 diagnosis.judge(fit)
                 candidate.heldout_gain = heldout_gain(fit, current)
                 candidate.significant = excludes_null(effect, values, fit.split()[-1][2])
                 candidate.claims, candidate.share, candidate.leaves_noise = misfit_share(fit, current, floor)
-            round_.append(candidate)
         rounds.append(round_)
         named = [c for c in round_ if c.named]
         if not named:
