@@ -37,6 +37,7 @@ demo: $(BASE_STAMP)
 	$(VENV)/bin/boat-twin demo --out $(OUT)/demo --force
 
 bench: $(STAMP)
+	@$(PY) -c "import sklearn" 2>/dev/null || $(PY) -m pip install -q "scikit-learn>=1.3"  # setup.py's bench extra
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 sample: $(BASE_STAMP)

@@ -55,6 +55,10 @@ setup(
             "types-PyYAML",
             "MoorPy>=1.0",
         ],
+        # Benchmarks only (benchmarks/bench_zigzag_inverse.py: the neural-network inverse map of Pashentsev 2025).
+        "bench": [
+            "scikit-learn>=1.3",
+        ],
     },
     zip_safe=True,
     maintainer="boat_twin developers",

@@ -93,6 +93,21 @@ def test_ensemble_matches_single_runs_exactly() -> None:
         np.testing.assert_array_equal(together.states[:, b], alone.states[:, 0])
 
 
+def test_ensemble_of_different_boats_matches_each_boat_alone() -> None:
+    zig = Zigzag(PARAMS, math.radians(20), math.radians(20), duration_s=40.0)
+    boats = [PARAMS, replace(PARAMS, manoeuvring={"m33_kgm2": 5000.0}),
+             replace(PARAMS, lateral_centre_x_m=-0.7, steering_offset_rad=0.02)]
+    together = simulate(PARAMS, zig, boats=boats)
+    assert together.states.shape[1] == 3
+    for b, boat in enumerate(boats):
+        alone = simulate(boat, zig)
+        np.testing.assert_array_equal(together.states[:, b], alone.states[:, 0])
+        np.testing.assert_array_equal(together.steering_rad[:, b], alone.steering_rad[:, 0])
+    assert np.abs(together.states[:, 1, 2] - together.states[:, 0, 2]).max() > 0.05  # the boats differ
+    with pytest.raises(ValueError, match="resistance"):
+        simulate(PARAMS, zig, boats=[replace(PARAMS, resistance=dyda2021_resistance())])
+
+
 def test_zigzag_executes_to_starboard_first_and_overshoots() -> None:
     zig = Zigzag(PARAMS, math.radians(20), math.radians(20))
     yaw = np.degrees(simulate(PARAMS, zig).truth().yaw_rad)

@@ -32,6 +32,10 @@ _EXPORTS = {
     "select_order": "boat_twin.ident.steady",
     "trial_samples": "boat_twin.ident.pipeline",
     "write_model_yaml": "boat_twin.ident.pipeline",
+    "ZigzagRecord": "boat_twin.ident.zigzag_features",
+    "ensemble_features": "boat_twin.ident.zigzag_features",
+    "trial_features": "boat_twin.ident.zigzag_features",
+    "zigzag_features": "boat_twin.ident.zigzag_features",
 }
 """Public name → its module. Imported on first use: importing one light module of the package (e.g. from a
 sensor model) must not load the compiled simulator."""

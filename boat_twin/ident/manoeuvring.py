@@ -384,7 +384,7 @@ def tactical_diameter_m(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray
     return float(abs(normal @ (around(execute_index + int(beyond[0])) - around(execute_index))))
 
 
-def _measured_yaw(trial: Trial, first: int) -> np.ndarray:
+def gyro_heading(trial: Trial, first: int) -> np.ndarray:
     """Heading from the gyro integrated from ``first``, anchored on the IMU heading's mean over the trial."""
     rate = np.where(np.isfinite(trial.yaw_rate_radps), trial.yaw_rate_radps, 0.0)
     dt = float(np.median(np.diff(trial.t_s)))
@@ -413,7 +413,7 @@ def validate(trial: Trial, config: TwinConfig) -> dict[str, Any]:
                      position=np.stack([trial.east_m[index], trial.north_m[index]], axis=-1), trial=trial,
                      start_index=np.array([first]))
     prediction = predict(window, config)
-    yaw = _measured_yaw(trial, first)[first:stop]
+    yaw = gyro_heading(trial, first)[first:stop]
     model_yaw = prediction.signals["heading_rad"][:, 0]
     rate_error = trial.yaw_rate_radps[first:stop] - prediction.signals["yaw_rate_radps"][:, 0]
     track_error = window.position[:, 0] - prediction.position[:, 0]

@@ -25,11 +25,13 @@ A_L and v, acting at x_w (the centre of windage); the |V|·u term removes the ca
 resistance already holds, so the wind force vanishes in calm air and still water.
 Fc(u) is any :class:`~boat_twin.vessel.resistance.ResistanceModel`, tabulated on a fine uniform grid for the
 compiled kernel (linear interpolation, quadratic tail as the model itself).
-The kernel steps N boats at once (an ensemble), compiled with numba.
+The kernel steps N boats at once (an ensemble), compiled with numba; the boats share one design, or each has
+its own sway/yaw coefficients (``Dynamics(..., boats=...)``: a training set of perturbed boats in one run).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numba
@@ -77,12 +79,17 @@ def compile_model(params: VesselParams, extra_drag_N: np.ndarray | None = None) 
 
     ``extra_drag_N`` is an optional additional surge drag (e.g. a towed body) tabulated on the same grid.
     """
-    coeff = derive_coefficients(params)
     u_max = params.resistance.max_speed_mps
     grid = resistance_grid_mps(params)
     table = np.asarray(params.resistance.force_N(grid), dtype=float)
     extra = np.zeros_like(grid) if extra_drag_N is None else np.asarray(extra_drag_N, dtype=float)
-    values = np.array(
+    return CompiledModel(compile_coefficients(params), table, float(u_max), extra)
+
+
+def compile_coefficients(params: VesselParams) -> np.ndarray:
+    """The kernel's coefficient vector of ``params`` (``_K_*`` order)."""
+    coeff = derive_coefficients(params)
+    return np.array(
         [
             coeff.m11_kg,
             coeff.m22_kg,
@@ -107,7 +114,6 @@ def compile_model(params: VesselParams, extra_drag_N: np.ndarray | None = None) 
             params.steering_rate_radps,
         ]
     )
-    return CompiledModel(values, table, float(u_max), extra)
 
 
 @numba.njit(cache=True)
@@ -247,7 +253,7 @@ def _run_ticks(
     states: np.ndarray,
     steering: np.ndarray,
     commands: np.ndarray,
-    k: np.ndarray,
+    coefficients: np.ndarray,
     table: np.ndarray,
     u_max: float,
     extra: np.ndarray,
@@ -259,8 +265,9 @@ def _run_ticks(
     out_steering: np.ndarray,
 ) -> None:
     """For each boat and output tick i: record state, steering and derivative under ``commands[i]``, then step
-    the tick."""
+    the tick. ``coefficients`` has one row per boat, or one row for all."""
     for b in range(states.shape[0]):
+        k = coefficients[min(b, coefficients.shape[0] - 1)]
         for i in range(commands.shape[0]):
             # An instantaneous actuator (rate 0) is at the new command's angle from the tick's first instant.
             steering[b, 0] = _steering_after(steering[b, 0], _steering_target(commands[i, b, 2], k), k, 0.0)
@@ -278,7 +285,7 @@ def _step_all(
     states: np.ndarray,
     steering: np.ndarray,
     commands: np.ndarray,
-    k: np.ndarray,
+    coefficients: np.ndarray,
     table: np.ndarray,
     u_max: float,
     extra: np.ndarray,
@@ -287,28 +294,41 @@ def _step_all(
 ) -> None:
     """Advance every boat one RK4 step of ``dt`` under its command ``commands[b]``, recording nothing."""
     for b in range(states.shape[0]):
+        k = coefficients[min(b, coefficients.shape[0] - 1)]
         steering[b, 0] = _steering_after(steering[b, 0], _steering_target(commands[b, 2], k), k, 0.0)
         steering[b, 1] = _steering_after(steering[b, 1], _steering_target(commands[b, 3], k), k, 0.0)
         _step_boat(states[b], steering[b], commands[b], k, table, u_max, extra, environments[b], dt, 1)
 
 
 class Dynamics:
-    """The equations of motion of one boat design, stepping an ensemble of N boats together."""
+    """The equations of motion of one boat design, stepping an ensemble of N boats together.
 
-    def __init__(self, params: VesselParams, extra_drag_N: np.ndarray | None = None) -> None:
+    ``boats``: one vessel per boat of the ensemble instead (e.g. sway/yaw coefficients drawn around ``params``),
+    each with the resistance model of ``params`` (the one tabulated); None: every boat is ``params``.
+    """
+
+    def __init__(self, params: VesselParams, extra_drag_N: np.ndarray | None = None,
+                 boats: Sequence[VesselParams] | None = None) -> None:
         self.params = params
         self.model = compile_model(params, extra_drag_N)
+        if boats is not None and any(b.resistance is not params.resistance for b in boats):
+            raise ValueError("every boat of the ensemble must share the resistance model of params")
+        rows = [self.model.coefficients] if boats is None else [compile_coefficients(b) for b in boats]
+        self.coefficients = np.array(rows)
+        """(boats or 1, coefficients) rows the kernel reads: one per boat, or one for all."""
 
     def steering_targets(self, commands: np.ndarray) -> np.ndarray:
         """(N, 2) angles the outboards are driven to under ``commands`` (N, 4): command + offset, within ±δ_max."""
-        p = self.params
-        return np.clip(commands[:, 2:4] + p.steering_offset_rad, -p.max_steering_rad, p.max_steering_rad)
+        offset = self.coefficients[:, _K_STEER_OFFSET, None]
+        limit = self.coefficients[:, _K_MAX_STEER, None]
+        return np.clip(commands[:, 2:4] + offset, -limit, limit)
 
     def steering_history(self, dt_s: float, commands: np.ndarray) -> np.ndarray:
         """(n, 2) the outboards' real angles at each of ``n`` samples ``dt_s`` apart of a recorded command series
         (n, 4) held from sample to sample, rad: the rate-limited swing towards each target, starting at the first
         known one; NaN where the commands are unknown (the next known command starts afresh at its target)."""
-        targets = self.steering_targets(commands)
+        p = self.params
+        targets = np.clip(commands[:, 2:4] + p.steering_offset_rad, -p.max_steering_rad, p.max_steering_rad)
         rate = self.params.steering_rate_radps
         reach = rate * dt_s if rate > 0.0 else np.inf
         out = np.empty_like(targets)
@@ -324,7 +344,7 @@ class Dynamics:
         ``commands`` (N, 4): :meth:`run` of one tick and one substep without its records (a closed-loop helm's
         steps between output ticks)."""
         m = self.model
-        _step_all(states, steering_rad, commands, m.coefficients, m.resistance_N, m.resistance_max_speed_mps,
+        _step_all(states, steering_rad, commands, self.coefficients, m.resistance_N, m.resistance_max_speed_mps,
                   m.extra_drag_N, environments, dt_s)
 
     def run(
@@ -346,6 +366,6 @@ class Dynamics:
         out_states = np.empty((commands.shape[0],) + states.shape)
         out_derivatives = np.empty_like(out_states)
         out_steering = np.empty((commands.shape[0], states.shape[0], 2))
-        _run_ticks(states, steering_rad, commands, m.coefficients, m.resistance_N, m.resistance_max_speed_mps,
+        _run_ticks(states, steering_rad, commands, self.coefficients, m.resistance_N, m.resistance_max_speed_mps,
                    m.extra_drag_N, environments, dt_s, substeps, out_states, out_derivatives, out_steering)
         return out_states, out_derivatives, out_steering

@@ -117,7 +117,7 @@ class ZigzagFigures:
         }
 
 
-def _crossing(t_s: np.ndarray, values: np.ndarray, level: float, start: int) -> tuple[float, int] | None:
+def level_crossing(t_s: np.ndarray, values: np.ndarray, level: float, start: int) -> tuple[float, int] | None:
     """First time at or after sample ``start`` where ``values`` reaches ``level`` (linear interpolation between
     samples), with the index of the sample at or after it; None if never (or ``start`` is past the record)."""
     if start >= values.size:
@@ -152,7 +152,7 @@ def turning_figures(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray, ya
     towards_turn = turn * np.array([-math.sin(psi0), math.cos(psi0)])
 
     def offsets(angle: float) -> tuple[float, float] | None:
-        hit = _crossing(t_s, change, angle, start)
+        hit = level_crossing(t_s, change, angle, start)
         if hit is None:
             return None
         d = np.array([_at(t_s, east_m, hit[0]) - x0, _at(t_s, north_m, hit[0]) - y0])
@@ -181,7 +181,7 @@ def _circle_radius(x: np.ndarray, y: np.ndarray) -> float:
     return float(math.sqrt(c + (cx2 / 2) ** 2 + (cy2 / 2) ** 2))
 
 
-def _extreme(t_s: np.ndarray, values: np.ndarray, lo: int, hi: int, side: float) -> tuple[float, float]:
+def refined_extreme(t_s: np.ndarray, values: np.ndarray, lo: int, hi: int, side: float) -> tuple[float, float]:
     """(time, value) of the extreme of ``side``·values over samples [lo, hi), refined by a parabola through
     the extreme sample and its neighbours."""
     i = lo + int(np.argmax(side * values[lo:hi]))
@@ -207,7 +207,7 @@ def zigzag_figures(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray, yaw
     first = np.flatnonzero(np.abs(deviation[start:]) >= switch_rad)
     side = float(np.sign(deviation[start + first[0]])) if first.size else 0.0
     while side != 0.0:
-        hit = _crossing(t_s, deviation, side * switch_rad, indices[-1])
+        hit = level_crossing(t_s, deviation, side * switch_rad, indices[-1])
         if hit is None:
             break
         executes.append(hit[0])
@@ -218,7 +218,7 @@ def zigzag_figures(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray, yaw
     side = float(np.sign(deviation[indices[1]])) if len(indices) > 1 else 0.0
     for k in range(1, len(indices)):
         hi = indices[k + 1] if k + 1 < len(indices) else deviation.size
-        t_extreme, value = _extreme(t_s, deviation, indices[k], hi, side)
+        t_extreme, value = refined_extreme(t_s, deviation, indices[k], hi, side)
         if k + 1 == len(indices) and t_extreme >= t_s[-2]:
             break  # still turning that way when the record ends: no extreme yet
         overshoots.append(math.degrees(abs(value) - switch_rad))

@@ -7,7 +7,7 @@ and a fresh helm is made for every run (no state carried from one run or boat to
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -75,13 +75,16 @@ def simulate(
     n_boats: int = 1,
     initial_states: np.ndarray | None = None,
     extra_drag_N: np.ndarray | None = None,
+    boats: Sequence[VesselParams] | None = None,
 ) -> SimulationRecord:
     """Simulate ``n_boats`` identical boats through ``scenario`` for its whole duration.
 
     Unless ``initial_states`` (N, 6) is given, every boat starts at the origin heading east, moving ahead at
-    the scenario's initial surge speed through the water.
+    the scenario's initial surge speed through the water. ``boats``: one vessel per boat instead (sway/yaw
+    coefficients of their own, the resistance of ``params``, which the scenario's helm uses); ``n_boats`` is
+    then their number.
     """
-    chunks = simulate_chunks(params, scenario, environment, n_boats, initial_states, extra_drag_N)
+    chunks = simulate_chunks(params, scenario, environment, n_boats, initial_states, extra_drag_N, boats=boats)
     return next(chunks)
 
 
@@ -93,6 +96,7 @@ def simulate_chunks(
     initial_states: np.ndarray | None = None,
     extra_drag_N: np.ndarray | None = None,
     chunk_ticks: int | None = None,
+    boats: Sequence[VesselParams] | None = None,
 ) -> Iterator[SimulationRecord]:
     """:func:`simulate` as consecutive records of at most ``chunk_ticks`` output ticks each (None: one record).
 
@@ -100,7 +104,9 @@ def simulate_chunks(
     :func:`simulate`, but only one chunk (144 bytes per boat and tick) is held at a time.
     """
     environment = environment or Environment()
-    dynamics = Dynamics(params, extra_drag_N)
+    dynamics = Dynamics(params, extra_drag_N, boats)
+    if boats is not None:
+        n_boats = len(boats)
     if initial_states is None:
         states = np.zeros((n_boats, 6))
         states[:, 3] = scenario.initial_surge_mps
