@@ -8,7 +8,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1] / "boat_twin"
 LAYERS = (
-    ("errors", "units", "signal_noise", "files", "validation", "data"),  # util: no domain knowledge
+    ("errors", "units", "signal_noise", "files", "validation", "lazy", "data"),  # util: no domain knowledge
     ("cable",),  # towed body + cable (the vessel's tow load uses it)
     ("vessel",),  # params, resistance, dynamics, environment, scenarios
     ("sensors",),  # observation models: truth -> measurements

@@ -7,8 +7,7 @@ convergence study. Cases come from YAML (:func:`load_case`); everything is SI in
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from boat_twin.lazy import lazy_exports
 
 _EXPORTS = {
     "CableCase": "boat_twin.cable.case",
@@ -32,7 +31,4 @@ reference loads scipy.integrate)."""
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    if name in _EXPORTS:
-        return getattr(importlib.import_module(_EXPORTS[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _EXPORTS)

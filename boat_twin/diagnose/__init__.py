@@ -4,8 +4,7 @@ steady-state table case. :func:`diagnose_trial` is the pipeline ``boat-twin diag
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from boat_twin.lazy import lazy_exports
 
 _EXPORTS = {
     "WINDOW_S": "boat_twin.diagnose.defaults",
@@ -20,7 +19,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    if name in _EXPORTS:
-        return getattr(importlib.import_module(_EXPORTS[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _EXPORTS)

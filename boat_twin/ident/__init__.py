@@ -4,8 +4,7 @@ paper's table, the pipelines that run them on a trial, and the identified boat a
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from boat_twin.lazy import lazy_exports
 
 _EXPORTS = {
     "DynamicWindow": "boat_twin.ident.dynamic",
@@ -43,7 +42,4 @@ sensor model) must not load the compiled simulator."""
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    if name in _EXPORTS:
-        return getattr(importlib.import_module(_EXPORTS[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _EXPORTS)

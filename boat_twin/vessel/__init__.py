@@ -3,8 +3,7 @@
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from boat_twin.lazy import lazy_exports
 
 _EXPORTS = {
     "CommandProfile": "boat_twin.vessel.scenarios",
@@ -38,7 +37,4 @@ sensor model) must not load the compiled simulator."""
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    if name in _EXPORTS:
-        return getattr(importlib.import_module(_EXPORTS[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _EXPORTS)
