@@ -249,6 +249,14 @@ def _step_boat(
 
 
 @numba.njit(cache=True)
+def _start_step(steer: np.ndarray, cmd: np.ndarray, k: np.ndarray) -> None:
+    """One boat's outboard angles (left, right) at the first instant under ``cmd``: an instantaneous actuator
+    (rate 0) is already at the new command's angle; a rate-limited one has not moved yet."""
+    steer[0] = _steering_after(steer[0], _steering_target(cmd[2], k), k, 0.0)
+    steer[1] = _steering_after(steer[1], _steering_target(cmd[3], k), k, 0.0)
+
+
+@numba.njit(cache=True)
 def _run_ticks(
     states: np.ndarray,
     steering: np.ndarray,
@@ -269,9 +277,7 @@ def _run_ticks(
     for b in range(states.shape[0]):
         k = coefficients[min(b, coefficients.shape[0] - 1)]
         for i in range(commands.shape[0]):
-            # An instantaneous actuator (rate 0) is at the new command's angle from the tick's first instant.
-            steering[b, 0] = _steering_after(steering[b, 0], _steering_target(commands[i, b, 2], k), k, 0.0)
-            steering[b, 1] = _steering_after(steering[b, 1], _steering_target(commands[i, b, 3], k), k, 0.0)
+            _start_step(steering[b], commands[i, b], k)
             out_states[i, b] = states[b]
             out_steering[i, b] = steering[b]
             _derivative(states[b], commands[i, b], steering[b, 0], steering[b, 1], k, table, u_max, extra,
@@ -295,8 +301,7 @@ def _step_all(
     """Advance every boat one RK4 step of ``dt`` under its command ``commands[b]``, recording nothing."""
     for b in range(states.shape[0]):
         k = coefficients[min(b, coefficients.shape[0] - 1)]
-        steering[b, 0] = _steering_after(steering[b, 0], _steering_target(commands[b, 2], k), k, 0.0)
-        steering[b, 1] = _steering_after(steering[b, 1], _steering_target(commands[b, 3], k), k, 0.0)
+        _start_step(steering[b], commands[b], k)
         _step_boat(states[b], steering[b], commands[b], k, table, u_max, extra, environments[b], dt, 1)
 
 
