@@ -30,8 +30,11 @@ lint: $(STAMP)
 	$(RUFF) boat_twin test benchmarks launch setup.py
 	$(PY) -m mypy boat_twin  # configured in setup.cfg
 
+# -rs: say why anything is skipped. -n auto: one pytest-xdist worker per core; then the node tests alone (a live
+# recorder sharing the cores with other tests lags the simulated clock: test/conftest.py).
 test: lint
-	$(PY) -m pytest -q -rs test  # -rs: say why anything is skipped
+	$(PY) -m pytest -q -rs -n auto -m "not ros_nodes" test
+	$(PY) -m pytest -q -rs -m ros_nodes test
 
 demo: $(BASE_STAMP)
 	$(VENV)/bin/boat-twin demo --out $(OUT)/demo --force

@@ -47,6 +47,7 @@ setup(
         ],
         "test": [
             "pytest>=7",
+            "pytest-xdist>=3",
             "mcap-ros2-support>=0.5",
             "catkin_pkg>=1.0",
             "hypothesis>=6",

@@ -16,11 +16,12 @@ detections and how often the truth lies in the reported 95 % interval; for clean
 (non-empty verdict); for the probes (any name is wrong) the rate of ``unexplained``.
 
 (b) Timing. One 10-minute random-command trial with a hidden water current (so forward selection runs two
-rounds) is diagnosed; the time is printed with, as references measured in the same run, the time to simulate
-the trial and write + read its bag, and the time of one replay of it (``replay.predict``): the ratio to the
-replay is the diagnosis's cost in replays. The whole script runs on one CPU with one BLAS thread (the
-target is "< 30 s on one core"; ``--all-cores`` lifts that), so its CPU time is one core's; on a shared
-machine the wall time can be longer than the CPU time, and the CPU time is the figure to compare.
+rounds) is diagnosed; the time is printed with, as references measured in the same run (in CPU time, as the
+diagnosis's), the time to simulate the trial and write + read its bag, and the time of one replay of it
+(``replay.predict``): the ratio to the replay is the diagnosis's cost in replays. The whole script runs on one
+CPU with one BLAS thread (the target is "< 30 s on one core"; ``--all-cores`` lifts that), so its CPU time is
+one core's; on a shared machine the wall time can be longer than the CPU time, and the CPU time is the figure
+to compare.
 
 (c) FROLS reference. A detector built on SysIdentPy's FROLS (forward regression orthogonal least squares,
 Billings' ERR criterion), run on the same trials (``pip install --no-deps 'sysidentpy>=0.9'``; skipped with a
@@ -43,11 +44,13 @@ above a threshold. Two targets:
   window started in a current starts with a sway through the water that the hull turns with);
   ``LP[T_L + T_R]`` → steering_offset (the yaw moment of an angle offset is ∝ total thrust);
   ``LP[T_L − T_R]`` → thrust_asymmetry; ``LP[dr/dt]`` → mass_error (inertia scales with the mass);
-  ``LP[u cos ψ]``, ``LP[u sin ψ]`` → wind (the side force of a wind at the centre of windage).
+  ``LP[u cos ψ]``, ``LP[u sin ψ]`` → wind (the side force of a wind at the centre of windage);
+  ``LP[|u| r]``, ``LP[|u| v]`` (v: the GNSS velocity across the measured heading) → manoeuvring (a yaw or sway
+  lift damping off by Δa: a moment −Δa_r·|u|·r, or a sway force −Δa_v·|u|·v acting at x_c and through the sway).
 
 ``LP[x]`` is x through a unit-gain first-order lag restarted at zero at every window start, with the hull's
-surge (m11 / R'(u) at the trial's median speed) or yaw (m33 / N_r) time constant: a force error makes a
-replay window's error grow like that. FROLS runs as an NFIR model with a degree-1 polynomial basis whose
+surge (m11 / R'(u)) or yaw (m33 / (a_r·|u|)) time constant, both at the trial's median speed: a force error
+makes a replay window's error grow like that. FROLS runs as an NFIR model with a degree-1 polynomial basis whose
 inputs are the terms (shifted one sample, so its lag-1 regressors are the terms at the same instant), ranking
 the whole library by ERR (``order_selection=False``, ``n_terms`` = library size: its information criteria
 stop at the first increase and use the residual variance, not the mean square, so they never keep the
@@ -82,6 +85,7 @@ from boat_twin.diagnose.effects import EFFECT_NAMES
 from boat_twin.diagnose.hidden import PROBES
 from boat_twin.diagnose.pipeline import WINDOW_S, diagnose_trial
 from boat_twin.diagnose.replay import Windows, cut_windows, predict
+from boat_twin.files import atomic_write_text
 from boat_twin.io.bags import read_trial
 from boat_twin.vessel.params import derive_coefficients
 from boat_twin.vessel.tow import TowConfig, tow_drag_N
@@ -241,7 +245,8 @@ SURGE_TERMS = {"const": None, "LP[cos psi]": "water_current", "LP[sin psi]": "wa
 """Surge-residual library: term → the effect it stands for (None: nuisance)."""
 YAW_TERMS = {"const": "gyro_bias", "LP[cos psi]": "water_current", "LP[sin psi]": "water_current",
              "LP[T_L+T_R]": "steering_offset", "LP[T_L-T_R]": "thrust_asymmetry",
-             "LP[dr/dt]": "mass_error", "LP[u cos psi]": "wind", "LP[u sin psi]": "wind"}
+             "LP[dr/dt]": "mass_error", "LP[u cos psi]": "wind", "LP[u sin psi]": "wind",
+             "LP[|u| r]": "manoeuvring", "LP[|u| v]": "manoeuvring"}
 """Yaw-rate-residual library."""
 
 
@@ -256,6 +261,7 @@ def term_library(windows: Windows, base: TwinConfig) -> dict[str, tuple[np.ndarr
     e_r = meas["yaw_rate_radps"] - pred["yaw_rate_radps"]
     half = max(1, int(round(0.5 / dt)))
     u = _smooth(meas["vel_east_mps"] * c + meas["vel_north_mps"] * s, half)
+    v = _smooth(-meas["vel_east_mps"] * s + meas["vel_north_mps"] * c, half)
     r = _smooth(meas["yaw_rate_radps"], half)
     du = np.gradient(u, dt, axis=0)
     dr = np.gradient(r, dt, axis=0)
@@ -268,7 +274,7 @@ def term_library(windows: Windows, base: TwinConfig) -> dict[str, tuple[np.ndarr
                                                                                                      0.0)])))[0]
                   / (u_med + 0.25 - max(u_med - 0.25, 0.0)))
     tau_u = coeff.m11_kg / max(slope, 20.0)
-    tau_r = coeff.m33_kgm2 / coeff.yaw_damping_Nms
+    tau_r = coeff.m33_kgm2 / (coeff.yaw_damping_Nms * max(u_med, 0.5))  # N_r = a_r·|u|: a time at u_med
     speed = np.nan_to_num(np.abs(u))
     tow = tow_drag_N(TowConfig(), np.minimum(speed, resistance.max_speed_mps), resistance.max_speed_mps)
 
@@ -282,7 +288,8 @@ def term_library(windows: Windows, base: TwinConfig) -> dict[str, tuple[np.ndarr
              "LP[T_L+T_R]": lu(total), "LP[u]": lu(speed), "LP[u^2]": lu(speed**2), "LP[u^3]": lu(speed**3),
              "LP[D_tow(u)]": lu(tow), "LP[u cos psi]": lu(speed * c), "LP[u sin psi]": lu(speed * s)}
     yaw = {"LP[cos psi]": lr(c), "LP[sin psi]": lr(s), "LP[T_L+T_R]": lr(total), "LP[T_L-T_R]": lr(diff),
-           "LP[dr/dt]": lr(dr), "LP[u cos psi]": lr(speed * c), "LP[u sin psi]": lr(speed * s)}
+           "LP[dr/dt]": lr(dr), "LP[u cos psi]": lr(speed * c), "LP[u sin psi]": lr(speed * s),
+           "LP[|u| r]": lr(speed * r), "LP[|u| v]": lr(speed * np.nan_to_num(v))}
     return {"surge": (e_u, surge), "yaw_rate": (e_r, yaw)}
 
 
@@ -463,19 +470,20 @@ def detail_lines(outcomes: list[Outcome]) -> list[str]:
 
 
 def timing(base: TwinConfig, duration_s: float, workdir: Path) -> list[str]:
-    """Diagnosis time of one trial against simulate + write + read of it and one replay of it."""
+    """Diagnosis time of one trial against simulate + write + read of it and one replay of it, all in CPU time
+    (the process's; on a shared machine the wall time also counts the other processes' turns)."""
     config, _ = hidden.draw_effect("water_current", base, np.random.default_rng(7))
-    start = time.perf_counter()
+    start = time.process_time()
     bag = hidden.write_trial(workdir / "timing", config, "random", 7, duration_s)
     trial = read_trial(bag)
-    t_sim = time.perf_counter() - start
+    t_sim = time.process_time() - start
     windows = cut_windows(trial, WINDOW_S)
     predict(windows, base)  # compiled kernels warm
     replays = []
     for _ in range(5):
-        start = time.perf_counter()
+        start = time.process_time()
         predict(windows, base)
-        replays.append(time.perf_counter() - start)
+        replays.append(time.process_time() - start)
     t_replay = min(replays)
     wall, cpu = time.perf_counter(), time.process_time()
     done = diagnose_trial(trial, base)
@@ -486,15 +494,42 @@ def timing(base: TwinConfig, duration_s: float, workdir: Path) -> list[str]:
         f"diagnosis of a {duration_s / 60:g}-minute random-command trial (hidden water current; named: {names}), "
         f"whole catalogue ({len(EFFECT_NAMES)} effects): {wall:.1f} s wall, {cpu:.1f} s CPU (target < 30 s on one "
         f"core), {evaluations} replays",
-        f"  reference, same trial: simulate + write + read the bag {t_sim:.2f} s → diagnosis = "
-        f"{wall / t_sim:.1f}× that",
-        f"  reference, same trial: one replay of its {windows.t_s.shape[1]} windows {t_replay * 1e3:.1f} ms → "
-        f"diagnosis = {wall / t_replay:.0f} replays of wall time ({evaluations} replays run, "
-        f"{wall / evaluations * 1e3:.1f} ms each with the fitting around them)",
+        f"  reference, same trial: simulate + write + read the bag {t_sim:.2f} s CPU → diagnosis = "
+        f"{cpu / t_sim:.1f}× that",
+        f"  reference, same trial: one replay of its {windows.t_s.shape[1]} windows {t_replay * 1e3:.1f} ms CPU → "
+        f"diagnosis = {cpu / t_replay:.0f} replays of CPU time ({evaluations} replays run, "
+        f"{cpu / evaluations * 1e3:.1f} ms each with the fitting around them)",
     ]
 
 
 # ---------------------------------------------------------------------------------------------------------------
+
+
+def saved_outcomes(paths: list[Path]) -> list[Outcome]:
+    """The outcomes that earlier ``--json`` runs saved, in the study's row order (seeds within a row)."""
+    outcomes = []
+    for path in paths:
+        for row in json.loads(path.read_text()):
+            row["frols_terms"] = [tuple(term) for term in row.get("frols_terms", [])]
+            outcomes.append(Outcome(**row))
+    return sorted(outcomes, key=lambda o: (STUDY.index(o.effect), o.seed))
+
+
+def print_tables(outcomes: list[Outcome], args: argparse.Namespace) -> None:
+    """The accuracy table, the CPU time per trial and (where FROLS ran) the comparison table."""
+    if not outcomes:
+        print("no trials: no tables")
+        return
+    seeds = max(sum(o.effect == e for o in outcomes) for e in STUDY)
+    durations = f"{args.duration / 60:g}-minute trials" if not args.tables_from else "trials of the saved runs"
+    times = np.array([o.cpu_s for o in outcomes])
+    print(f"\n### boat_twin diagnosis accuracy ({seeds} seed(s) per effect, {durations})\n\n"
+          f"{accuracy_table(outcomes)}\n")
+    print(f"diagnosis CPU time per trial: median {np.median(times):.1f} s, max {times.max():.1f} s "
+          f"({len(times)} trials)\n")
+    if any(o.frols is not None for o in outcomes):
+        print(f"### boat_twin vs a FROLS (SysIdentPy) term-selection detector, same trials\n\n"
+              f"{comparison_table(outcomes)}\n")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -507,11 +542,17 @@ def main(argv: list[str] | None = None) -> int:
                         help="clean trials that calibrate the FROLS ERR threshold (default 6)")
     parser.add_argument("--no-frols", action="store_true", help="skip the FROLS reference")
     parser.add_argument("--no-timing", action="store_true", help="skip the timing of one 10-minute diagnosis")
-    parser.add_argument("--json", type=Path, help="also write every trial's outcome to this JSON file")
+    parser.add_argument("--json", type=Path,
+                        help="also write every trial's outcome to this JSON file (rewritten after each trial)")
+    parser.add_argument("--tables-from", type=Path, nargs="+", metavar="JSON",
+                        help="print the tables of outcomes saved by earlier --json runs (merged), run nothing")
     parser.add_argument("--all-cores", action="store_true", help="do not pin the process to one CPU")
     args = parser.parse_args(argv)
     command = ".venv/bin/python benchmarks/bench_diagnose.py " + " ".join(
         shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
+    if args.tables_from:
+        print_tables(saved_outcomes(args.tables_from), args)
+        return 0
     base = TwinConfig()
     if not args.all_cores and os.environ.get("OPENBLAS_NUM_THREADS") != "1" and argv is None:
         # BLAS reads its thread count when numpy loads: run again with one thread (the target's condition).
@@ -552,15 +593,9 @@ def main(argv: list[str] | None = None) -> int:
             outcome = run_trial(effect, kind, seed, base, args.duration, workdir, frols)
             outcomes.append(outcome)
             print(detail_lines([outcome])[0], flush=True)
-        times = np.array([o.cpu_s for o in outcomes])
-        print(f"\n### boat_twin diagnosis accuracy ({args.seeds} seed(s) per effect, {args.duration / 60:g}-minute "
-              f"trials)\n\n{accuracy_table(outcomes)}\n")
-        print(f"diagnosis CPU time per trial: median {np.median(times):.1f} s, max {times.max():.1f} s\n")
-        if frols is not None:
-            print(f"### boat_twin vs a FROLS (SysIdentPy) term-selection detector, same trials\n\n"
-                  f"{comparison_table(outcomes)}\n")
-        if args.json:
-            args.json.write_text(json.dumps([o.__dict__ for o in outcomes], indent=1, default=str))
+            if args.json:  # after each trial: a run stopped early keeps what it measured
+                atomic_write_text(args.json, json.dumps([o.__dict__ for o in outcomes], indent=1, default=str))
+        print_tables(outcomes, args)
         if not args.no_timing:
             print("### timing\n")
             print("\n".join(timing(base, 600.0, workdir)))

@@ -3,24 +3,34 @@ the output-error fit (boat_twin.ident.manoeuvring) on the same hidden boats.
 
 Needs scikit-learn (the ``bench`` extra, not a runtime dependency): ``.venv/bin/pip install scikit-learn``.
 Run: .venv/bin/python benchmarks/bench_zigzag_inverse.py [--samples 600] [--large 10000] [--fit-boats 5] [--seed 0]
+[--noise-draws 1] [--max-iterations 4000] [--large-nets 64 64x64]
 Nothing is asserted: the script prints Markdown tables for docs/identification.md and the command that made them.
 
 Training sets (the paper's recipe on this boat): every manoeuvring coefficient (m22, m33, a_v, a_r, Y_vv, N_rr
 and x_c) drawn normally around the twin's with a standard deviation of 10 % (z clipped to ±3), one 20°/20°
 zigzag at 6 m/s each (helm at the 10 Hz log rate), simulated as one ensemble (each boat its own coefficients in
 one kernel run) and summarised by the 42 features (:mod:`boat_twin.ident.zigzag_features`); split 400/100/100
-(train / verification / test) as the paper, and 80/10/10 % of ``--large`` (10^4).
-Inverse maps, standardised features → coefficients: a scikit-learn MLP (one hidden layer of 22 as the paper's
-best net, or two of 64; the size and weight decay chosen on the verification set) and the nearest training
-sample (1-NN in standardised features; and the paper's criterion, below). MLPs by L-BFGS, tanh.
+(train / verification / test) as the paper, and 80/10/10 % of ``--large`` (10^4; simulated for the length of
+the noisy trial, :data:`TRIAL_S`, as the noisy set below is made from the same runs).
+Measured (noisy) training features: each boat's simulated truth measured by the twin's own GNSS and UM7 models
+(default noise, each boat its own seed; ``--noise-draws`` independent measurements of every training boat)
+and put on a trial grid as a bag reader does (:func:`~boat_twin.twin.sea_trial.measured_trial`), then
+summarised like a recorded trial (:func:`~boat_twin.ident.zigzag_features.measured_ensemble_features`): the
+features carry the noise the sensors put into them, not a noise assumed per feature. Same splits; the
+verification and test splits measured once.
+Inverse maps, standardised features → coefficients: a scikit-learn MLP (tanh, L-BFGS; sizes and weight decay of
+:data:`SMALL_GRID` / :data:`LARGE_GRID`, the one with the lowest verification error kept) trained with early
+stopping on the verification split (:func:`train_mlp`), and the nearest training sample (1-NN in standardised
+features; and the paper's criterion, below).
 Evaluated as the paper does: the SD ratio per coefficient (its "Perf": SD of the prediction error / SD of the
 coefficient; 1 = no better than predicting the mean), and the trajectory SD — the paper's Fig. 15: each 42-feature
 vector min-max scaled over its own components, the SD of the difference between the target's and the candidate's
 (the MLP's answer re-simulated; the nearest training sample, found by that same SD) — and by the parameter error.
 Output-error fit: ``--fit-boats`` hidden boats of the small set's test split, one 20°/20° zigzag at 6 m/s of
 120 s with the default sensor noise (written to a bag and read back), ``fit_manoeuvring`` from the twin's
-coefficients and from the MLP's answer for the measured features of that same trial (is the network a useful
-starting point?).
+coefficients, and from the answers for the measured features of that same trial of the 600-sample MLP trained on
+noise-free features and of the largest set's MLP trained on measured features (is the network a useful starting
+point?).
 Speed: zigzags per second, one simulate() per boat against the ensemble, in the same run.
 """
 
@@ -28,27 +38,33 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, replace
+import warnings
+from copy import deepcopy
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from boat_twin.config import TwinConfig
 from boat_twin.ident.manoeuvring import apply_parameters, fit_manoeuvring
 from boat_twin.ident.manoeuvring_trials import recorded
-from boat_twin.ident.zigzag_features import ensemble_features, trial_features
+from boat_twin.ident.zigzag_features import ensemble_features, measured_ensemble_features, trial_features
 from boat_twin.twin.sea_trial import run_sea_trial
 from boat_twin.vessel.params import MANOEUVRING_KEYS, VesselParams, derive_coefficients
 from boat_twin.vessel.scenarios import Zigzag
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ, simulate
 
 try:
+    from sklearn.exceptions import ConvergenceWarning
     from sklearn.neighbors import KNeighborsRegressor
     from sklearn.neural_network import MLPRegressor
     from sklearn.preprocessing import StandardScaler
+    from threadpoolctl import threadpool_limits
 except ImportError:
     print("this benchmark needs scikit-learn (setup.py's bench extra): .venv/bin/pip install scikit-learn",
           file=sys.stderr)
@@ -67,12 +83,21 @@ TRIAL_S = 120.0
 BATCH = 2000
 """Boats per ensemble run (bounds the record: 750 ticks × 2000 boats × 144 bytes ≈ 220 MB)."""
 Grid = tuple[tuple[tuple[int, ...], float, int], ...]
-SMALL_GRID: Grid = (((22,), 1e-3, 2000), ((44,), 1e-2, 2000))
-"""MLPs (hidden layers, weight decay, L-BFGS iterations) tried on the small set, the best on its verification
-split kept."""
-LARGE_GRID: Grid = (((64,), 1e-3, 400),)
-"""MLP trained on the large set (one, iterations capped: L-BFGS on 8000 samples is minutes on a shared machine)."""
-PAPER = {"perf": (0.9957, 1.042, 1.127), "sd_net": 6.389e-3, "sd_nearest": 4.028e-3}
+SMALL_GRID: Grid = (((22,), 1e-3, 4000), ((44,), 1e-2, 4000))
+"""MLPs (hidden layers, weight decay, iteration cap) tried on the small set, the best on its verification split
+kept."""
+LARGE_GRID: Grid = (((64,), 1e-4, 4000), ((64, 64), 1e-4, 4000))
+"""MLPs tried on the large set (``--large-nets`` chooses among them, ``--max-iterations`` sets the caps), the best
+on its verification split kept."""
+CHECK_ITERATIONS = 100
+"""L-BFGS iterations between two checks of the verification error (early stopping)."""
+PATIENCE = 3
+"""Checks in a row without a verification error :data:`IMPROVEMENT` below the best so far that stop a training."""
+IMPROVEMENT = 0.01
+"""Relative fall of the verification error that counts as progress."""
+NOISE_SEED = 1_000_000
+"""Seed of the first training boat's sensor noise (the hidden boats' trials use 7000 + j)."""
+PAPER: dict[str, Any] = {"perf": (0.9957, 1.042, 1.127), "sd_net": 6.389e-3, "sd_nearest": 4.028e-3}
 """Pashentsev (2025), Fig. 10 (best network, train / verification / test "Perf") and eq. (3)."""
 
 
@@ -93,13 +118,31 @@ def boat(base: VesselParams, values: np.ndarray) -> VesselParams:
                    lateral_centre_x_m=float(values[-1]))
 
 
-def features_of(base: VesselParams, values: np.ndarray) -> np.ndarray:
+def features_of(base: VesselParams, values: np.ndarray, duration_s: float = DURATION_S) -> np.ndarray:
     """(n, 42) noise-free zigzag features of the boats ``values`` (ensemble runs of :data:`BATCH`)."""
     out = []
     for lo in range(0, len(values), BATCH):
         boats = [boat(base, v) for v in values[lo:lo + BATCH]]
-        out.append(ensemble_features(simulate(base, zigzag(base), boats=boats)))
+        out.append(ensemble_features(simulate(base, zigzag(base, duration_s), boats=boats)))
     return np.concatenate(out)
+
+
+def clean_and_measured(config: TwinConfig, values: np.ndarray, draws: int, seed: int
+                       ) -> tuple[np.ndarray, np.ndarray, float]:
+    """Noise-free features (n, 42) and ``draws`` measured feature sets (draws, n, 42) of the boats ``values``,
+    from one :data:`TRIAL_S` zigzag each (noise of boat i, draw k seeded ``seed + k·n + i``), and the seconds
+    spent measuring."""
+    clean, measured, measuring_s = [], [], 0.0
+    base, n = config.vessel, len(values)
+    for lo in range(0, n, BATCH):
+        boats = [boat(base, v) for v in values[lo:lo + BATCH]]
+        record = simulate(base, zigzag(base, TRIAL_S), boats=boats)
+        clean.append(ensemble_features(record))
+        start = time.perf_counter()
+        seeds = seed + np.arange(lo, lo + len(boats))
+        measured.append(np.stack([measured_ensemble_features(record, config, seeds + k * n) for k in range(draws)]))
+        measuring_s += time.perf_counter() - start
+    return np.concatenate(clean), np.concatenate(measured, axis=1), measuring_s
 
 
 def paper_sd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -135,27 +178,76 @@ def relative_error(predicted: np.ndarray, truth: np.ndarray, centre: np.ndarray)
     return (predicted - truth) / scale
 
 
-class InverseMaps:
-    """The two inverse maps trained on one set: MLP (chosen on the verification split) and 1-NN."""
+@dataclass
+class Trained:
+    """One MLP trained with early stopping: the weights of its best verification error."""
 
-    def __init__(self, x: np.ndarray, y: np.ndarray, s: Split, seed: int,
-                 grid: Grid) -> None:
-        self.x_scale = StandardScaler().fit(x[s.train])
-        self.y_scale = StandardScaler().fit(y[s.train])
-        xs, ys = self.x_scale.transform(x), self.y_scale.transform(y)
-        best = None
-        start = time.perf_counter()
-        for hidden, alpha, iterations in grid:
-            net = MLPRegressor(hidden_layer_sizes=hidden, activation="tanh", solver="lbfgs", alpha=alpha,
-                               max_iter=iterations, random_state=seed).fit(xs[s.train], ys[s.train])
-            error = float(np.mean((net.predict(xs[s.verify]) - ys[s.verify]) ** 2))
-            if best is None or error < best[0]:
-                best = (error, net, hidden, alpha)
-        assert best is not None
-        _, self.net, self.hidden, self.alpha = best
-        self.train_s = time.perf_counter() - start
-        self.nearest = KNeighborsRegressor(n_neighbors=1).fit(xs[s.train], y[s.train])
-        self.low, self.high = y[s.train].min(axis=0), y[s.train].max(axis=0)
+    net: MLPRegressor
+    hidden: tuple[int, ...]
+    alpha: float
+    cap: int
+    verify_mse: float
+    """Mean squared error on the verification split, standardised coefficients."""
+    iterations: int
+    """L-BFGS iterations to the kept weights."""
+    ran: int
+    """L-BFGS iterations run (the kept ones and those past them until the patience ran out)."""
+    seconds: float
+
+
+def train_mlp(x: np.ndarray, y: np.ndarray, verify_x: np.ndarray, verify_y: np.ndarray, hidden: tuple[int, ...],
+              alpha: float, cap: int, seed: int) -> Trained:
+    """An MLP trained by L-BFGS, :data:`CHECK_ITERATIONS` at a time, until :data:`PATIENCE` checks in a row bring
+    no verification error :data:`IMPROVEMENT` below the best so far (or L-BFGS converges, or
+    ``cap`` iterations); the weights of the lowest verification error are kept."""
+    net = MLPRegressor(hidden_layer_sizes=hidden, activation="tanh", solver="lbfgs", alpha=alpha,
+                       max_iter=CHECK_ITERATIONS, warm_start=True, random_state=seed)
+    start = time.perf_counter()
+    best: Trained | None = None
+    ran, stale, reference = 0, 0, np.inf
+    while ran < cap and stale < PATIENCE:
+        # One BLAS thread: these matrices are small, and threads only contend on a shared 2-core machine.
+        with warnings.catch_warnings(), threadpool_limits(1):
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            net.fit(x, y)
+        ran += net.n_iter_
+        error = float(np.mean((net.predict(verify_x) - verify_y) ** 2))
+        if best is None or error < best.verify_mse:
+            best = Trained(deepcopy(net), hidden, alpha, cap, error, ran, ran, 0.0)
+        stale = 0 if error < reference * (1.0 - IMPROVEMENT) else stale + 1
+        reference = min(reference, error)
+        print(f"  {hidden} alpha {alpha:g}: {ran} iterations, verification MSE {error:.4f}, "
+              f"{time.perf_counter() - start:.0f} s", file=sys.stderr)
+        if net.n_iter_ < CHECK_ITERATIONS:  # converged: more iterations change nothing
+            break
+    assert best is not None
+    best.ran, best.seconds = ran, time.perf_counter() - start
+    return best
+
+
+class InverseMaps:
+    """The two inverse maps trained on one set: MLP (the grid's best on the verification split) and 1-NN."""
+
+    def __init__(self, x: np.ndarray, y: np.ndarray, s: Split, seed: int, grid: Grid,
+                 train_x: np.ndarray | None = None, train_y: np.ndarray | None = None) -> None:
+        """``train_x``/``train_y`` replace the training split (e.g. several noise draws of it)."""
+        train_x = x[s.train] if train_x is None else train_x
+        train_y = y[s.train] if train_y is None else train_y
+        self.x_scale = StandardScaler().fit(train_x)
+        self.y_scale = StandardScaler().fit(train_y)
+        xs, ys = self.x_scale.transform(train_x), self.y_scale.transform(train_y)
+        self.tried = [train_mlp(xs, ys, self.x_scale.transform(x[s.verify]), self.y_scale.transform(y[s.verify]),
+                                hidden, alpha, cap, seed) for hidden, alpha, cap in grid]
+        self.best = min(self.tried, key=lambda t: t.verify_mse)
+        self.net, self.hidden, self.alpha = self.best.net, self.best.hidden, self.best.alpha
+        self.train_s = sum(t.seconds for t in self.tried)
+        self.nearest = KNeighborsRegressor(n_neighbors=1).fit(xs, train_y)
+        self.low, self.high = train_y.min(axis=0), train_y.max(axis=0)
+
+    def describe(self) -> str:
+        return "; ".join(f"{t.hidden} alpha {t.alpha:g}: verification MSE {t.verify_mse:.4f} after {t.iterations} "
+                         f"iterations (of {t.ran}{', the cap' if t.ran >= t.cap else ''}), {t.seconds:.1f} s"
+                         for t in self.tried)
 
     def mlp(self, x: np.ndarray) -> np.ndarray:
         """The network's answer, clipped to the training set's range (an answer far outside, e.g. a negative
@@ -167,30 +259,70 @@ class InverseMaps:
         return self.nearest.predict(self.x_scale.transform(x))
 
 
+@dataclass
+class Study:
+    """One set's inverse maps and their figures on its test split."""
+
+    maps: InverseMaps
+    perf_mlp: list[float]
+    """The MLP's mean SD ratio on the training, verification and test splits."""
+    ratio_mlp: np.ndarray
+    ratio_knn: np.ndarray
+    ratio_paper_nearest: np.ndarray
+    err_mlp: np.ndarray
+    err_knn: np.ndarray
+    err_paper_nearest: np.ndarray
+    sd_mlp: np.ndarray
+    sd_near: np.ndarray
+    ratio_clean_net: np.ndarray = field(default_factory=lambda: np.empty(0))
+    """Measured sets: the MLP trained on the noise-free features, on the measured test split."""
+    err_clean_net: np.ndarray = field(default_factory=lambda: np.empty(0))
+
+
+def evaluate(maps: InverseMaps, x: np.ndarray, y: np.ndarray, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The MLP's SD ratios (per coefficient) and relative errors (per sample and coefficient) on ``x``."""
+    answer = maps.mlp(x)
+    return sd_ratio(answer, y), relative_error(answer, y, centre)
+
+
 def study(name: str, base: VesselParams, y: np.ndarray, x: np.ndarray, s: Split, seed: int,
-          centre: np.ndarray, grid: Grid) -> dict[str, object]:
-    """Train both maps on one set and evaluate them on its test split (SD ratios, errors, trajectory SD)."""
-    maps = InverseMaps(x, y, s, seed, grid)
+          centre: np.ndarray, grid: Grid, target: np.ndarray | None = None, train_x: np.ndarray | None = None,
+          train_y: np.ndarray | None = None) -> Study:
+    """Train both maps on one set and evaluate them on its test split (SD ratios, errors, trajectory SD).
+    ``target``: the noise-free features the re-simulated answers are compared with (default ``x``);
+    ``train_x``/``train_y``: training rows other than ``x[s.train]`` (several noise draws)."""
+    target = x if target is None else target
+    maps = InverseMaps(x, y, s, seed, grid, train_x, train_y)
     test = s.test
     mlp, knn = maps.mlp(x[test]), maps.knn(x[test])
     perf = [float(np.mean(sd_ratio(maps.mlp(x[idx]), y[idx]))) for idx in (s.train, s.verify, test)]
     # Trajectory SD (paper): the MLP's answer re-simulated; the nearest training sample by the paper's own SD.
     resim = features_of(base, mlp)
-    sd_mlp = paper_sd(resim, x[test])
+    sd_mlp = paper_sd(resim, target[test])
     closest = np.array([int(np.argmin(paper_sd(x[s.train], x[i]))) for i in test])
-    sd_near = paper_sd(x[s.train][closest], x[test])
+    sd_near = paper_sd(target[s.train][closest], target[test])
     nearest_paper = y[s.train][closest]
-    print(f"{name}: MLP {maps.hidden} alpha {maps.alpha:g} trained in {maps.train_s:.1f} s; "
-          f"{np.isnan(sd_mlp).sum()} re-simulated answers without all six events", file=sys.stderr)
-    return {
-        "maps": maps,
-        "perf_mlp": perf,
-        "ratio_mlp": sd_ratio(mlp, y[test]), "ratio_knn": sd_ratio(knn, y[test]),
-        "ratio_paper_nearest": sd_ratio(nearest_paper, y[test]),
-        "err_mlp": relative_error(mlp, y[test], centre), "err_knn": relative_error(knn, y[test], centre),
-        "err_paper_nearest": relative_error(nearest_paper, y[test], centre),
-        "sd_mlp": sd_mlp, "sd_near": sd_near,
-    }
+    print(f"{name}: {maps.describe()}; {np.isnan(sd_mlp).sum()} re-simulated answers without all six events",
+          file=sys.stderr)
+    return Study(maps, perf, sd_ratio(mlp, y[test]), sd_ratio(knn, y[test]), sd_ratio(nearest_paper, y[test]),
+                 relative_error(mlp, y[test], centre), relative_error(knn, y[test], centre),
+                 relative_error(nearest_paper, y[test], centre), sd_mlp, sd_near)
+
+
+def noisy_study(name: str, base: VesselParams, y: np.ndarray, measured: np.ndarray, clean: np.ndarray, s: Split,
+                seed: int, centre: np.ndarray, grid: Grid, clean_maps: InverseMaps) -> Study:
+    """:func:`study` on measured features (every draw of the training split; the first draw of the verification
+    and test splits), and the MLP trained on noise-free features evaluated on the same measured test split."""
+    train_x = measured[:, s.train].reshape(-1, measured.shape[-1])
+    train_y = np.tile(y[s.train], (measured.shape[0], 1))
+    r = study(name, base, y, measured[0], s, seed, centre, grid, target=clean, train_x=train_x, train_y=train_y)
+    r.ratio_clean_net, r.err_clean_net = evaluate(clean_maps, measured[0][s.test], y[s.test], centre)
+    return r
+
+
+def finite_rows(*arrays: np.ndarray) -> np.ndarray:
+    """Rows (boats) with all six events in every feature array (the last axis the 42 features)."""
+    return np.all([np.all(np.isfinite(a), axis=-1).reshape(-1, a.shape[-2]).all(axis=0) for a in arrays], axis=0)
 
 
 def main() -> int:
@@ -199,12 +331,20 @@ def main() -> int:
     parser.add_argument("--large", type=int, default=10_000, help="second, larger training set (0: none)")
     parser.add_argument("--fit-boats", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--max-iterations", type=int, default=LARGE_GRID[0][2],
+                        help="L-BFGS iteration cap of the large set's MLPs")
+    parser.add_argument("--large-nets", nargs="+", default=["x".join(map(str, h)) for h, _, _ in LARGE_GRID],
+                        help="hidden layers of the large set's MLPs to try, e.g. 64 64x64")
+    parser.add_argument("--noise-draws", type=int, default=1,
+                        help="independent sensor-noise measurements of each training boat")
     args = parser.parse_args()
+    load_start = os.getloadavg()
     config = TwinConfig()
     base = config.vessel
     rng = np.random.default_rng(args.seed)
     coeff = derive_coefficients(base)
     centre = np.array([getattr(coeff, k) for k in MANOEUVRING_KEYS] + [base.lateral_centre_x_m])
+    noise_seed = NOISE_SEED * (1 + 2 * args.seed)
 
     # Speed: one simulate() per boat against one ensemble run, same boats.
     y = draw(base, args.samples, rng)
@@ -220,29 +360,44 @@ def main() -> int:
     start = time.perf_counter()
     x = features_of(base, y)
     small_s = time.perf_counter() - start
-    ok = np.all(np.isfinite(x), axis=1)
-    y, x = y[ok], x[ok]
+    _, xm, small_measure_s = clean_and_measured(config, y, args.noise_draws, noise_seed)
+    ok = finite_rows(x[None], xm)
+    y, x, xm = y[ok], x[ok], xm[:, ok]
     dropped = int((~ok).sum())
     sixth = len(y) // 6  # the paper's 400/100/100 of 600
     small_split = split(len(y), rng, sixth, sixth)
     small = study(f"{len(y)} samples", base, y, x, small_split, args.seed, centre, SMALL_GRID)
+    small_noisy = noisy_study(f"{len(y)} samples, measured", base, y, xm, x, small_split, args.seed, centre,
+                              SMALL_GRID, small.maps)
 
-    large = None
+    large = large_noisy = None
     if args.large:
         y_big = draw(base, args.large, rng)
         start = time.perf_counter()
-        x_big = features_of(base, y_big)
+        x_big, xm_big, large_measure_s = clean_and_measured(config, y_big, args.noise_draws, noise_seed + NOISE_SEED)
         large_s = time.perf_counter() - start
-        ok_big = np.all(np.isfinite(x_big), axis=1)
-        y_big, x_big = y_big[ok_big], x_big[ok_big]
+        ok_big = finite_rows(x_big[None], xm_big)
+        y_big, x_big, xm_big = y_big[ok_big], x_big[ok_big], xm_big[:, ok_big]
         tenth = len(y_big) // 10
-        large = study(f"{len(y_big)} samples", base, y_big, x_big, split(len(y_big), rng, tenth, tenth),
-                      args.seed, centre, LARGE_GRID)
+        large_grid = tuple((hidden, alpha, args.max_iterations) for hidden, alpha, _ in LARGE_GRID
+                           if "x".join(map(str, hidden)) in args.large_nets)
+        big_split = split(len(y_big), rng, tenth, tenth)
+        large = study(f"{len(y_big)} samples", base, y_big, x_big, big_split, args.seed, centre, large_grid)
+        large_noisy = noisy_study(f"{len(y_big)} samples, measured", base, y_big, xm_big, x_big, big_split,
+                                  args.seed, centre, large_grid, large.maps)
 
     # Output-error fit on hidden boats of the small set's test split, one noisy 120 s zigzag each.
-    maps: InverseMaps = small["maps"]  # type: ignore[assignment]
-    fit_err, fit_s, warm_err, warm_s, evals, warm_evals, net_err, fit_sd = [], [], [], [], [], [], [], []
-    start_err = []
+    nets: dict[str, InverseMaps] = {"600 noise-free": small.maps,
+                                    "600 measured": small_noisy.maps}
+    if large is not None and large_noisy is not None:
+        nets[f"{args.large} noise-free"] = large.maps
+        nets[f"{args.large} measured"] = large_noisy.maps
+    starts = {"twin": "the twin's coefficients", "clean": "the answer of the MLP (600, noise-free features)",
+              "noisy": f"the answer of the MLP ({args.large or 600}, measured features)"}
+    start_net = {"clean": "600 noise-free", "noisy": f"{args.large or 600} measured"}
+    net_err: dict[str, list[np.ndarray]] = {name: [] for name in nets}
+    fits: dict[str, dict[str, list[Any]]] = {k: {"err": [], "s": [], "evals": [], "start": []} for k in starts}
+    fit_sd = []
     test = small_split.test[:args.fit_boats]
     with tempfile.TemporaryDirectory(prefix="zigzag_inverse_") as tmp:
         for j, i in enumerate(test):
@@ -250,31 +405,41 @@ def main() -> int:
             sea = run_sea_trial(true, zigzag(true.vessel, TRIAL_S), 7000 + j)
             trial = recorded(sea, f"boat{j}", Path(tmp))
             measured = trial_features(trial).ravel()[None, :]
-            guess = maps.mlp(measured)[0]
-            net_err.append(relative_error(guess[None], y[i][None], centre)[0])
-            fit = fit_manoeuvring([trial], config)
-            fitted = np.array([fit.values[k] for k in KEYS])
-            fit_err.append(relative_error(fitted[None], y[i][None], centre)[0])
-            fit_s.append(fit.fit_time_s)
-            evals.append(fit.evaluations)
-            fit_sd.append(float(paper_sd(features_of(base, fitted[None]), x[i])[0]))
-            warm = fit_manoeuvring([trial], apply_parameters(config, dict(zip(KEYS, guess, strict=True))))
-            warmed = np.array([warm.values[k] for k in KEYS])
-            warm_err.append(relative_error(warmed[None], y[i][None], centre)[0])
-            warm_s.append(warm.fit_time_s)
-            warm_evals.append(warm.evaluations)
-            start_err.append(np.abs(relative_error(centre[None], y[i][None], centre)[0]))
-            print(f"hidden boat {j}: fit {fit.fit_time_s:.1f} s ({fit.evaluations} evaluations), from the MLP's "
-                  f"answer {warm.fit_time_s:.1f} s ({warm.evaluations})", file=sys.stderr)
+            guesses = {name: maps.mlp(measured)[0] for name, maps in nets.items()}
+            for name, guess in guesses.items():
+                net_err[name].append(relative_error(guess[None], y[i][None], centre)[0])
+            line = []
+            for key in starts:
+                prior = centre if key == "twin" else guesses[start_net[key]]
+                fit = fit_manoeuvring([trial], apply_parameters(config, dict(zip(KEYS, prior, strict=True))))
+                fitted = np.array([fit.values[k] for k in KEYS])
+                fits[key]["err"].append(relative_error(fitted[None], y[i][None], centre)[0])
+                fits[key]["start"].append(relative_error(prior[None], y[i][None], centre)[0])
+                fits[key]["s"].append(fit.fit_time_s)
+                fits[key]["evals"].append(fit.evaluations)
+                if key == "twin":
+                    fit_sd.append(float(paper_sd(features_of(base, fitted[None]), x[i])[0]))
+                line.append(f"from {key} {fit.fit_time_s:.1f} s ({fit.evaluations} evaluations)")
+            print(f"hidden boat {j}: " + ", ".join(line), file=sys.stderr)
 
+    load_end = os.getloadavg()
     print(f"Command: .venv/bin/python benchmarks/bench_zigzag_inverse.py --samples {args.samples} --large "
-          f"{args.large} --fit-boats {args.fit_boats} --seed {args.seed}\n")
+          f"{args.large} --fit-boats {args.fit_boats} --seed {args.seed} --noise-draws "
+          f"{args.noise_draws} --max-iterations {args.max_iterations} --large-nets {' '.join(args.large_nets)}\n")
+    print(f"Load average (1/5/15 min) at the start {load_start[0]:.2f} / {load_start[1]:.2f} / {load_start[2]:.2f}, "
+          f"at the end {load_end[0]:.2f} / {load_end[1]:.2f} / {load_end[2]:.2f} ({os.cpu_count()} cores)\n")
     print(f"Training-set generation (20°/20° zigzag at 6 m/s, {DURATION_S:g} s): one simulate() per boat "
           f"{single_rate:.0f} zigzags/s; one ensemble run {ensemble_rate:.0f} zigzags/s "
-          f"({ensemble_rate / single_rate:.1f}×); with the features {len(y) / small_s:.0f}/s"
-          + (f"; {args.large} zigzags with features in {large_s:.1f} s" if large is not None else "")
-          + f". Boats without all six events in {DURATION_S:g} s (dropped): {dropped} of {args.samples}"
+          f"({ensemble_rate / single_rate:.1f}×); with the features {args.samples / small_s:.0f}/s"
+          + (f"; {args.large} zigzags of {TRIAL_S:g} s with noise-free and {args.noise_draws} × measured features "
+             f"in {large_s:.1f} s (measuring {large_measure_s:.1f} s)" if large is not None else "")
+          + f". Boats without all six events (dropped): {dropped} of {args.samples}"
           + (f", {args.large - len(y_big)} of {args.large}" if large is not None else ""))
+    print("\nMLP training, L-BFGS with early stopping on the verification split (standardised coefficients' MSE):")
+    for label, r in (("600", small), ("600 measured", small_noisy), (f"{args.large}", large),
+                     (f"{args.large} measured", large_noisy)):
+        if r is not None:
+            print(f"- {label}: {r.maps.describe()}")
     med = lambda a: float(np.median(np.abs(np.asarray(a))))  # noqa: E731
     print("\n| method | training set | SD ratio (\"Perf\"), mean over coefficients | median parameter error "
           "| trajectory SD (median) |")
@@ -284,44 +449,59 @@ def main() -> int:
           f"(train / verify / test) | not reported | {PAPER['sd_net']:.3e} (one case) |")
     print(f"| Pashentsev (2025) nearest training trajectory | 600 | – | not reported | {PAPER['sd_nearest']:.3e} "
           "(one case) |")
-    for label, r in (("600", small), (f"{args.large}", large)):
-        if r is None:
+    for label, r, rn in (("600", small, small_noisy), (f"{args.large}", large, large_noisy)):
+        if r is None or rn is None:
             continue
-        maps_r: InverseMaps = r["maps"]  # type: ignore[assignment]
-        perf = r["perf_mlp"]
+        maps_r: InverseMaps = r.maps
+        perf = r.perf_mlp
         print(f"| MLP {maps_r.hidden} (scikit-learn) | {label} | {perf[0]:.3f} / {perf[1]:.3f} / {perf[2]:.3f} | "
-              f"{med(r['err_mlp']):.2%} | {np.nanmedian(r['sd_mlp']):.3e} |")
-        print(f"| nearest training sample, paper's SD | {label} | test {np.mean(r['ratio_paper_nearest']):.3f} | "
-              f"{med(r['err_paper_nearest']):.2%} | {np.median(r['sd_near']):.3e} |")
-        print(f"| nearest training sample, standardised features | {label} | test {np.mean(r['ratio_knn']):.3f} | "
-              f"{med(r['err_knn']):.2%} | – |")
-    n = len(fit_err)
+              f"{med(r.err_mlp):.2%} | {np.nanmedian(r.sd_mlp):.3e} |")
+        print(f"| nearest training sample, paper's SD | {label} | test {np.mean(r.ratio_paper_nearest):.3f} | "
+              f"{med(r.err_paper_nearest):.2%} | {np.median(r.sd_near):.3e} |")
+        print(f"| nearest training sample, standardised features | {label} | test {np.mean(r.ratio_knn):.3f} | "
+              f"{med(r.err_knn):.2%} | – |")
+        print(f"| same MLP, on the measured features of the test split | {label} | test "
+              f"{np.mean(rn.ratio_clean_net):.3f} | {med(rn.err_clean_net):.2%} | – |")
+        maps_n: InverseMaps = rn.maps
+        perf = rn.perf_mlp
+        print(f"| MLP {maps_n.hidden} trained on measured features, on measured features | {label} | "
+              f"{perf[0]:.3f} / {perf[1]:.3f} / {perf[2]:.3f} | {med(rn.err_mlp):.2%} | "
+              f"{np.nanmedian(rn.sd_mlp):.3e} |")
+        print(f"| nearest training sample, standardised measured features | {label} | test "
+              f"{np.mean(rn.ratio_knn):.3f} | {med(rn.err_knn):.2%} | – |")
+    n = len(test)
     if n:
-        print(f"| MLP (600) on the measured features (noise) of {n} hidden boats | 600 | – | {med(net_err):.2%} | – |")
-        print(f"| output-error fit, one noisy 120 s zigzag, {n} hidden boats | none | – | {med(fit_err):.2%} | "
-              f"{np.median(fit_sd):.3e} |")
+        for name in nets:
+            print(f"| MLP ({name}) on the measured features (bag) of {n} hidden boats | {name.split()[0]} | – | "
+                  f"{med(net_err[name]):.2%} | – |")
+        print(f"| output-error fit, one noisy 120 s zigzag, {n} hidden boats | none | – | "
+              f"{med(fits['twin']['err']):.2%} | {np.median(fit_sd):.3e} |")
     print("\nPer coefficient (test split; SD ratio / median |error|; x_c error relative to |x_c| = 1 m):\n")
-    header = "| coefficient | MLP 600 | nearest 600 (standardised) |"
-    if large is not None:
-        header += f" MLP {args.large} | nearest {args.large} |"
+    columns: list[tuple[str, np.ndarray | None, np.ndarray]] = [
+        ("MLP 600", small.ratio_mlp, small.err_mlp),
+        ("nearest 600 (standardised)", small.ratio_knn, small.err_knn)]
+    if large is not None and large_noisy is not None:
+        columns += [(f"MLP {args.large}", large.ratio_mlp, large.err_mlp),
+                    (f"nearest {args.large}", large.ratio_knn, large.err_knn),
+                    (f"MLP {args.large} noise-free-trained, measured test", large_noisy.ratio_clean_net,
+                     large_noisy.err_clean_net),
+                    (f"MLP {args.large} measured-trained, measured test", large_noisy.ratio_mlp,
+                     large_noisy.err_mlp)]
     if n:
-        header += f" MLP 600, measured ({n} boats) | output-error fit ({n} boats) |"
-    print(header)
-    print("|" + " --- |" * (header.count("|") - 1))
+        columns += [(f"MLP {name}, hidden boats ({n})", None, np.array(net_err[name])) for name in nets]
+        columns.append((f"output-error fit ({n} boats)", None, np.array(fits["twin"]["err"])))
+    print("| coefficient |" + "".join(f" {c[0]} |" for c in columns))
+    print("|" + " --- |" * (len(columns) + 1))
     for c, key in enumerate(KEYS):
-        row = f"| {key} | {small['ratio_mlp'][c]:.2f} / {med(small['err_mlp'][:, c]):.1%} | "  # type: ignore[index]
-        row += f"{small['ratio_knn'][c]:.2f} / {med(small['err_knn'][:, c]):.1%} |"  # type: ignore[index]
-        if large is not None:
-            row += (f" {large['ratio_mlp'][c]:.2f} / {med(large['err_mlp'][:, c]):.1%} |"  # type: ignore[index]
-                    f" {large['ratio_knn'][c]:.2f} / {med(large['err_knn'][:, c]):.1%} |")  # type: ignore[index]
-        if n:
-            row += (f" {med(np.array(net_err)[:, c]):.1%} | {med(np.array(fit_err)[:, c]):.1%} |")
-        print(row)
+        print(f"| {key} |" + "".join(f" {ratio[c]:.2f} / {med(err[:, c]):.1%} |" if ratio is not None
+                                     else f" {med(err[:, c]):.1%} |" for _, ratio, err in columns))
     if n:
-        print(f"\nOutput-error fit from the twin's coefficients (start error median {med(start_err):.1%}): median "
-              f"{np.median(fit_s):.1f} s, {np.median(evals):.0f} evaluations, error {med(fit_err):.2%}; from the "
-              f"MLP's answer (start error {med(net_err):.1%}): {np.median(warm_s):.1f} s, "
-              f"{np.median(warm_evals):.0f} evaluations, error {med(warm_err):.2%}")
+        print()
+        for key, label in starts.items():
+            f = fits[key]
+            print(f"- output-error fit from {label}: start error median {med(f['start']):.1%}; median "
+                  f"{np.median(f['s']):.1f} s, {np.median(f['evals']):.0f} evaluations (range {min(f['evals'])}–"
+                  f"{max(f['evals'])}), error {med(f['err']):.2%}")
     return 0
 
 

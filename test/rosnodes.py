@@ -1,7 +1,8 @@
 """Helpers of the node tests: boat_twin nodes as separate processes, an in-process probe, wall-clock deadlines.
 
 Every process of a test session shares one private ROS_DOMAIN_ID with localhost-only discovery, so parallel
-sessions on one machine (or a developer's own ROS graph) never see each other's topics.
+sessions on one machine (or a developer's own ROS graph) never see each other's topics; pytest-xdist workers of
+one run get distinct domains.
 """
 
 from __future__ import annotations
@@ -12,12 +13,24 @@ import signal
 import subprocess
 import sys
 import time
+import zlib
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-os.environ["ROS_DOMAIN_ID"] = str(101 + os.getpid() % 100)
+
+def private_domain_id() -> int:
+    """A ROS domain for this test process within 1-101 (the ids whose ports stay below Linux's ephemeral range,
+    per the ROS 2 "domain ID" guide; 0 is left to a developer's own graph): one per pytest-xdist worker of a run,
+    a run chosen by its id (or this process's when not under xdist)."""
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    worker = int(os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw"))
+    run = zlib.crc32(os.environ.get("PYTEST_XDIST_TESTRUNUID", str(os.getpid())).encode())
+    return 1 + (run % (101 // workers)) * workers + worker
+
+
+os.environ["ROS_DOMAIN_ID"] = str(private_domain_id())
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ["RMW_IMPLEMENTATION"] = "rmw_fastrtps_cpp"
 os.environ.setdefault("ROS_HOME", str(Path(os.environ.get("TMPDIR", "/tmp")) / f"boat_twin_ros_{os.getpid()}"))

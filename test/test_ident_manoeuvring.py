@@ -47,11 +47,8 @@ def test_hidden_boat_coefficients_are_found_within_the_targets(hidden) -> None:
     err = _errors(fit.values, truth)
     assert not fit.misfit, fit.residual_to_noise
     assert fit.fitted == list(PARAMETER_KEYS) and not fit.not_identified
-    for key in ("m22_kg", "m33_kgm2", "sway_damping_Nspm2"):
+    for key in ("m22_kg", "m33_kgm2", "sway_damping_Nspm2", "yaw_damping_Nms"):
         assert abs(err[key]) < 0.05, (key, err)
-    # a_r's 5 % target is missed on some boats (docs/identification.md: it trades off against x_c and N_rr, more
-    # so since the outboards swing at a finite rate); this boat's 7.9 % is held to 10 %
-    assert abs(err["yaw_damping_Nms"]) < 0.10, err
     assert abs(err["lateral_centre_x_m"]) < 0.1, err
     for key in ("sway_quadratic_Ns2pm2", "yaw_quadratic_Nms2"):
         assert abs(err[key]) < 0.15, (key, err)

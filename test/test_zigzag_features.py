@@ -16,6 +16,7 @@ from boat_twin.ident.zigzag_features import (
     FEATURE_NAMES,
     ZigzagRecord,
     ensemble_features,
+    measured_ensemble_features,
     trial_features,
     zigzag_features,
 )
@@ -110,6 +111,10 @@ def test_simulated_and_measured_zigzag_features_agree_with_the_imo_figures() -> 
     assert events[0, 0] == pytest.approx(figures.initial_turning_time_s, abs=1e-6)
     with tempfile.TemporaryDirectory() as tmp:
         measured = trial_features(recorded(run_sea_trial(config, zigzag, 3), "zigzag", Path(tmp)))
+    # The training-set path (sensors on an ensemble's truth, no bag) gives the bag's features for the same noise.
+    sensed = measured_ensemble_features(record, config, np.array([3, 4]))
+    np.testing.assert_allclose(sensed[0], measured.ravel(), rtol=0, atol=1e-6)
+    assert np.abs(sensed[1] - sensed[0]).max() > 0.1  # each boat its own noise
     # Default sensor noise: event times within 0.05 s, deviations within 0.2°, positions within GNSS noise.
     np.testing.assert_allclose(measured[:, 0], events[:, 0], atol=0.05)
     np.testing.assert_allclose(measured[:, 4], events[:, 4], atol=math.radians(0.2))

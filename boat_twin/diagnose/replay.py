@@ -14,7 +14,8 @@ Only commands and sensor streams are used — never ground truth.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.signal import savgol_filter
@@ -26,6 +27,7 @@ from boat_twin.sensors.gnss import expected_fix
 from boat_twin.sensors.um7 import expected_gyro
 from boat_twin.validation import number
 from boat_twin.vessel.dynamics import Dynamics
+from boat_twin.vessel.params import VesselParams
 from boat_twin.vessel.tow import tow_drag_table
 from boat_twin.vessel.truth import ground_velocity_enu
 
@@ -57,6 +59,8 @@ and a change of the latency moves the fit smoothly instead of picking another no
 35 s time constant at low speed would carry through the whole window, and a latency fit would exploit)."""
 SWAY_OBSERVER_S = 5.0
 """Run-in of the sway observer before each window, s: ~2 sway time constants at 1.5 m/s, 12 at 10 m/s."""
+STEERING_HISTORIES_KEPT = 4
+"""Steering histories a :class:`Windows` keeps (the latest, by steering offset, limit and rate)."""
 MIN_WINDOWS = 6
 """Fewer usable windows than this and a trial cannot be split into training and held-out parts."""
 MIN_WINDOW_S = 2.0 * SETTLING_S
@@ -78,11 +82,43 @@ class Windows:
     trial: Trial
     start_index: np.ndarray
     """(m,) index into the trial's grid of each window's first sample."""
+    _steering: dict[tuple[float, float, float], np.ndarray] = field(default_factory=dict, init=False, repr=False,
+                                                                     compare=False)
+    """:meth:`steering_rad` by the steering parameters it was computed for."""
 
     @property
     def dt_s(self) -> float:
         """Sample period, s."""
         return float(self.t_s[1, 0] - self.t_s[0, 0])
+
+    def steering_rad(self, dynamics: Dynamics) -> np.ndarray:
+        """(n, 2) the outboards' angles over the trial that ``dynamics``'s boat gives the recorded commands
+        (:meth:`~boat_twin.vessel.dynamics.Dynamics.steering_history`), read-only. Kept per steering offset,
+        limit and rate: a diagnosis replays the same commands hundreds of times, mostly with the same steering,
+        and the history is a loop over every sample (most of a replay's time without this). A new offset shifts
+        a kept history while no steering target reaches the limit (the rate-limited swing is then the same with
+        any offset, moved by it): a fit of the offset asks a new one at every evaluation."""
+        p = dynamics.params
+        key = (p.steering_offset_rad, p.max_steering_rad, p.steering_rate_radps)
+        if key not in self._steering:
+            if len(self._steering) >= STEERING_HISTORIES_KEPT:  # a fit of the offset asks a new one each time
+                del self._steering[next(iter(self._steering))]
+            history = self._shifted(key)
+            if history is None:
+                history = dynamics.steering_history(self.dt_s, self.trial.commands)
+            history.flags.writeable = False
+            self._steering[key] = history
+        return self._steering[key]
+
+    def _shifted(self, key: tuple[float, float, float]) -> np.ndarray | None:
+        """A kept history (same limit and rate, another offset) moved to ``key``'s offset, if no target reaches
+        the limit with either offset; else None."""
+        offset, limit, rate = key
+        largest = float(np.nanmax(np.abs(self.trial.commands[:, 2:4]), initial=0.0))
+        for (kept_offset, kept_limit, kept_rate), kept in reversed(self._steering.items()):
+            if (kept_limit, kept_rate) == (limit, rate) and largest + max(abs(offset), abs(kept_offset)) < limit:
+                return kept + (offset - kept_offset)
+        return None
 
 
 def cut_windows(trial: Trial, window_s: float = 20.0) -> Windows:
@@ -164,10 +200,11 @@ def _integrated(rate: np.ndarray, dt: float) -> np.ndarray:
 
 def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, heading: np.ndarray,
                    surge: np.ndarray, yaw_rate: np.ndarray, steering: np.ndarray) -> np.ndarray:
-    """(m,) sway through water at each window's start, m/s: the model's sway equation run over the
-    :data:`SWAY_OBSERVER_S` before it, from rest, driven by the recorded commands and the *measured* heading,
-    surge (GNSS) and yaw rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length)
-    and the outboards' angles that the recorded commands drive (``steering``, (n, 2)).
+    """(k·m,) sway through water at each window's start, m/s, for each of the ``k`` vessels of ``dynamics``
+    (boat j·m + w: vessel j, window w): the model's sway equation run over the :data:`SWAY_OBSERVER_S` before
+    it, from rest, driven by the recorded commands and the *measured* heading, surge (GNSS) and yaw rate (gyro)
+    of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length) and the outboards' angles that the
+    recorded commands drive on each vessel (``steering``, (n, k, 2)).
 
     Sway is a fast state (time constant m22 / (Y_v·u): 0.4 s at 10 m/s), so it forgets its start; the gyro
     that drives it through the m11·u·r term is 50× less noisy than a sway read from GNSS velocity and IMU
@@ -175,16 +212,20 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
     Samples without commands or sensors hold the sway.
     """
     trial, dt = windows.trial, windows.dt_s
-    sway = np.zeros(windows.start_index.size)
+    vessels = steering.shape[1]
+    start = np.tile(windows.start_index, vessels)
+    vessel = np.repeat(np.arange(vessels), windows.start_index.size)
+    sway = np.zeros(start.size)
     environments = np.tile(config.environment.as_vector(), (sway.size, 1))
     for lag in range(int(round(SWAY_OBSERVER_S / dt)), 0, -1):
-        index = windows.start_index - lag
+        index = start - lag
         inside = index >= 0
         index = np.maximum(index, 0)
         states = np.zeros((sway.size, 6))
         states[:, 2], states[:, 3], states[:, 4], states[:, 5] = heading[index], surge[index], sway, yaw_rate[index]
         commands = trial.commands[index][None]
-        angles = np.where(np.isfinite(steering[index]), steering[index], dynamics.steering_targets(commands[0]))
+        angles = steering[index, vessel]
+        angles = np.where(np.isfinite(angles), angles, dynamics.steering_targets(commands[0]))
         _, derivative, _ = dynamics.run(states, commands, environments, dt, 1, angles)
         rate = derivative[0, :, 4]
         sway = np.where(inside & np.isfinite(rate), sway + dt * rate, sway)
@@ -223,8 +264,9 @@ def measured_motion(windows: Windows, config: TwinConfig) -> MeasuredMotion:
 
 def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, steering: np.ndarray,
                    motion: MeasuredMotion | None = None) -> np.ndarray:
-    """(m, 6) state at each window's start, from the sensors as ``config`` says they err (``steering``: the
-    outboards' angles over the trial, :meth:`~boat_twin.vessel.dynamics.Dynamics.steering_history`).
+    """(k·m, 6) state at each window's start for each of the ``k`` vessels of ``dynamics`` (boat j·m + w:
+    vessel j, window w), from the sensors as ``config`` says they err (``steering``: the outboards' angles over
+    the trial on each vessel, (n, k, 2), :meth:`~boat_twin.vessel.dynamics.Dynamics.steering_history`).
 
     Heading, surge and yaw rate: :func:`measured_motion` (``motion``, if already computed for ``config``'s
     sensors and current); sway: the :func:`_sway_observer`. Every term is a measurement or driven by
@@ -232,7 +274,7 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, ste
     absorb.
     """
     motion = motion or measured_motion(windows, config)
-    start = windows.start_index
+    start = np.tile(windows.start_index, steering.shape[1])
     states = np.zeros((start.size, 6))
     states[:, 2] = motion.heading_rad[start]
     states[:, 3] = motion.surge_mps[start]
@@ -256,13 +298,34 @@ def predict(windows: Windows, config: TwinConfig, motion: MeasuredMotion | None 
     over ground and position delayed by the GNSS latency; :func:`~boat_twin.sensors.um7.expected_gyro`: yaw rate
     plus the gyro bias), noise-free; and the lateral accelerometer (:data:`LATERAL_ACCEL`, v̇ + u·r).
     ``motion``: :func:`measured_motion` for ``config``'s sensors and current, when the caller keeps it."""
-    dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
-    steering = dynamics.steering_history(windows.dt_s, windows.trial.commands)
-    states = initial_states(windows, config, dynamics, steering, motion)
+    return predict_vessels(windows, config, [config.vessel], motion)[0]
+
+
+def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[VesselParams],
+                    motion: MeasuredMotion | None = None,
+                    steering: Sequence[np.ndarray | None] | None = None,
+                    initial_shift: np.ndarray | None = None) -> list[Prediction]:
+    """:func:`predict` for ``config`` with each of ``vessels`` in turn (they share ``config.vessel``'s resistance
+    model), in one run of the dynamics kernel: the windows of every vessel are boats of one ensemble, which
+    saves the per-call overhead when a fit replays the same windows through several candidate vessels.
+    ``steering``: per vessel, its outboards' angles over the trial
+    (:meth:`~boat_twin.vessel.dynamics.Dynamics.steering_history`) when the caller keeps them, else None.
+    ``initial_shift``: (vessels, m, 6) added to the measured initial states (a fit that estimates a window's
+    initial state instead of taking the sensors' word for it)."""
+    m = windows.start_index.size
+    drag = tow_drag_table(config.tow, config.vessel)
+    dynamics = Dynamics(config.vessel, drag, boats=[v for v in vessels for _ in range(m)])
+    histories = [given if given is not None else steering_history(windows, v)
+                 for v, given in zip(vessels, steering or [None] * len(vessels), strict=True)]
+    history = np.stack(histories, axis=1)
+    states = initial_states(windows, config, dynamics, history, motion)
+    if initial_shift is not None:
+        states += initial_shift.reshape(states.shape)
     substeps = max(1, int(round(windows.dt_s * REPLAY_INTEGRATION_RATE_HZ)))
     environments = np.tile(config.environment.as_vector(), (states.shape[0], 1))
-    path, rates, _ = dynamics.run(states, windows.commands, environments, windows.dt_s / substeps, substeps,
-                                  steering[windows.start_index])
+    commands = np.tile(windows.commands, (1, len(vessels), 1))
+    start_angles = history[windows.start_index].transpose(1, 0, 2).reshape(-1, 2)
+    path, rates, _ = dynamics.run(states, commands, environments, windows.dt_s / substeps, substeps, start_angles)
     east, north, yaw, u, v, r = (path[..., j] for j in range(6))
     env = config.environment
     vel_east, vel_north = ground_velocity_enu(yaw, u, v, env.current_east_mps, env.current_north_mps)
@@ -275,5 +338,17 @@ def predict(windows: Windows, config: TwinConfig, motion: MeasuredMotion | None 
     position = np.stack([fix.east_m, fix.north_m], axis=-1)
     for values in (*signals.values(), position):
         values[:skip] = np.nan
-    offset = np.nanmean(windows.position - position, axis=0)  # each window's start position: a nuisance
-    return Prediction(signals=signals, position=position + offset[None, :, :])
+    out = []
+    for j in range(len(vessels)):
+        boats = slice(j * m, (j + 1) * m)
+        place = position[:, boats]
+        offset = np.nanmean(windows.position - place, axis=0)  # each window's start position: a nuisance
+        out.append(Prediction(signals={name: values[:, boats] for name, values in signals.items()},
+                              position=place + offset[None, :, :]))
+    return out
+
+
+def steering_history(windows: Windows, vessel: VesselParams) -> np.ndarray:
+    """(n, 2) the outboards' real angles over the whole trial of ``windows`` on ``vessel``, rad
+    (:meth:`~boat_twin.vessel.dynamics.Dynamics.steering_history` of the recorded commands)."""
+    return windows.steering_rad(Dynamics(vessel))

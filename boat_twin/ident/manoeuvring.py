@@ -7,7 +7,9 @@ into windows and replayed through the model by the diagnosis replay (:func:`~boa
 every window starts from the measured state, so a window's error is the model's, not accumulated drift); the
 residuals (measured − predicted GNSS velocity, gyro yaw rate, IMU heading), each divided by its sensor's white
 noise measured from the trial itself (:func:`~boat_twin.signal_noise.white_noise_stdev`), are minimised by
-``scipy.optimize.least_squares`` over the parameters (positive ones in logarithms).
+``scipy.optimize.least_squares`` over the parameters (positive ones in logarithms). Each window's initial
+heading and surge are estimated with it (profiled out: :data:`INITIAL_STATE_NUISANCES`), since the sensors'
+errors in them last through the window and would otherwise bias the coefficients.
 
 Held, not fitted: surge (m11 and the resistance Fc, from the thrust–speed identification or the given model),
 the thrust envelope and the outboards' position (x_e, y_e). The yaw equation divided by m33 holds the engine
@@ -20,15 +22,16 @@ the t quantile with (windows − parameters) degrees of freedom. A parameter who
 factor :data:`NOT_IDENTIFIED_FACTOR` of its value (x_c and the offset: :data:`NOT_IDENTIFIED_ABSOLUTE`) is
 reported as not identified by these trials; it stays in the fit (holding it at a prior would bias the others
 and hide that from their intervals), its value is the best fit and its interval says how little that means.
-A fit whose residuals stay above the measured noise (ratio above :data:`MISFIT_RATIO` on any signal) is
-flagged as a misfit: its coefficients absorb a cause the
-model lacks and are biased.
+A fit whose residuals, replayed from the measured initial states (a window's own estimated state could absorb
+part of a misfit), stay above the measured noise (ratio above :data:`MISFIT_RATIO` on any signal) is flagged as
+a misfit: its coefficients absorb a cause the model lacks and are biased.
 """
 
 from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -42,11 +45,12 @@ from boat_twin.diagnose.replay import (
     LATERAL_ACCEL,
     SETTLING_S,
     SIGNALS,
-    MeasuredMotion,
+    Prediction,
     Windows,
     cut_windows,
     measured_motion,
     predict,
+    predict_vessels,
     residual,
 )
 from boat_twin.errors import InputError
@@ -62,7 +66,8 @@ MISFIT_RATIO = {"vel_east_mps": 1.6, "vel_north_mps": 1.6, "heading_rad": 1.6, "
 """Residual RMS / measured white noise above which a signal is misfitted (the model lacks a cause). Measured
 (docs/identification.md): fits of the right model stay at 0.95-1.4 (velocity, heading, accelerometer) and up to
 1.9 on the gyro, whose noise (0.06°/s) is so low that a window's initial sway and surge errors show above it;
-a thrust 10 % off the model's gives 4.8-6.3 on the GNSS velocity."""
+a thrust 10 % high or low gives 2.8 / 2.4 on the GNSS velocity (replayed from the measured initial states;
+1.45 after each window's own heading and surge, which absorb part of it)."""
 NOT_IDENTIFIED_FACTOR = 2.0
 """A positive coefficient whose 95 % interval reaches beyond this factor of its value (either way) is not
 identified: the trials leave it free by more than its own size."""
@@ -174,11 +179,9 @@ def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
     return TrialData(windows, {s: measured[s] for s in noise}, noise)
 
 
-def _normalized_residuals(data: TrialData, config: TwinConfig, motion: MeasuredMotion | None = None
-                          ) -> dict[str, np.ndarray]:
+def _normalized_residuals(data: TrialData, prediction: Prediction) -> dict[str, np.ndarray]:
     """Signal → (T, m) measured − predicted over noise (headings wrapped), NaN where not measured; a prediction
     that diverged (non-finite after the window's settling second) counts :data:`DIVERGED_RESIDUAL` per sample."""
-    prediction = predict(data.windows, config, motion)
     settled = np.arange(data.windows.t_s.shape[0])[:, None] >= int(round(SETTLING_S / data.windows.dt_s))
     out = {}
     for s in data.noise:
@@ -188,8 +191,42 @@ def _normalized_residuals(data: TrialData, config: TwinConfig, motion: MeasuredM
     return out
 
 
+DIFFERENCE_STEP = 1e-4
+"""Forward-difference step of the Jacobian in fitted coordinates (relative for the logarithmic parameters)."""
+INITIAL_STATE_NUISANCES = ((2, 0.005), (3, 0.02))
+"""Initial-state components every window estimates for itself (state index, difference step): heading (rad) and
+surge (m/s). The sensors give them with errors (±0.3° from the smoothed IMU heading, ±0.016 m/s from ±1 s of GNSS
+velocity) that persist through the window (the surge's time constant is tens of seconds; the heading error
+rotates the whole path), and those errors, not the signals' noise, dominated the coefficients' errors
+(docs/identification.md). The steps are of the size of those errors."""
+
+
+class _Projection:
+    """One trial's windows' nuisance directions: residual vectors are projected, window by window, onto the
+    complement of their sensitivity S to the window's own initial-state nuisances (linearized variable
+    projection: the residual after the best nuisance correction, r − S·(SᵀS)⁻¹·Sᵀ·r)."""
+
+    def __init__(self, sensitivity: np.ndarray) -> None:
+        self.sensitivity = sensitivity
+        """(rows, m, q) ∂ residual / ∂ nuisance per window (rows: signals × samples, NaN as 0)."""
+        normal = np.einsum("rmi,rmj->mij", sensitivity, sensitivity)
+        self.inverse = np.linalg.pinv(normal)
+
+    def apply(self, residuals: np.ndarray) -> np.ndarray:
+        """(rows, m, ...) residuals (finite) with each window's nuisance directions removed."""
+        flat = residuals.reshape(residuals.shape[:2] + (-1,))
+        step = np.einsum("mij,mjc->mic", self.inverse, np.einsum("rmi,rmc->mic", self.sensitivity, flat))
+        return (flat - np.einsum("rmi,mic->rmc", self.sensitivity, step)).reshape(residuals.shape)
+
+
 class _Problem:
-    """The least-squares problem: free parameters in fitted coordinates → stacked normalized residuals."""
+    """The least-squares problem: free parameters in fitted coordinates → stacked normalized residuals, each
+    window's initial heading and surge profiled out (:data:`INITIAL_STATE_NUISANCES`, :class:`_Projection`).
+
+    Every replay of a set of candidate parameters (the Jacobian's steps, the nuisance sensitivities) is one
+    kernel run per trial (:func:`~boat_twin.diagnose.replay.predict_vessels`); the outboards' angle history,
+    which only the steering offset changes, is kept by
+    :meth:`~boat_twin.diagnose.replay.Windows.steering_rad`."""
 
     def __init__(self, data: Sequence[TrialData], base: TwinConfig, start: dict[str, float],
                  free: Sequence[str]) -> None:
@@ -197,6 +234,7 @@ class _Problem:
         self.free = [p for p in PARAMETERS if p.key in free]
         self.evaluations = 0
         self.motion = [measured_motion(d.windows, base) for d in data]  # the vessel does not change it
+        self._last: tuple[np.ndarray, list[np.ndarray], list[_Projection], list[np.ndarray]] | None = None
 
     def values(self, x: np.ndarray) -> dict[str, float]:
         values = dict(self.start)
@@ -204,15 +242,73 @@ class _Problem:
             values[p.key] = self.start[p.key] * math.exp(xi) if p.logarithmic else self.start[p.key] + p.scale * xi
         return values
 
-    def residuals(self, x: np.ndarray) -> list[dict[str, np.ndarray]]:
-        """Per trial, signal → (T, m) normalized residuals (NaN kept)."""
-        self.evaluations += 1
-        config = apply_parameters(self.base, self.values(x))
-        return [_normalized_residuals(d, config, m) for d, m in zip(self.data, self.motion, strict=True)]
+    def _replay(self, xs: Sequence[np.ndarray], nuisances: bool) -> list[list[np.ndarray]]:
+        """Per trial, per point of ``xs`` (followed, with ``nuisances``, by the first point with each nuisance
+        stepped), the (rows, m) normalized residuals (signals of the trial's noise dict stacked; NaN kept)."""
+        self.evaluations += len(xs)
+        vessels = [apply_parameters(self.base, self.values(x)).vessel for x in xs]
+        if nuisances:
+            vessels += [vessels[0]] * len(INITIAL_STATE_NUISANCES)
+        out = []
+        for d, m in zip(self.data, self.motion, strict=True):
+            shift = np.zeros((len(vessels), d.windows.start_index.size, 6))
+            if nuisances:
+                for j, (state, step) in enumerate(INITIAL_STATE_NUISANCES):
+                    shift[len(xs) + j, :, state] = step
+            with np.errstate(all="ignore"), warnings.catch_warnings():  # a diverged replay is scored as such
+                warnings.simplefilter("ignore", RuntimeWarning)
+                predictions = predict_vessels(d.windows, self.base, vessels, m, initial_shift=shift)
+            out.append([np.concatenate([r for r in _normalized_residuals(d, p).values()]) for p in predictions])
+        return out
+
+    def evaluate(self, x: np.ndarray) -> tuple[list[np.ndarray], list[_Projection], list[np.ndarray]]:
+        """Per trial, the (rows, m) residuals at ``x`` after the nuisance correction (NaN kept), the
+        projections and the residuals before it (cached for the last ``x``)."""
+        x = np.asarray(x, dtype=float)
+        if self._last is not None and np.array_equal(self._last[0], x):
+            return self._last[1], self._last[2], self._last[3]
+        projected, projections, raw = [], [], []
+        for replays in self._replay([x], nuisances=True):
+            r = replays[0]
+            finite = np.isfinite(r)
+            steps = [step for _, step in INITIAL_STATE_NUISANCES]
+            sensitivity = np.stack([np.where(finite & np.isfinite(q), q - r, 0.0) / step
+                                    for q, step in zip(replays[1:], steps, strict=True)], axis=-1)
+            projection = _Projection(sensitivity)
+            projected.append(np.where(finite, projection.apply(np.where(finite, r, 0.0)), np.nan))
+            projections.append(projection)
+            raw.append(r)
+        self._last = (x, projected, projections, raw)
+        return projected, projections, raw
+
+    def residuals(self, x: np.ndarray, corrected: bool = True) -> list[dict[str, np.ndarray]]:
+        """Per trial, signal → (T, m) normalized residuals after the nuisance correction (``corrected``) or of the
+        replay from the measured initial states (NaN kept)."""
+        projected, _, raw = self.evaluate(x)
+        out = []
+        for d, r in zip(self.data, projected if corrected else raw, strict=True):
+            parts = np.split(r, len(d.noise))
+            out.append(dict(zip(d.noise, parts, strict=True)))
+        return out
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        stacked = np.concatenate([r.ravel() for res in self.residuals(x) for r in res.values()])
-        return np.where(np.isfinite(stacked), stacked, 0.0)
+        return np.concatenate([np.where(np.isfinite(r), r, 0.0).ravel() for r in self.evaluate(x)[0]])
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Forward differences of the residuals, steps :data:`DIFFERENCE_STEP`·max(1, |x|), all the steps'
+        replays in one kernel run per trial, projected like the residuals (Kaufman's variable-projection
+        Jacobian: the projection's own change with x is left out, a second-order term at the solution)."""
+        x = np.asarray(x, dtype=float)
+        _, projections, raw = self.evaluate(x)
+        steps = DIFFERENCE_STEP * np.where(x >= 0.0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
+        points = [x + steps[j] * np.eye(x.size)[j] for j in range(x.size)]
+        h = np.array([p[j] - x[j] for j, p in enumerate(points)])
+        columns = []
+        for replays, projection, r in zip(self._replay(points, nuisances=False), projections, raw, strict=True):
+            finite = np.isfinite(r)
+            derivative = np.stack([np.where(finite & np.isfinite(q), q - r, 0.0) for q in replays], axis=-1) / h
+            columns.append(projection.apply(derivative).reshape(-1, x.size))
+        return np.concatenate(columns)
 
     def clusters(self) -> np.ndarray:
         """Window index (over all trials) of every stacked residual."""
@@ -272,8 +368,8 @@ class ManoeuvringFit:
 def _solve(problem: _Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Least squares from the start values: (x, Jacobian, residuals) at the solution."""
     x0 = np.zeros(len(problem.free))
-    result = least_squares(problem, x0, method="trf", diff_step=1e-4, x_scale=1.0, max_nfev=MAX_EVALUATIONS,
-                           xtol=1e-4, ftol=1e-6)
+    result = least_squares(problem, x0, jac=problem.jacobian, method="trf", x_scale=1.0,
+                           max_nfev=MAX_EVALUATIONS, xtol=1e-4, ftol=1e-6)
     return result.x, np.asarray(result.jac), result.fun
 
 
@@ -328,7 +424,7 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     scale = np.where(stderr > 0, stderr, 1.0)
     correlation = cov / np.outer(scale, scale)
     config = apply_parameters(base, values)
-    residuals = problem.residuals(x)
+    residuals = problem.residuals(x, corrected=False)  # a window's own initial state could absorb a misfit
     used = [s for s in FIT_SIGNALS if any(s in d.noise for d in data)]
     ratio = {s: float(np.sqrt(np.nanmean(np.concatenate([r[s].ravel() for r in residuals if s in r]) ** 2)))
              for s in used}

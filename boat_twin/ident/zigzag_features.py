@@ -27,9 +27,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.ident.manoeuvring import gyro_heading
 from boat_twin.io.trial import Trial
+from boat_twin.twin.sea_trial import measured_trial
 from boat_twin.vessel.manoeuvres import level_crossing, refined_extreme
 from boat_twin.vessel.simulate import SimulationRecord
 
@@ -134,6 +136,20 @@ def ensemble_features(record: SimulationRecord) -> np.ndarray:
                               record.commands[:, b, 2:4].mean(axis=1), source=f"boat {b}")
         try:
             out[b] = zigzag_features(zigzag).ravel()
+        except InputError:
+            continue
+    return out
+
+
+def measured_ensemble_features(record: SimulationRecord, config: TwinConfig, seeds: np.ndarray) -> np.ndarray:
+    """(N, 42) features every boat of a simulated zigzag ensemble gives as a recorded trial: its truth measured
+    by the sensor models of ``config`` (boat ``b``'s noise seeded by ``seeds[b]``,
+    :func:`~boat_twin.twin.sea_trial.measured_trial`) and summarised by :func:`trial_features`; a boat whose
+    record lacks an event gets a row of NaN."""
+    out = np.full((record.states.shape[1], len(FEATURE_NAMES)), np.nan)
+    for b in range(out.shape[0]):
+        try:
+            out[b] = trial_features(measured_trial(record, b, config, np.random.default_rng(int(seeds[b])))).ravel()
         except InputError:
             continue
     return out

@@ -17,6 +17,7 @@ import numpy as np
 
 from boat_twin.config import TwinConfig
 from boat_twin.io import messages
+from boat_twin.io.trial import Stream, Trial, build_trial
 from boat_twin.sensors.gnss import GnssMeasurements, GnssModel
 from boat_twin.sensors.um7 import ImuMeasurements, Um7Model
 from boat_twin.vessel.scenarios import Scenario
@@ -133,6 +134,34 @@ def trial_messages(trial: SeaTrial, truth: bool = True) -> Iterator[messages.Mes
     commands = record.commands[:, 0, :]
     ticks = command_log_ticks(record.t_s, commands)
     return _merged(record.t_s[ticks], commands[ticks], trial.gnss, trial.imu, record.truth() if truth else None)
+
+
+def measured_trial(record: SimulationRecord, boat: int, config: TwinConfig, rng: np.random.Generator,
+                   noise: bool = True) -> Trial:
+    """Boat ``boat`` of ``record`` as a recorded trial, without a bag: its truth measured by the GNSS and UM7
+    models of ``config`` (noise from ``rng``, GNSS then UM7, as :func:`run_sea_trial` draws it) and its commands
+    at every tick (held between ticks, they are the logged ones on the grid), put on the trial grid by
+    :func:`~boat_twin.io.trial.build_trial` from the values and stamps (ns-rounded) the bag would carry: equal
+    to :func:`run_sea_trial` → bag → ``read_trial`` for the same seed. For the many trials of a training set,
+    where the bag's serialisation would cost more than the simulation."""
+    truth = record.truth(boat)
+    gnss = GnssModel(config.gnss, rng, noise=noise).measure(truth)
+    imu = Um7Model(config.um7, rng, noise=noise).measure(truth)
+    commands = record.commands[:, boat, :]
+
+    def stamped(t_s: np.ndarray, *columns: np.ndarray) -> Stream:
+        return Stream(messages.stamps_ns(t_s) * 1e-9, np.column_stack(columns))
+
+    q = imu.quaternion_xyzw  # yaw as the bag reader takes it from the orientation
+    yaw = np.arctan2(2.0 * (q[:, 3] * q[:, 2] + q[:, 0] * q[:, 1]), 1.0 - 2.0 * (q[:, 1] ** 2 + q[:, 2] ** 2))
+    streams = {role: stamped(record.t_s, commands[:, k])
+               for k, role in enumerate(("thrust_left", "thrust_right", "angle_left", "angle_right"))}
+    streams["gnss_fix"] = stamped(gnss.stamp_s, gnss.lat_deg, gnss.lon_deg, gnss.alt_m)
+    streams["gnss_vel"] = stamped(gnss.stamp_s, gnss.vel_east_mps, gnss.vel_north_mps)
+    streams["imu"] = stamped(imu.stamp_s, yaw, imu.gyro_radps[:, 2], imu.accel_mps2[:, 0], imu.accel_mps2[:, 1])
+    topics = {"gnss_fix": messages.TOPIC_GNSS_FIX, "gnss_vel": messages.TOPIC_GNSS_VEL,
+              "imu": messages.TOPIC_IMU_DATA}
+    return build_trial(streams, f"simulated boat {boat}", topics, release=True)
 
 
 def compact_trial_messages(trial: CompactTrial, truth: bool = True,
