@@ -11,6 +11,7 @@ from boat_twin.cli import main
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.io.bags import read_trial, write_bag
+from boat_twin.io.trial import Stream, build_trial
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.scenarios import make_scenario
 
@@ -221,3 +222,18 @@ def test_a_rosbag2_directory_named_dot_bag_reads(tmp_path) -> None:
     assert main(["simulate", "accel-stop", "--duration", "5", "--no-noise", "--out", str(tmp_path / "run.bag")]) == 0
     trial = read_trial(tmp_path / "run.bag")
     assert trial.metadata.source == str(tmp_path / "run.bag") and len(trial.t_s) > 40
+
+
+def test_commands_sit_on_the_grid_time_nearest_their_stamp() -> None:
+    """A command between two grid times acts from the nearer one (a tie from the later one), so replays of a
+    helm that decided between log ticks err by at most half a period either way, never late on average."""
+    grid = np.arange(0.0, 6.05, 0.1)
+    stamps = np.array([0.0, 1.04, 2.06, 3.05, 4.0])
+    streams = {"gnss_vel": Stream(grid, np.zeros((grid.size, 2))),
+               "thrust_left": Stream(stamps, np.arange(1.0, 6.0)[:, None])}
+    trial = build_trial(streams, "hand-made", {})
+    thrust = dict(zip(np.round(trial.t_s, 2), trial.thrust_left_N, strict=True))
+    assert [thrust[t] for t in (0.9, 1.0, 1.1)] == [1.0, 2.0, 2.0]  # 1.04 s: from 1.0 s
+    assert [thrust[t] for t in (2.0, 2.1)] == [2.0, 3.0]  # 2.06 s: from 2.1 s
+    assert [thrust[t] for t in (3.0, 3.1)] == [3.0, 4.0]  # 3.05 s, a tie: from 3.1 s
+    assert [thrust[t] for t in (3.9, 4.0, 6.0)] == [4.0, 5.0, 5.0]  # on a grid time: from it

@@ -203,7 +203,8 @@ def test_ardusub_tlog_imports_with_the_right_counts_time_span_and_conventions(ca
     assert np.nanmax(np.abs(trial.yaw_rate_radps[ok] + np.interp(boot[ok], att[:, 0], att[:, 2]))) < 0.05
     known = np.isfinite(trial.vel_east_mps)
     assert np.abs(trial.vel_east_mps[known] - np.interp(boot[known], gpi[:, 0], gpi[:, 2])).max() < 0.011
-    held = servo[np.searchsorted(servo[:, 0], boot + 1e-6, side="right") - 1, 1]  # SERVO1 PWM, zero-order hold
+    half = 0.5 * (trial.t_s[1] - trial.t_s[0])  # SERVO1 PWM, zero-order hold on the nearest grid time
+    held = servo[np.searchsorted(servo[:, 0], boot + half - 1e-6, side="left") - 1, 1]
     np.testing.assert_allclose(trial.thrust_left_N, calibration.to_value("thrust_left", held), atol=1e-9)
     assert np.ptp(trial.thrust_left_N) > 400.0  # the ROV's thrusters did move past the dead band
     line = meta.summary_line()
@@ -229,7 +230,7 @@ def test_ardusub_joystick_and_rc_inputs_map_through_the_calibration() -> None:
     assert meta.topics["thrust_left"].startswith("MANUAL_CONTROL") and meta.missing == ["angle_left", "angle_right"]
     stamps = np.array([m[0] for m in manual])  # the ground station's clock: MANUAL_CONTROL has no time field
     t = trial.t_s + meta.start_time_s
-    held = np.searchsorted(stamps, t + 1e-6, side="right") - 1
+    held = np.searchsorted(stamps, t + 0.5 * (t[1] - t[0]) - 1e-6, side="left") - 1  # nearest grid time
     expected = np.where(held >= 0, np.array([m[1] for m in manual])[np.maximum(held, 0)] * 2.0, np.nan)
     np.testing.assert_allclose(trial.thrust_left_N, expected, atol=1e-6)
     seen = set(np.unique(trial.thrust_right_N[np.isfinite(trial.thrust_right_N)]))  # 1 N per µs above 1100 µs

@@ -42,9 +42,11 @@ from scipy.stats import t as student_t
 
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.replay import (
+    HEADING_SMOOTHING_S,
     LATERAL_ACCEL,
     SETTLING_S,
     SIGNALS,
+    SURGE_SMOOTHING_S,
     Prediction,
     Windows,
     cut_windows,
@@ -201,22 +203,48 @@ rotates the whole path), and those errors, not the signals' noise, dominated the
 (docs/identification.md). The steps are of the size of those errors."""
 
 
-class _Projection:
-    """One trial's windows' nuisance directions: residual vectors are projected, window by window, onto the
-    complement of their sensitivity S to the window's own initial-state nuisances (linearized variable
-    projection: the residual after the best nuisance correction, r − S·(SᵀS)⁻¹·Sᵀ·r)."""
+NUISANCE_PRIOR_WIDENING = 2.0
+"""The prior standard deviation of a window's initial heading and surge is this many times what the sensors'
+white noise alone leaves after the smoothing of :func:`~boat_twin.diagnose.replay.measured_motion` (the GNSS
+velocity's and the IMU heading's errors are also correlated, which the white-noise figure leaves out)."""
 
-    def __init__(self, sensitivity: np.ndarray) -> None:
+
+def nuisance_prior_stdev(data: TrialData) -> np.ndarray:
+    """(q,) prior standard deviation of the :data:`INITIAL_STATE_NUISANCES` of a window of ``data``: heading (rad),
+    the IMU heading noise averaged over the 2h + 1 samples of ±HEADING_SMOOTHING_S; surge (m/s), the GNSS velocity
+    noise through the centre value of a local quadratic over the 2h + 1 samples of ±SURGE_SMOOTHING_S (variance
+    factor 3(3h² + 3h − 1) / ((2h − 1)(2h + 1)(2h + 3))); both × :data:`NUISANCE_PRIOR_WIDENING`."""
+    dt = data.windows.dt_s
+    h_heading = max(1, int(round(HEADING_SMOOTHING_S / dt)))
+    h = max(2, int(round(SURGE_SMOOTHING_S / dt)))
+    quadratic = 3.0 * (3 * h * h + 3 * h - 1) / ((2 * h - 1) * (2 * h + 1) * (2 * h + 3))
+    velocity = 0.5 * (data.noise["vel_east_mps"] + data.noise["vel_north_mps"])
+    heading = data.noise["heading_rad"] / math.sqrt(2 * h_heading + 1)
+    return NUISANCE_PRIOR_WIDENING * np.array([heading, velocity * math.sqrt(quadratic)])
+
+
+class _Projection:
+    """One trial's windows' nuisances, estimated with their prior (linearized variable projection): for residuals
+    r of a window with sensitivity S to its own initial-state nuisances δ, the best correction
+    δ* = (SᵀS + Λ)⁻¹·Sᵀ·r, Λ = diag(1/σ²) from the prior standard deviations σ, leaves r − S·δ* and the prior's
+    own residuals δ*/σ, whose sum of squares is the minimum over δ of |r − S·δ|² + |δ/σ|²."""
+
+    def __init__(self, sensitivity: np.ndarray, prior_stdev: np.ndarray) -> None:
         self.sensitivity = sensitivity
         """(rows, m, q) ∂ residual / ∂ nuisance per window (rows: signals × samples, NaN as 0)."""
-        normal = np.einsum("rmi,rmj->mij", sensitivity, sensitivity)
-        self.inverse = np.linalg.pinv(normal)
+        self.prior_stdev = prior_stdev
+        normal = np.einsum("rmi,rmj->mij", sensitivity, sensitivity) + np.diag(prior_stdev**-2.0)
+        self.inverse = np.linalg.inv(normal)
 
     def apply(self, residuals: np.ndarray) -> np.ndarray:
-        """(rows, m, ...) residuals (finite) with each window's nuisance directions removed."""
+        """(rows + q, m, ...) residuals (finite) with each window's best nuisance correction removed, followed
+        by the corrections over their prior standard deviations (q rows)."""
         flat = residuals.reshape(residuals.shape[:2] + (-1,))
         step = np.einsum("mij,mjc->mic", self.inverse, np.einsum("rmi,rmc->mic", self.sensitivity, flat))
-        return (flat - np.einsum("rmi,mic->rmc", self.sensitivity, step)).reshape(residuals.shape)
+        corrected = flat - np.einsum("rmi,mic->rmc", self.sensitivity, step)
+        prior = step.transpose(1, 0, 2) / self.prior_stdev[:, None, None]
+        out = np.concatenate([corrected, prior])
+        return out.reshape((out.shape[0],) + residuals.shape[1:])
 
 
 class _Problem:
@@ -234,6 +262,7 @@ class _Problem:
         self.free = [p for p in PARAMETERS if p.key in free]
         self.evaluations = 0
         self.motion = [measured_motion(d.windows, base) for d in data]  # the vessel does not change it
+        self.priors = [nuisance_prior_stdev(d) for d in data]
         self._last: tuple[np.ndarray, list[np.ndarray], list[_Projection], list[np.ndarray]] | None = None
 
     def values(self, x: np.ndarray) -> dict[str, float]:
@@ -268,25 +297,25 @@ class _Problem:
         if self._last is not None and np.array_equal(self._last[0], x):
             return self._last[1], self._last[2], self._last[3]
         projected, projections, raw = [], [], []
-        for replays in self._replay([x], nuisances=True):
+        for replays, prior in zip(self._replay([x], nuisances=True), self.priors, strict=True):
             r = replays[0]
             finite = np.isfinite(r)
             steps = [step for _, step in INITIAL_STATE_NUISANCES]
             sensitivity = np.stack([np.where(finite & np.isfinite(q), q - r, 0.0) / step
                                     for q, step in zip(replays[1:], steps, strict=True)], axis=-1)
-            projection = _Projection(sensitivity)
-            projected.append(np.where(finite, projection.apply(np.where(finite, r, 0.0)), np.nan))
+            projection = _Projection(sensitivity, prior)
+            kept = np.concatenate([finite, np.ones((len(steps), r.shape[1]), dtype=bool)])
+            projected.append(np.where(kept, projection.apply(np.where(finite, r, 0.0)), np.nan))
             projections.append(projection)
             raw.append(r)
         self._last = (x, projected, projections, raw)
         return projected, projections, raw
 
-    def residuals(self, x: np.ndarray, corrected: bool = True) -> list[dict[str, np.ndarray]]:
-        """Per trial, signal → (T, m) normalized residuals after the nuisance correction (``corrected``) or of the
-        replay from the measured initial states (NaN kept)."""
-        projected, _, raw = self.evaluate(x)
+    def residuals(self, x: np.ndarray) -> list[dict[str, np.ndarray]]:
+        """Per trial, signal → (T, m) normalized residuals of the replay from the measured initial states (NaN
+        kept)."""
         out = []
-        for d, r in zip(self.data, projected if corrected else raw, strict=True):
+        for d, r in zip(self.data, self.evaluate(x)[2], strict=True):
             parts = np.split(r, len(d.noise))
             out.append(dict(zip(d.noise, parts, strict=True)))
         return out
@@ -315,7 +344,8 @@ class _Problem:
         labels, offset = [], 0
         for d in self.data:
             t, m = d.windows.t_s.shape
-            labels.append(np.broadcast_to(offset + np.arange(m), (len(d.noise), t, m)).ravel())
+            rows = len(d.noise) * t + len(INITIAL_STATE_NUISANCES)  # the signals', then the nuisances' priors
+            labels.append(np.broadcast_to(offset + np.arange(m), (rows, m)).ravel())
             offset += m
         return np.concatenate(labels)
 
@@ -424,7 +454,7 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     scale = np.where(stderr > 0, stderr, 1.0)
     correlation = cov / np.outer(scale, scale)
     config = apply_parameters(base, values)
-    residuals = problem.residuals(x, corrected=False)  # a window's own initial state could absorb a misfit
+    residuals = problem.residuals(x)  # a window's own initial state could absorb a misfit
     used = [s for s in FIT_SIGNALS if any(s in d.noise for d in data)]
     ratio = {s: float(np.sqrt(np.nanmean(np.concatenate([r[s].ravel() for r in residuals if s in r]) ** 2)))
              for s in used}

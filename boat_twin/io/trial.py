@@ -1,8 +1,8 @@
 """``Trial``: the one data structure every analysis reads — commands and measurements on one time grid.
 
 Streams arrive as (stamps, values) arrays per *role* (``gnss_fix``, ``gnss_vel``, ``imu``, the four command
-roles). :func:`build_trial` puts them on a uniform grid at the GNSS rate: commands by zero-order hold
-(a command topic may publish at any rate, or only on change), sensors by linear interpolation between
+roles). :func:`build_trial` puts them on a uniform grid at the GNSS rate: commands by zero-order hold on the
+nearest grid time (a command topic may publish at any rate, or only on change), sensors by linear interpolation between
 neighbouring samples, never across a gap longer than :data:`GAP_TOLERANCE_PERIODS` sample periods (NaN there,
 and the gap is reported). Local ENU comes from the geodetic origin with pymap3d (WGS-84).
 """
@@ -134,9 +134,16 @@ def _median_period_s(stamps_s: np.ndarray) -> float:
     return float(np.median(steps)) if steps.size else float("nan")
 
 
-def _hold(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray) -> np.ndarray:
-    """Zero-order hold: the last value at or before each grid time; NaN before the first sample."""
-    index = np.searchsorted(stamps_s, grid_s + 1e-9, side="right") - 1
+def _hold(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray, period_s: float) -> np.ndarray:
+    """Zero-order hold on the nearest grid time: at each grid time, the last value stamped before the middle of
+    its sample period (a tie goes to the later sample); NaN before the first sample.
+
+    An analysis holds a grid sample's command through the period that follows it, so a command that came between
+    two grid times acts from the nearer one: its timing errs by at most half a period, either way. The last value
+    at or before each grid time would make every such command act late, by half a period on average, a delay
+    that a fit then absorbs into the boat's coefficients (a 50 Hz helm's zigzag logged on a 10 Hz grid: a_r
+    +42 %, docs/identification.md)."""
+    index = np.searchsorted(stamps_s, grid_s + 0.5 * period_s - 1e-9, side="left") - 1
     out = values[np.maximum(index, 0)].astype(float)
     out[index < 0] = np.nan
     return out
@@ -352,7 +359,7 @@ def build_trial(
     meta.start_time_s = t0
     columns: dict[str, np.ndarray] = {}
     for role in COMMAND_ROLES:
-        columns[role] = _hold(data[role].stamps_s, data[role].values[:, 0], grid_abs) if role in data \
+        columns[role] = _hold(data[role].stamps_s, data[role].values[:, 0], grid_abs, period) if role in data \
             else np.full(grid_abs.size, 0.0 if role.startswith("angle") else np.nan)
         if release:
             data.pop(role, None)

@@ -82,7 +82,7 @@ def run_compact_trial(config: TwinConfig, scenario: Scenario, seed: int, noise: 
     for chunk in chunks:
         rows = chunk.commands[:, 0, :]
         ticks = log.ticks(chunk.t_s, rows)
-        command_t_s.append(chunk.t_s[ticks])
+        command_t_s.append(chunk.command_stamps_s()[ticks])
         commands.append(rows[ticks])
         piece, stop = chunk.truth(), start + chunk.t_s.size
         for name, column in columns.items():
@@ -133,7 +133,8 @@ def trial_messages(trial: SeaTrial, truth: bool = True) -> Iterator[messages.Mes
     record = trial.record
     commands = record.commands[:, 0, :]
     ticks = command_log_ticks(record.t_s, commands)
-    return _merged(record.t_s[ticks], commands[ticks], trial.gnss, trial.imu, record.truth() if truth else None)
+    return _merged(record.command_stamps_s()[ticks], commands[ticks], trial.gnss, trial.imu,
+                   record.truth() if truth else None)
 
 
 def measured_trial(record: SimulationRecord, boat: int, config: TwinConfig, rng: np.random.Generator,
@@ -154,7 +155,7 @@ def measured_trial(record: SimulationRecord, boat: int, config: TwinConfig, rng:
 
     q = imu.quaternion_xyzw  # yaw as the bag reader takes it from the orientation
     yaw = np.arctan2(2.0 * (q[:, 3] * q[:, 2] + q[:, 0] * q[:, 1]), 1.0 - 2.0 * (q[:, 1] ** 2 + q[:, 2] ** 2))
-    streams = {role: stamped(record.t_s, commands[:, k])
+    streams = {role: stamped(record.command_stamps_s(boat), commands[:, k])
                for k, role in enumerate(("thrust_left", "thrust_right", "angle_left", "angle_right"))}
     streams["gnss_fix"] = stamped(gnss.stamp_s, gnss.lat_deg, gnss.lon_deg, gnss.alt_m)
     streams["gnss_vel"] = stamped(gnss.stamp_s, gnss.vel_east_mps, gnss.vel_north_mps)

@@ -46,6 +46,14 @@ class SimulationRecord:
     derivatives: np.ndarray
     environment: Environment
     steering_rad: np.ndarray
+    command_issued_s: np.ndarray | None = None
+    """(n, N) when the command in force at ``t_s[i]`` was issued, s: within (t_s[i-1], t_s[i]] when a closed-loop
+    helm changed it between the ticks (at an integration step), else t_s[i]; None: every command was issued at
+    its tick (an open-loop scenario). A command log stamps its messages with these times."""
+
+    def command_stamps_s(self, boat: int = 0) -> np.ndarray:
+        """(n,) the times a command log stamps boat ``boat``'s commands with (:attr:`command_issued_s`), s."""
+        return self.t_s if self.command_issued_s is None else self.command_issued_s[:, boat]
 
     def truth(self, boat: int = 0) -> TruthSeries:
         """The true motion of one boat of the ensemble, for the sensor models."""
@@ -121,10 +129,13 @@ def simulate_chunks(
     dt_s = 1.0 / INTEGRATION_RATE_HZ
     helm = scenario.helm(states.shape[0])
     steering: np.ndarray | None = None
+    last_command: np.ndarray | None = None  # a closed-loop helm's: its last command and when it changed, per boat
+    changed_s = np.zeros(states.shape[0])
     start = 0
     while True:
         stop = min(start + step, n_ticks)
         t_s = np.arange(start, stop) / OUTPUT_RATE_HZ
+        issued: np.ndarray | None = None
         if isinstance(helm, CommandProfile):
             index = np.searchsorted(helm.times_s, t_s + 1e-9, side="right") - 1
             rows = np.where(index[:, None] >= 0, helm.values[np.maximum(index, 0)], 0.0)
@@ -138,9 +149,13 @@ def simulate_chunks(
             out_states = np.empty((t_s.size,) + states.shape)
             derivatives = np.empty_like(out_states)
             out_steering = np.empty((t_s.size, states.shape[0], 2))
+            issued = np.empty((t_s.size, states.shape[0]))
             for i, t in enumerate(t_s):
                 for j in range(substeps):
                     command = helm.command(float(t) + j * dt_s, states)
+                    changed = np.ones(states.shape[0], dtype=bool) if last_command is None else np.any(
+                        command != last_command, axis=1)
+                    changed_s[changed], last_command = float(t) + j * dt_s, command
                     if steering is None:
                         steering = dynamics.steering_targets(command)
                     if j > 0:
@@ -150,12 +165,14 @@ def simulate_chunks(
                         states, command[None], environments, dt_s, 1, steering)
                     commands[i], out_states[i], derivatives[i] = command, tick_states[0], tick_derivatives[0]
                     out_steering[i] = tick_steering[0]
+                    recent = changed_s > float(t) - 1.0 / OUTPUT_RATE_HZ + 1e-9
+                    issued[i] = np.where(recent, changed_s, t)
         if not np.all(np.isfinite(out_states)):
             tick = int(np.flatnonzero(~np.all(np.isfinite(out_states), axis=(1, 2)))[0])
             raise InputError(f"the simulation diverged at t = {t_s[tick]:.1f} s (a non-finite state): these vessel "
                              f"parameters cannot be integrated at {INTEGRATION_RATE_HZ:g} Hz; check the masses, "
                              "damping and resistance")
-        yield SimulationRecord(t_s, out_states, commands, derivatives, environment, out_steering)
+        yield SimulationRecord(t_s, out_states, commands, derivatives, environment, out_steering, issued)
         start = stop
         if start >= n_ticks:
             return
