@@ -2,11 +2,17 @@
 
 Run: make bench   (or: .venv/bin/python benchmarks/bench_simulator.py)
 Targets (printed, not asserted): physics >= 10,000x real time for one boat; the ensemble of 600 boats stepped
-together much faster than 600 single runs.
+together much faster than 600 single runs; a training set of 10^4 20°/20° zigzags (75 s, boats perturbed 10 %,
+as benchmarks/bench_zigzag_inverse.py makes it) in < 60 s on 2 cores, its boats shared among numba's threads
+(vessel.dynamics.PARALLEL_MIN_BOATS) against one thread, with identical results, and the memory it holds
+bounded by its ensemble runs of 2000 boats (not the 10^4).
 """
 
+import math
+import resource
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -14,8 +20,28 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.io.bags import write_bag
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
-from boat_twin.vessel.scenarios import make_scenario
-from boat_twin.vessel.simulate import simulate
+from boat_twin.vessel import dynamics
+from boat_twin.vessel.params import MANOEUVRING_KEYS, VesselParams, derive_coefficients
+from boat_twin.vessel.scenarios import Zigzag, make_scenario
+from boat_twin.vessel.simulate import OUTPUT_RATE_HZ, simulate
+
+TRAINING_SET = 10_000
+BATCH = 2000
+"""Boats per ensemble run of the training set (bench_zigzag_inverse.BATCH)."""
+
+
+def perturbed_boats(base: VesselParams, n: int, rng: np.random.Generator) -> list[VesselParams]:
+    """``n`` boats with the sway/yaw coefficients of ``base`` perturbed normally, SD 10 %."""
+    coeff = derive_coefficients(base)
+    centre = np.array([getattr(coeff, k) for k in MANOEUVRING_KEYS])
+    draws = centre * (1.0 + 0.1 * np.clip(rng.standard_normal((n, centre.size)), -3.0, 3.0))
+    return [replace(base, manoeuvring={k: float(v) for k, v in zip(MANOEUVRING_KEYS, row, strict=True)})
+            for row in draws]
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process so far, MB (Linux: ru_maxrss in KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def best_of(repeats: int, fn) -> float:
@@ -53,6 +79,38 @@ def main() -> None:
     singles_s = best_of(1, lambda: [simulate(params, short, initial_states=starts[i : i + 1]) for i in range(600)])
     print(f"ensemble 600 boats x 120 s: together {together_s:.3f} s, 600 single runs {singles_s:.3f} s, "
           f"ratio {singles_s / together_s:.1f}x")
+    training_set(params)
+
+
+def training_set(params: VesselParams) -> None:
+    """10^4 closed-loop zigzags in ensemble runs of :data:`BATCH`: threads against one thread on one run, then
+    the whole set on threads, and the peak memory."""
+    angle = math.radians(20.0)
+    zigzag = Zigzag(params, angle, angle, duration_s=75.0, decision_rate_hz=OUTPUT_RATE_HZ)
+    boats = perturbed_boats(params, TRAINING_SET, np.random.default_rng(0))
+    simulate(params, zigzag, boats=boats[: dynamics.PARALLEL_MIN_BOATS])  # compile the threaded kernels
+    start = time.perf_counter()
+    threaded = simulate(params, zigzag, boats=boats[:BATCH])
+    threads_s = time.perf_counter() - start
+    parallel_min = dynamics.PARALLEL_MIN_BOATS
+    dynamics.PARALLEL_MIN_BOATS = BATCH + 1
+    start = time.perf_counter()
+    serial = simulate(params, zigzag, boats=boats[:BATCH])
+    serial_s = time.perf_counter() - start
+    dynamics.PARALLEL_MIN_BOATS = parallel_min
+    same = all(np.array_equal(getattr(threaded, f), getattr(serial, f)) for f in ("states", "derivatives"))
+    record_mb = sum(getattr(threaded, f).nbytes for f in ("states", "commands", "derivatives", "steering_rad",
+                                                          "command_issued_s")) / 1e6
+    del threaded, serial
+    print(f"zigzag ensemble {BATCH} boats x 75 s: threads {threads_s:.2f} s, one thread {serial_s:.2f} s, ratio "
+          f"{serial_s / threads_s:.2f}x, identical: {same}")
+    start = time.perf_counter()
+    for lo in range(0, TRAINING_SET, BATCH):
+        simulate(params, zigzag, boats=boats[lo:lo + BATCH])
+    total_s = time.perf_counter() - start
+    print(f"training set {TRAINING_SET} zigzags x 75 s in runs of {BATCH}: {total_s:.1f} s on threads, "
+          f"{TRAINING_SET / total_s:.0f} zigzags/s (target < 60 s); one run's record {record_mb:.0f} MB, "
+          f"peak RSS of this benchmark {peak_rss_mb():.0f} MB")
 
 
 if __name__ == "__main__":

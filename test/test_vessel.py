@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from boat_twin.errors import InputError
+from boat_twin.vessel import dynamics
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import (
     VesselParams,
@@ -91,6 +92,24 @@ def test_ensemble_matches_single_runs_exactly() -> None:
     for b in range(4):
         alone = simulate(PARAMS, scenario, initial_states=starts[b : b + 1])
         np.testing.assert_array_equal(together.states[:, b], alone.states[:, 0])
+
+
+@pytest.mark.parametrize("scenario_name", ["random", "zigzag-20-20"])
+def test_large_ensembles_on_numba_threads_equal_the_serial_kernel(monkeypatch: pytest.MonkeyPatch,
+                                                                   scenario_name: str) -> None:
+    """Ensembles of PARALLEL_MIN_BOATS or more boats run on numba's threads (open-loop ticks and a closed-loop
+    helm's steps): every boat's states, derivatives and steering equal the one-thread kernel's, bit for bit."""
+    n = dynamics.PARALLEL_MIN_BOATS + 6
+    rng = np.random.default_rng(8)
+    boats = [replace(PARAMS, manoeuvring={"m33_kgm2": float(m)}, steering_offset_rad=float(o))
+             for m, o in zip(rng.uniform(3000.0, 6000.0, n), rng.uniform(-0.02, 0.02, n), strict=True)]
+    scenario = make_scenario(scenario_name, PARAMS, np.random.default_rng(5), duration_s=30.0)
+    threaded = simulate(PARAMS, scenario, boats=boats)
+    monkeypatch.setattr(dynamics, "PARALLEL_MIN_BOATS", 10 * n)
+    serial = simulate(PARAMS, scenario, boats=boats)
+    for name in ("states", "derivatives", "steering_rad"):
+        np.testing.assert_array_equal(getattr(threaded, name), getattr(serial, name), err_msg=name)
+    assert np.ptp(threaded.states[-1, :, 2]) > 0.01  # the boats differ
 
 
 def test_ensemble_of_different_boats_matches_each_boat_alone() -> None:

@@ -257,6 +257,35 @@ def _start_step(steer: np.ndarray, cmd: np.ndarray, k: np.ndarray) -> None:
 
 
 @numba.njit(cache=True)
+def _boat_ticks(
+    b: int,
+    states: np.ndarray,
+    steering: np.ndarray,
+    commands: np.ndarray,
+    coefficients: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    environments: np.ndarray,
+    dt: float,
+    substeps: int,
+    out_states: np.ndarray,
+    out_derivatives: np.ndarray,
+    out_steering: np.ndarray,
+) -> None:
+    """Boat ``b``'s output ticks: at each tick i record its state, steering and derivative under
+    ``commands[i]``, then step the tick. ``coefficients`` has one row per boat, or one row for all."""
+    k = coefficients[0] if coefficients.shape[0] == 1 else coefficients[b]  # (prange's b is unsigned)
+    for i in range(commands.shape[0]):
+        _start_step(steering[b], commands[i, b], k)
+        out_states[i, b] = states[b]
+        out_steering[i, b] = steering[b]
+        _derivative(states[b], commands[i, b], steering[b, 0], steering[b, 1], k, table, u_max, extra,
+                    environments[b], out_derivatives[i, b])
+        _step_boat(states[b], steering[b], commands[i, b], k, table, u_max, extra, environments[b], dt, substeps)
+
+
+@numba.njit(cache=True)
 def _run_ticks(
     states: np.ndarray,
     steering: np.ndarray,
@@ -272,18 +301,51 @@ def _run_ticks(
     out_derivatives: np.ndarray,
     out_steering: np.ndarray,
 ) -> None:
-    """For each boat and output tick i: record state, steering and derivative under ``commands[i]``, then step
-    the tick. ``coefficients`` has one row per boat, or one row for all."""
+    """:func:`_boat_ticks` of every boat, one after another."""
     for b in range(states.shape[0]):
-        k = coefficients[min(b, coefficients.shape[0] - 1)]
-        for i in range(commands.shape[0]):
-            _start_step(steering[b], commands[i, b], k)
-            out_states[i, b] = states[b]
-            out_steering[i, b] = steering[b]
-            _derivative(states[b], commands[i, b], steering[b, 0], steering[b, 1], k, table, u_max, extra,
-                        environments[b], out_derivatives[i, b])
-            _step_boat(states[b], steering[b], commands[i, b], k, table, u_max, extra, environments[b], dt,
-                       substeps)
+        _boat_ticks(b, states, steering, commands, coefficients, table, u_max, extra, environments, dt, substeps,
+                    out_states, out_derivatives, out_steering)
+
+
+@numba.njit(cache=True, parallel=True)
+def _run_ticks_parallel(
+    states: np.ndarray,
+    steering: np.ndarray,
+    commands: np.ndarray,
+    coefficients: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    environments: np.ndarray,
+    dt: float,
+    substeps: int,
+    out_states: np.ndarray,
+    out_derivatives: np.ndarray,
+    out_steering: np.ndarray,
+) -> None:
+    """:func:`_run_ticks` with the boats shared among numba's threads (each boat's arithmetic is the same)."""
+    for b in numba.prange(states.shape[0]):
+        _boat_ticks(b, states, steering, commands, coefficients, table, u_max, extra, environments, dt, substeps,
+                    out_states, out_derivatives, out_steering)
+
+
+@numba.njit(cache=True)
+def _boat_step(
+    b: int,
+    states: np.ndarray,
+    steering: np.ndarray,
+    commands: np.ndarray,
+    coefficients: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    environments: np.ndarray,
+    dt: float,
+) -> None:
+    """Advance boat ``b`` one RK4 step of ``dt`` under its command ``commands[b]``, recording nothing."""
+    k = coefficients[0] if coefficients.shape[0] == 1 else coefficients[b]  # (prange's b is unsigned)
+    _start_step(steering[b], commands[b], k)
+    _step_boat(states[b], steering[b], commands[b], k, table, u_max, extra, environments[b], dt, 1)
 
 
 @numba.njit(cache=True)
@@ -298,11 +360,31 @@ def _step_all(
     environments: np.ndarray,
     dt: float,
 ) -> None:
-    """Advance every boat one RK4 step of ``dt`` under its command ``commands[b]``, recording nothing."""
+    """:func:`_boat_step` of every boat, one after another."""
     for b in range(states.shape[0]):
-        k = coefficients[min(b, coefficients.shape[0] - 1)]
-        _start_step(steering[b], commands[b], k)
-        _step_boat(states[b], steering[b], commands[b], k, table, u_max, extra, environments[b], dt, 1)
+        _boat_step(b, states, steering, commands, coefficients, table, u_max, extra, environments, dt)
+
+
+@numba.njit(cache=True, parallel=True)
+def _step_all_parallel(
+    states: np.ndarray,
+    steering: np.ndarray,
+    commands: np.ndarray,
+    coefficients: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    environments: np.ndarray,
+    dt: float,
+) -> None:
+    """:func:`_step_all` with the boats shared among numba's threads."""
+    for b in numba.prange(states.shape[0]):
+        _boat_step(b, states, steering, commands, coefficients, table, u_max, extra, environments, dt)
+
+
+PARALLEL_MIN_BOATS = 64
+"""Ensembles of at least this many boats are stepped on numba's threads (one per core): below it, starting the
+threads costs more than they save (a live twin's single boat, a replay's few windows)."""
 
 
 class Dynamics:
@@ -349,7 +431,8 @@ class Dynamics:
         ``commands`` (N, 4): :meth:`run` of one tick and one substep without its records (a closed-loop helm's
         steps between output ticks)."""
         m = self.model
-        _step_all(states, steering_rad, commands, self.coefficients, m.resistance_N, m.resistance_max_speed_mps,
+        kernel = _step_all_parallel if states.shape[0] >= PARALLEL_MIN_BOATS else _step_all
+        kernel(states, steering_rad, commands, self.coefficients, m.resistance_N, m.resistance_max_speed_mps,
                   m.extra_drag_N, environments, dt_s)
 
     def run(
@@ -371,6 +454,7 @@ class Dynamics:
         out_states = np.empty((commands.shape[0],) + states.shape)
         out_derivatives = np.empty_like(out_states)
         out_steering = np.empty((commands.shape[0], states.shape[0], 2))
-        _run_ticks(states, steering_rad, commands, self.coefficients, m.resistance_N, m.resistance_max_speed_mps,
+        kernel = _run_ticks_parallel if states.shape[0] >= PARALLEL_MIN_BOATS else _run_ticks
+        kernel(states, steering_rad, commands, self.coefficients, m.resistance_N, m.resistance_max_speed_mps,
                    m.extra_drag_N, environments, dt_s, substeps, out_states, out_derivatives, out_steering)
         return out_states, out_derivatives, out_steering
