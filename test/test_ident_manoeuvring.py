@@ -82,17 +82,21 @@ def test_cli_contract_twin_config_and_held_out_turning_circle(hidden, tmp_path: 
     assert "--validate needs --manoeuvring" in capsys.readouterr().err
 
 
+EXAMPLE_BOAT = {"m22_kg": 3000.0, "m33_kgm2": 5000.0, "sway_damping_Nspm2": 850.0, "yaw_damping_Nms": 1000.0,
+                "sway_quadratic_Ns2pm2": 1800.0, "yaw_quadratic_Nms2": 9000.0, "lateral_centre_x_m": -0.8,
+                "steering_offset_rad": 0.01}
+"""The hidden boat of the example in docs/identification.md (its true coefficients)."""
+
+
 def test_zigzags_steered_between_log_ticks_identify_without_bias(tmp_path: Path) -> None:
     """The IMO zigzag's helm reverses at the 50 Hz integration step; the bag stamps each reversal then, between
     the 10 Hz log ticks, and the trial reader puts it on the nearest tick. Two zigzags at one speed (the docs'
     example boat, docs/identification.md) give every coefficient within the targets and every interval holding
     the truth. Reversals read onto the next tick instead (late by half a tick on average) gave a_r +42 % with
     m33, a_r, Y_vv and the offset outside their intervals."""
-    truth = {"m22_kg": 3000.0, "m33_kgm2": 5000.0, "sway_damping_Nspm2": 850.0, "yaw_damping_Nms": 1000.0,
-             "sway_quadratic_Ns2pm2": 1800.0, "yaw_quadratic_Nms2": 9000.0}
-    vessel = replace(TwinConfig().vessel, lateral_centre_x_m=-0.8, steering_offset_rad=0.01, manoeuvring=truth)
-    config = replace(TwinConfig(), vessel=vessel)
-    truth = {**truth, "lateral_centre_x_m": -0.8, "steering_offset_rad": 0.01}
+    vessel = replace(TwinConfig().vessel, lateral_centre_x_m=-0.8, steering_offset_rad=0.01,
+                     manoeuvring={k: v for k, v in EXAMPLE_BOAT.items() if k not in SIGNED})
+    config, truth = replace(TwinConfig(), vessel=vessel), EXAMPLE_BOAT
     trials = []
     for angle_deg, seed in ((20.0, 1), (10.0, 2)):
         angle = math.radians(angle_deg)
@@ -110,6 +114,38 @@ def test_zigzags_steered_between_log_ticks_identify_without_bias(tmp_path: Path)
         assert abs(err[key]) < 0.15, (key, err)
     outside = [k for k, (lo, hi) in fit.ci95.items() if not lo <= truth[k] <= hi]
     assert not outside, (outside, fit.ci95)
+
+
+def test_zigzags_logged_over_mavlink_identify_through_the_calibration(tmp_path: Path,
+                                                                       capsys: pytest.CaptureFixture) -> None:
+    """The twin as a MAVLink boat logs the example's two zigzags as .tlog files (10 Hz streams: servo PWM,
+    GLOBAL_POSITION_INT, ATTITUDE); `identify --manoeuvring` reads them through the shipped calibration. Without
+    it the log has no commands, which the error says. Measured: a_r +6.6 %, the offset +0.05° (the servo's 1 µs
+    steps are 0.075°), the rest within 6 %."""
+    boat = {"vessel": {"lateral_centre_x_m": -0.8, "steering_offset_rad": 0.01,
+                       "manoeuvring": {k: v for k, v in EXAMPLE_BOAT.items() if k not in SIGNED}}}
+    config = tmp_path / "hidden.yaml"
+    config.write_text(json.dumps(boat))  # JSON is YAML
+    logs = []
+    for angle in (20, 10):
+        logs.append(str(tmp_path / f"zz{angle}.tlog"))
+        assert main(["simulate", f"zigzag-{angle}-{angle}", "--config", str(config), "--seed", str(angle),
+                     "--tlog", logs[-1], "--mavlink-rate", "ALL=10"]) == 0
+    capsys.readouterr()
+    assert main(["identify", logs[0], "--manoeuvring"]) == 2
+    assert "--calibration" in capsys.readouterr().err
+    calibration = Path(__file__).resolve().parents[1] / "config" / "mavlink" / "twin.yaml"
+    assert main(["identify", *logs, "--manoeuvring", "--window", "10", "--calibration", str(calibration),
+                 "--json"]) == 0
+    block = json.loads(capsys.readouterr().out)["manoeuvring"]
+    err = _errors(block["parameters"], EXAMPLE_BOAT)
+    assert not block["misfit"], block["residual_to_noise"]
+    for key in ("m22_kg", "m33_kgm2", "sway_damping_Nspm2"):
+        assert abs(err[key]) < 0.05, (key, err)
+    assert abs(err["yaw_damping_Nms"]) < 0.10, err
+    assert abs(err["lateral_centre_x_m"]) < 0.1 and abs(math.degrees(err["steering_offset_rad"])) < 0.1, err
+    for key in ("sway_quadratic_Ns2pm2", "yaw_quadratic_Nms2"):
+        assert abs(err[key]) < 0.15, (key, err)
 
 
 def test_thrust_error_the_model_lacks_is_flagged_as_misfit() -> None:

@@ -149,8 +149,11 @@ def cut_windows(trial: Trial, window_s: float = 20.0) -> Windows:
         else:
             i0 += 1
     if len(starts) < MIN_WINDOWS:
+        absent = [r for r in ("thrust_left", "thrust_right") if r in trial.metadata.missing]
+        why = (f": the trial has no {' or '.join(absent)} command (a MAVLink log needs --calibration to map its "
+               "servo or RC channels)") if absent else ""
         raise InputError(f"{trial.metadata.source}: only {len(starts)} windows of {window_s:g} s with commands "
-                         f"and sensors; the diagnosis needs at least {MIN_WINDOWS}")
+                         f"and sensors; the diagnosis needs at least {MIN_WINDOWS}{why}")
     start = np.array(starts)
     index = start[None, :] + np.arange(length)[:, None]
     values = {
