@@ -190,6 +190,13 @@ def test_unknown_scenario_and_bad_config_exit_2(tmp_path, capsys) -> None:
     assert "boat.yaml" in err and "mass_kg" in err
 
 
+
+@pytest.mark.parametrize("name", ["run.tlog", "run.BIN", "run.csv"])
+def test_a_bag_named_like_another_format_is_refused(tmp_path, capsys, name) -> None:
+    """A bag directory named x.tlog would be read back as a MAVLink log (and refused as 'not a file')."""
+    assert main(["simulate", "accel-stop", "--out", str(tmp_path / name)]) == 2
+    assert "--tlog FILE" in capsys.readouterr().err and not (tmp_path / name).exists()
+
 def test_unwritable_output_exits_2(tmp_path, capsys) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("")

@@ -128,6 +128,9 @@ def run(args: argparse.Namespace) -> int:
     from boat_twin.vessel.params import describe
 
     integer("--seed", args.seed, minimum=0, maximum=SEED_MAX)
+    if args.out is not None and args.out.suffix.lower() in (".tlog", ".bin", ".csv"):
+        raise InputError(f"--out {args.out}: writes a rosbag2 (a directory, or a .mcap file), which readers take "
+                         f"for a {args.out.suffix} file by its name; for a MAVLink log use --tlog FILE")
     refuse_input_as_output(args.out, args.commands, args.config, args.model, args.tlog)
     refuse_input_as_output(args.tlog, args.commands, args.config, args.model)
     for output, kind in ((args.out, "bag"), (args.tlog, "tlog")):
