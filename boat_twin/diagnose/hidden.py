@@ -64,9 +64,9 @@ def scenario(kind: str, params: VesselParams, rng: np.random.Generator, duration
         return random_commands(params, rng, duration_s)
     chosen = make_scenario(TRIAL_SCENARIOS[kind], params, rng, duration_s)
     if isinstance(chosen, Zigzag):
-        # A helm deciding at the 10 Hz log rate: the replay holds commands over the log's samples, so a reversal
-        # between two samples (a faster helm) would be logged up to a sample late, a timing error the replay
-        # cannot see (docs/diagnosis.md, limitations).
+        # A helm deciding at the 10 Hz log rate: its commands lie on the log's samples, which the replay holds
+        # them over; a faster helm's reversal is replayed up to half a sample early or late (docs/diagnosis.md,
+        # limitations), a small timing noise kept out of the hidden-effect trials.
         return replace(chosen, decision_rate_hz=OUTPUT_RATE_HZ)
     return chosen
 

@@ -152,8 +152,8 @@ class Zigzag:
     execute is to starboard. ``steering_rad`` and ``heading_change_rad`` are δ and ψ (20°/20° or 10°/10°).
     ``decision_rate_hz``: how often the helm checks the heading, Hz; 0 (default): at every integration step, so
     it reverses within one step of ±ψ. A helm as slow as the 10 Hz command log reverses up to a tick late
-    (20.5-20.85° on the 20°/20°) but only at logged instants, so a replay of the log has its commands exactly.
-    """
+    (20.5-20.85° on the 20°/20°) but only at logged instants, so a replay of the log has its commands exactly;
+    a faster helm's commands are logged when issued and replayed from the nearest log tick (±half a tick)."""
 
     params: VesselParams
     steering_rad: float
