@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import fcntl
 import json
+import math
 import os
 import re
 import shutil
@@ -298,11 +299,18 @@ def load_yaml(path: Path) -> Any:
 
 
 def to_json(data: Any) -> str:
-    """JSON for --json output: numpy scalars and arrays become plain numbers and lists."""
+    """JSON for --json output: numpy scalars and arrays become plain numbers and lists, and a non-finite number
+    (an unbounded interval, a value not measurable) becomes null: strict JSON, which every parser reads."""
 
-    def default(obj: Any) -> Any:
+    def plain(obj: Any) -> Any:
+        if isinstance(obj, dict):
+            return {key: plain(value) for key, value in obj.items()}
+        if isinstance(obj, (list, tuple)):
+            return [plain(value) for value in obj]
         if hasattr(obj, "tolist"):
-            return obj.tolist()
-        raise TypeError(f"not JSON serializable: {type(obj).__name__}")
+            return plain(obj.tolist())
+        if isinstance(obj, float) and not math.isfinite(obj):
+            return None
+        return obj
 
-    return json.dumps(data, default=default, indent=2)
+    return json.dumps(plain(data), indent=2, allow_nan=False)

@@ -16,6 +16,7 @@ import pytest
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.errors import InputError
+from boat_twin.files import to_json
 from boat_twin.ident.manoeuvring import PARAMETER_KEYS, fit_manoeuvring
 from boat_twin.ident.manoeuvring_trials import draw_boat, recorded, zigzag_set
 from boat_twin.io.trial import Trial, TrialMetadata
@@ -155,6 +156,19 @@ def test_thrust_error_the_model_lacks_is_flagged_as_misfit() -> None:
     fit = fit_manoeuvring(trials, base, window_s=10.0)
     assert fit.misfit, fit.residual_to_noise
 
+
+
+def test_steering_rate_the_model_lacks_is_flagged_as_misfit() -> None:
+    """Outboards swinging at 6°/s (a slow hydraulic helm) where the model has 18°/s: flagged (measured: gyro
+    13× its noise, velocities 4.6-5.2×). The fit leaves some coefficients free by hundreds of orders of
+    magnitude here: their intervals are unbounded (null in the JSON), never an overflow."""
+    base = TwinConfig()
+    true = replace(base, vessel=replace(base.vessel, steering_rate_radps=math.radians(6.0)))
+    trials = zigzag_set(true, 300, speeds_mps=(6.0,), angles_deg=(20.0,), duration_s=60.0)
+    fit = fit_manoeuvring(trials, base, window_s=10.0)
+    assert fit.misfit and fit.residual_to_noise["yaw_rate_radps"] > 5.0, fit.residual_to_noise
+    block = json.loads(to_json(fit.to_dict()))
+    assert set(block["parameters"]) == set(PARAMETER_KEYS)
 
 # An independent integrator of the documented equations (boat_twin.vessel.dynamics' docstring), written here:
 # RK4 at 100 Hz, no wind or current, both outboards at the same thrust and angle within their envelope.

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import socket
 from dataclasses import replace
@@ -13,7 +14,7 @@ import pytest
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
-from boat_twin.files import prepare_output, replace_output
+from boat_twin.files import prepare_output, replace_output, to_json
 from boat_twin.io.bags import read_trial, write_bag
 from boat_twin.io.messages import header, twist_stamped
 from boat_twin.twin import run_sea_trial, trial_messages
@@ -212,3 +213,10 @@ def test_reports_get_the_umask_permissions_a_bag_gets(tmp_path, umask) -> None:
     assert set(modes) >= {"identify.json", "report.txt", "model.yaml", "fits.png", "bag.mcap"}
     assert modes == dict.fromkeys(modes, expected)
 
+
+
+def test_json_output_is_strict_with_null_for_non_finite_numbers() -> None:
+    """--json output parses anywhere: NaN and ±inf (an unmeasurable value, an unbounded interval) are null."""
+    text = to_json({"interval": (np.float64(2.0), float("inf")), "values": np.array([np.nan, 1.5]), "n": np.int64(3)})
+    assert "Infinity" not in text and "NaN" not in text
+    assert json.loads(text) == {"interval": [2.0, None], "values": [None, 1.5], "n": 3}

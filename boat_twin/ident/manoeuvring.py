@@ -435,7 +435,7 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     not_identified = {}
     for p, se in zip(problem.free, stderr, strict=True):
         if p.logarithmic and not quantile * se <= math.log(NOT_IDENTIFIED_FACTOR):
-            not_identified[p.key] = (f"95 % interval ×/÷ {math.exp(quantile * se):.3g}: these trials do not "
+            not_identified[p.key] = (f"95 % interval ×/÷ {_factor(quantile * se):.3g}: these trials do not "
                                      "determine it (the value is the best fit, not a measurement)")
         elif not p.logarithmic and not quantile * p.scale * se <= NOT_IDENTIFIED_ABSOLUTE[p.key]:
             not_identified[p.key] = (f"95 % half-interval {quantile * p.scale * se:.3g} exceeds "
@@ -449,7 +449,7 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     ci95: dict[str, tuple[float, float]] = {}
     for p, se in zip(problem.free, stderr, strict=True):
         v = values[p.key]
-        ci95[p.key] = ((v * math.exp(-quantile * se), v * math.exp(quantile * se)) if p.logarithmic
+        ci95[p.key] = ((v / _factor(quantile * se), v * _factor(quantile * se)) if p.logarithmic
                        else (v - quantile * p.scale * se, v + quantile * p.scale * se))
     scale = np.where(stderr > 0, stderr, 1.0)
     correlation = cov / np.outer(scale, scale)
@@ -469,6 +469,12 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
         fit_time_s=time.perf_counter() - started, config=config,
         notes=[HELD_NOTE, LEVER_ARM_NOTE.format(x_e=base.vessel.engine_x_m)],
     )
+
+
+def _factor(log_half_width: float) -> float:
+    """exp(``log_half_width``), a multiplicative interval's factor; inf where it overflows (a coefficient the
+    trials leave free by hundreds of orders of magnitude)."""
+    return math.exp(log_half_width) if log_half_width < 700.0 else math.inf
 
 
 def _not_separated(keys: Sequence[str], correlation: np.ndarray) -> list[dict[str, Any]]:
