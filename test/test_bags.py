@@ -244,3 +244,11 @@ def test_commands_sit_on_the_grid_time_nearest_their_stamp() -> None:
     assert [thrust[t] for t in (2.0, 2.1)] == [2.0, 3.0]  # 2.06 s: from 2.1 s
     assert [thrust[t] for t in (3.0, 3.1)] == [3.0, 4.0]  # 3.05 s, a tie: from 3.1 s
     assert [thrust[t] for t in (3.9, 4.0, 6.0)] == [4.0, 5.0, 5.0]  # on a grid time: from it
+
+
+def test_a_stream_without_one_finite_stamp_is_named() -> None:
+    grid = np.arange(0.0, 5.0, 0.1)
+    streams = {"gnss_vel": Stream(grid, np.zeros((grid.size, 2))), "thrust_left": Stream(grid, np.ones((grid.size, 1))),
+               "thrust_right": Stream(np.array([np.nan]), np.array([[1.0]]))}
+    with pytest.raises(InputError, match="thrust_right: none of its 1 sample.s. has a finite time stamp"):
+        build_trial(streams, "hand-made", {})

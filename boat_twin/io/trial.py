@@ -335,6 +335,9 @@ def build_trial(
             continue
         _check_values(source, role, stream)
         data[role] = _monotone_stream(role, stream, meta)
+        if data[role].stamps_s.size == 0:
+            raise InputError(f"{source}: {role}: none of its {np.asarray(stream.stamps_s).size} sample(s) has a "
+                             "finite time stamp")
         if role in ("gnss_fix", "gnss_vel"):  # an IMU field may be NaN by design (REP-145: not provided)
             data[role] = _drop_nan_rows(role, data[role], meta)
         meta.counts[role] = int(np.asarray(stream.stamps_s).size)

@@ -143,7 +143,8 @@ def measured_trial(record: SimulationRecord, boat: int, config: TwinConfig, rng:
     models of ``config`` (noise from ``rng``, GNSS then UM7, as :func:`run_sea_trial` draws it) and its commands
     at every tick (held between ticks, they are the logged ones on the grid), put on the trial grid by
     :func:`~boat_twin.io.trial.build_trial` from the values and stamps (ns-rounded) the bag would carry: equal
-    to :func:`run_sea_trial` → bag → ``read_trial`` for the same seed. For the many trials of a training set,
+    to :func:`run_sea_trial` → bag → ``read_trial`` for the same seed, up to rounding (stamps read back from
+    sec + nanosec differ by picoseconds, headings by 1e-16 rad). For the many trials of a training set,
     where the bag's serialisation would cost more than the simulation."""
     truth = record.truth(boat)
     gnss = GnssModel(config.gnss, rng, noise=noise).measure(truth)

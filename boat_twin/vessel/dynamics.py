@@ -404,6 +404,12 @@ class Dynamics:
         self.coefficients = np.array(rows)
         """(boats or 1, coefficients) rows the kernel reads: one per boat, or one for all."""
 
+    def _check_boats(self, n_boats: int) -> None:
+        """The kernel reads one coefficient row for all boats or one per boat: any other count is a caller's
+        error (it would read past the rows)."""
+        if self.coefficients.shape[0] not in (1, n_boats):
+            raise ValueError(f"{n_boats} boats stepped with the coefficients of {self.coefficients.shape[0]}")
+
     def steering_targets(self, commands: np.ndarray) -> np.ndarray:
         """(N, 2) angles the outboards are driven to under ``commands`` (N, 4): command + offset, within ±δ_max."""
         offset = self.coefficients[:, _K_STEER_OFFSET, None]
@@ -431,6 +437,7 @@ class Dynamics:
         ``commands`` (N, 4): :meth:`run` of one tick and one substep without its records (a closed-loop helm's
         steps between output ticks)."""
         m = self.model
+        self._check_boats(states.shape[0])
         kernel = _step_all_parallel if states.shape[0] >= PARALLEL_MIN_BOATS else _step_all
         kernel(states, steering_rad, commands, self.coefficients, m.resistance_N, m.resistance_max_speed_mps,
                   m.extra_drag_N, environments, dt_s)
@@ -449,6 +456,7 @@ class Dynamics:
         the real steering angles then, (ticks, N, 2).
         """
         m = self.model
+        self._check_boats(states.shape[0])
         if steering_rad is None:
             steering_rad = self.steering_targets(commands[0]) if len(commands) else np.zeros((len(states), 2))
         out_states = np.empty((commands.shape[0],) + states.shape)
