@@ -2,41 +2,32 @@
 
 Run: make bench   (or: .venv/bin/python benchmarks/bench_simulator.py)
 Targets (printed, not asserted): physics >= 10,000x real time for one boat; the ensemble of 600 boats stepped
-together much faster than 600 single runs; a training set of 10^4 20°/20° zigzags (75 s, boats perturbed 10 %,
-as benchmarks/bench_zigzag_inverse.py makes it) in < 60 s on 2 cores, its boats shared among numba's threads
-(vessel.dynamics.PARALLEL_MIN_BOATS) against one thread, with identical results, and the memory it holds
-bounded by its ensemble runs of 2000 boats (not the 10^4).
+together much faster than 600 single runs; a training set of 10^4 20°/20° zigzags (75 s, boats drawn as
+the manoeuvring study's hidden boats: ident.manoeuvring_trials.draw_boat) in < 60 s on 2 cores, its boats shared
+among numba's threads (vessel.dynamics.PARALLEL_MIN_BOATS) against one thread, with identical results, and the
+memory it holds bounded by its ensemble runs of 2000 boats (not the 10^4).
 """
 
 import math
 import resource
 import tempfile
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from boat_twin.config import TwinConfig
+from boat_twin.ident.manoeuvring_trials import draw_boat
 from boat_twin.io.bags import write_bag
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel import dynamics
-from boat_twin.vessel.params import MANOEUVRING_KEYS, VesselParams, derive_coefficients
+from boat_twin.vessel.params import VesselParams
 from boat_twin.vessel.scenarios import Zigzag, make_scenario
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ, simulate
 
 TRAINING_SET = 10_000
 BATCH = 2000
 """Boats per ensemble run of the training set (bench_zigzag_inverse.BATCH)."""
-
-
-def perturbed_boats(base: VesselParams, n: int, rng: np.random.Generator) -> list[VesselParams]:
-    """``n`` boats with the sway/yaw coefficients of ``base`` perturbed normally, SD 10 %."""
-    coeff = derive_coefficients(base)
-    centre = np.array([getattr(coeff, k) for k in MANOEUVRING_KEYS])
-    draws = centre * (1.0 + 0.1 * np.clip(rng.standard_normal((n, centre.size)), -3.0, 3.0))
-    return [replace(base, manoeuvring={k: float(v) for k, v in zip(MANOEUVRING_KEYS, row, strict=True)})
-            for row in draws]
 
 
 def peak_rss_mb() -> float:
@@ -79,7 +70,29 @@ def main() -> None:
     singles_s = best_of(1, lambda: [simulate(params, short, initial_states=starts[i : i + 1]) for i in range(600)])
     print(f"ensemble 600 boats x 120 s: together {together_s:.3f} s, 600 single runs {singles_s:.3f} s, "
           f"ratio {singles_s / together_s:.1f}x")
+    threads_by_size(params)
     training_set(params)
+
+
+def threads_by_size(params: VesselParams) -> None:
+    """One RK4 step of N boats (a closed-loop helm's call), one thread against numba's threads, per N: where
+    vessel.dynamics.PARALLEL_MIN_BOATS should lie."""
+    dynamics_ = dynamics.Dynamics(params)
+    parallel_min = dynamics.PARALLEL_MIN_BOATS
+    for n in (1, 4, 8, 64, 2000):
+        commands, environments = np.full((n, 4), 800.0), np.zeros((n, 4))
+        commands[:, 2:] = 0.0
+        per_call = []
+        for threshold in (n + 1, n):  # one thread, then threads
+            dynamics.PARALLEL_MIN_BOATS = threshold
+            states, steering = np.zeros((n, 6)), np.zeros((n, 2))
+            states[:, 3] = 5.0
+            args = (states, commands, environments, 0.02, steering)
+            dynamics_.step(*args)  # compile
+            per_call.append(best_of(5, lambda args=args: [dynamics_.step(*args) for _ in range(200)]) / 200)
+        print(f"one step of {n} boats: one thread {per_call[0] * 1e6:.1f} us, threads {per_call[1] * 1e6:.1f} us, "
+              f"ratio {per_call[0] / per_call[1]:.2f}x")
+    dynamics.PARALLEL_MIN_BOATS = parallel_min
 
 
 def training_set(params: VesselParams) -> None:
@@ -87,7 +100,8 @@ def training_set(params: VesselParams) -> None:
     the whole set on threads, and the peak memory."""
     angle = math.radians(20.0)
     zigzag = Zigzag(params, angle, angle, duration_s=75.0, decision_rate_hz=OUTPUT_RATE_HZ)
-    boats = perturbed_boats(params, TRAINING_SET, np.random.default_rng(0))
+    rng = np.random.default_rng(0)
+    boats = [draw_boat(TwinConfig(vessel=params), rng)[0].vessel for _ in range(TRAINING_SET)]
     simulate(params, zigzag, boats=boats[: dynamics.PARALLEL_MIN_BOATS])  # compile the threaded kernels
     start = time.perf_counter()
     threaded = simulate(params, zigzag, boats=boats[:BATCH])

@@ -8,6 +8,7 @@ import pytest
 
 from boat_twin.errors import InputError
 from boat_twin.vessel import dynamics
+from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import (
     VesselParams,
@@ -111,6 +112,15 @@ def test_large_ensembles_on_numba_threads_equal_the_serial_kernel(monkeypatch: p
         np.testing.assert_array_equal(getattr(threaded, name), getattr(serial, name), err_msg=name)
     assert np.ptp(threaded.states[-1, :, 2]) > 0.01  # the boats differ
 
+
+
+def test_coefficients_of_another_number_of_boats_are_refused() -> None:
+    """One coefficient row for all boats or one per boat; anything else would read past the rows."""
+    dynamics = Dynamics(PARAMS, boats=[PARAMS, PARAMS])
+    with pytest.raises(ValueError, match="3 boats stepped with the coefficients of 2"):
+        dynamics.run(np.zeros((3, 6)), np.zeros((5, 3, 4)), np.zeros((3, 4)), 0.02, 5, np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="3 boats"):
+        dynamics.step(np.zeros((3, 6)), np.zeros((3, 4)), np.zeros((3, 4)), 0.02, np.zeros((3, 2)))
 
 def test_ensemble_of_different_boats_matches_each_boat_alone() -> None:
     zig = Zigzag(PARAMS, math.radians(20), math.radians(20), duration_s=40.0)

@@ -305,22 +305,18 @@ def predict(windows: Windows, config: TwinConfig, motion: MeasuredMotion | None 
 
 
 def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[VesselParams],
-                    motion: MeasuredMotion | None = None,
-                    steering: Sequence[np.ndarray | None] | None = None,
-                    initial_shift: np.ndarray | None = None) -> list[Prediction]:
+                    motion: MeasuredMotion | None = None, initial_shift: np.ndarray | None = None
+                    ) -> list[Prediction]:
     """:func:`predict` for ``config`` with each of ``vessels`` in turn (they share ``config.vessel``'s resistance
     model), in one run of the dynamics kernel: the windows of every vessel are boats of one ensemble, which
-    saves the per-call overhead when a fit replays the same windows through several candidate vessels.
-    ``steering``: per vessel, its outboards' angles over the trial
-    (:meth:`~boat_twin.vessel.dynamics.Dynamics.steering_history`) when the caller keeps them, else None.
+    saves the per-call overhead when a fit replays the same windows through several candidate vessels. Each
+    vessel's outboard angles over the trial come from :meth:`Windows.steering_rad` (kept there).
     ``initial_shift``: (vessels, m, 6) added to the measured initial states (a fit that estimates a window's
     initial state instead of taking the sensors' word for it)."""
     m = windows.start_index.size
     drag = tow_drag_table(config.tow, config.vessel)
     dynamics = Dynamics(config.vessel, drag, boats=[v for v in vessels for _ in range(m)])
-    histories = [given if given is not None else steering_history(windows, v)
-                 for v, given in zip(vessels, steering or [None] * len(vessels), strict=True)]
-    history = np.stack(histories, axis=1)
+    history = np.stack([windows.steering_rad(Dynamics(v)) for v in vessels], axis=1)
     states = initial_states(windows, config, dynamics, history, motion)
     if initial_shift is not None:
         states += initial_shift.reshape(states.shape)
@@ -349,9 +345,3 @@ def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[Vess
         out.append(Prediction(signals={name: values[:, boats] for name, values in signals.items()},
                               position=place + offset[None, :, :]))
     return out
-
-
-def steering_history(windows: Windows, vessel: VesselParams) -> np.ndarray:
-    """(n, 2) the outboards' real angles over the whole trial of ``windows`` on ``vessel``, rad
-    (:meth:`~boat_twin.vessel.dynamics.Dynamics.steering_history` of the recorded commands)."""
-    return windows.steering_rad(Dynamics(vessel))

@@ -25,6 +25,7 @@ from boat_twin.files import OutputClaim
 from boat_twin.io.mcap_crc import check_chunk_crcs, fill_chunk_crcs
 from boat_twin.io.messages import TOPIC_ODOM_TRUTH, TOPICS, TS
 from boat_twin.io.trial import Stream, Trial, build_trial
+from boat_twin.sensors.um7 import quaternion_yaw_rad
 
 ROLE_TOPICS = {
     "thrust_left": "thrusters/left/thrust",
@@ -87,7 +88,7 @@ def _fix(msg: Any, log_s: float) -> tuple[float, float, float, float] | None:
 
 def _yaw(q: Any) -> float:
     """ENU yaw of a quaternion (REP-103), rad."""
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    return float(quaternion_yaw_rad(q.x, q.y, q.z, q.w))
 
 
 def _vel(msg: Any, log_s: float) -> tuple[float, float, float]:

@@ -147,6 +147,12 @@ def quaternion_xyzw(roll_rad: np.ndarray, pitch_rad: np.ndarray, yaw_rad: np.nda
     return q * np.where(q[:, 3:] < 0.0, -1.0, 1.0)
 
 
+
+def quaternion_yaw_rad(x: Any, y: Any, z: Any, w: Any) -> Any:
+    """ENU yaw (REP-103) of quaternions given by their components (floats or arrays), rad: the inverse of
+    :func:`quaternion_xyzw`'s yaw, whatever the roll and pitch."""
+    return np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
 def wrap_pi(angle_rad: np.ndarray) -> np.ndarray:
     """Angles wrapped to [-pi, pi)."""
     return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi

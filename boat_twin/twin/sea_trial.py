@@ -19,7 +19,7 @@ from boat_twin.config import TwinConfig
 from boat_twin.io import messages
 from boat_twin.io.trial import Stream, Trial, build_trial
 from boat_twin.sensors.gnss import GnssMeasurements, GnssModel
-from boat_twin.sensors.um7 import ImuMeasurements, Um7Model
+from boat_twin.sensors.um7 import ImuMeasurements, Um7Model, quaternion_yaw_rad
 from boat_twin.vessel.scenarios import Scenario
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ, SimulationRecord, output_ticks, simulate, simulate_chunks
 from boat_twin.vessel.tow import tow_drag_table
@@ -144,7 +144,7 @@ def measured_trial(record: SimulationRecord, boat: int, config: TwinConfig, rng:
     at every tick (held between ticks, they are the logged ones on the grid), put on the trial grid by
     :func:`~boat_twin.io.trial.build_trial` from the values and stamps (ns-rounded) the bag would carry: equal
     to :func:`run_sea_trial` → bag → ``read_trial`` for the same seed, up to rounding (stamps read back from
-    sec + nanosec differ by picoseconds, headings by 1e-16 rad). For the many trials of a training set,
+    sec + nanosec differ by picoseconds). For the many trials of a training set,
     where the bag's serialisation would cost more than the simulation."""
     truth = record.truth(boat)
     gnss = GnssModel(config.gnss, rng, noise=noise).measure(truth)
@@ -154,8 +154,7 @@ def measured_trial(record: SimulationRecord, boat: int, config: TwinConfig, rng:
     def stamped(t_s: np.ndarray, *columns: np.ndarray) -> Stream:
         return Stream(messages.stamps_ns(t_s) * 1e-9, np.column_stack(columns))
 
-    q = imu.quaternion_xyzw  # yaw as the bag reader takes it from the orientation
-    yaw = np.arctan2(2.0 * (q[:, 3] * q[:, 2] + q[:, 0] * q[:, 1]), 1.0 - 2.0 * (q[:, 1] ** 2 + q[:, 2] ** 2))
+    yaw = quaternion_yaw_rad(*imu.quaternion_xyzw.T)  # as the bag reader takes it from the orientation
     streams = {role: stamped(record.command_stamps_s(boat), commands[:, k])
                for k, role in enumerate(("thrust_left", "thrust_right", "angle_left", "angle_right"))}
     streams["gnss_fix"] = stamped(gnss.stamp_s, gnss.lat_deg, gnss.lon_deg, gnss.alt_m)

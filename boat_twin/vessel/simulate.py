@@ -155,7 +155,7 @@ def simulate_chunks(
                     command = helm.command(float(t) + j * dt_s, states)
                     changed = np.ones(states.shape[0], dtype=bool) if last_command is None else np.any(
                         command != last_command, axis=1)
-                    changed_s[changed], last_command = float(t) + j * dt_s, command
+                    changed_s[changed], last_command = float(t) + j * dt_s, command.copy()
                     if steering is None:
                         steering = dynamics.steering_targets(command)
                     if j > 0:
