@@ -60,7 +60,7 @@ and a change of the latency moves the fit smoothly instead of picking another no
 SWAY_OBSERVER_S = 5.0
 """Run-in of the sway observer before each window, s: ~2 sway time constants at 1.5 m/s, 12 at 10 m/s."""
 STEERING_HISTORIES_KEPT = 4
-"""Steering histories a :class:`Windows` keeps (the latest, by steering offset, limit and rate)."""
+"""Actuator histories (and delayed command series) a :class:`Windows` keeps, the latest."""
 MIN_WINDOWS = 6
 """Fewer usable windows than this and a trial cannot be split into training and held-out parts."""
 MIN_WINDOW_S = 2.0 * SETTLING_S
@@ -76,49 +76,78 @@ class Windows:
     commands: np.ndarray
     """(T, m, 4) recorded commands (thrust_left_N, thrust_right_N, angle_left_rad, angle_right_rad)."""
     measured: dict[str, np.ndarray]
-    """Signal name → (T, m) measured values (NaN where the sensor had no sample)."""
+    """Signal name → (T, m) measured values (NaN where the sensor had no sample, and where a GNSS velocity was
+    only interpolated across a lost sample: :attr:`~boat_twin.io.trial.Trial.gnss_bridged`)."""
     position: np.ndarray
-    """(T, m, 2) measured GNSS position, local ENU, m."""
+    """(T, m, 2) measured GNSS position, local ENU, m (NaN where bridged, as the velocity)."""
     trial: Trial
     start_index: np.ndarray
     """(m,) index into the trial's grid of each window's first sample."""
-    _steering: dict[tuple[float, float, float], np.ndarray] = field(default_factory=dict, init=False, repr=False,
-                                                                     compare=False)
-    """:meth:`steering_rad` by the steering parameters it was computed for."""
+    _actuators: dict[tuple[float, ...], np.ndarray] = field(default_factory=dict, init=False, repr=False,
+                                                            compare=False)
+    """:meth:`actuators` by the actuator parameters it was computed for."""
+    _acting: dict[float, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict, init=False, repr=False,
+                                                                compare=False)
+    """:meth:`acting` by command delay."""
 
     @property
     def dt_s(self) -> float:
         """Sample period, s."""
         return float(self.t_s[1, 0] - self.t_s[0, 0])
 
-    def steering_rad(self, dynamics: Dynamics) -> np.ndarray:
-        """(n, 2) the outboards' angles over the trial that ``dynamics``'s boat gives the recorded commands
-        (:meth:`~boat_twin.vessel.dynamics.Dynamics.steering_history`), read-only. Kept per steering offset,
-        limit and rate: a diagnosis replays the same commands hundreds of times, mostly with the same steering,
-        and the history is a loop over every sample (most of a replay's time without this). A new offset shifts
-        a kept history while no steering target reaches the limit (the rate-limited swing is then the same with
-        any offset, moved by it): a fit of the offset asks a new one at every evaluation."""
-        p = dynamics.params
-        key = (p.steering_offset_rad, p.max_steering_rad, p.steering_rate_radps)
-        if key not in self._steering:
-            if len(self._steering) >= STEERING_HISTORIES_KEPT:  # a fit of the offset asks a new one each time
-                del self._steering[next(iter(self._steering))]
-            history = self._shifted(key)
-            if history is None:
-                history = dynamics.steering_history(self.dt_s, self.trial.commands)
-            history.flags.writeable = False
-            self._steering[key] = history
-        return self._steering[key]
+    @property
+    def index(self) -> np.ndarray:
+        """(T, m) index into the trial's grid of every window sample."""
+        return self.start_index[None, :] + np.arange(self.t_s.shape[0])[:, None]
 
-    def _shifted(self, key: tuple[float, float, float]) -> np.ndarray | None:
-        """A kept history (same limit and rate, another offset) moved to ``key``'s offset, if no target reaches
-        the limit with either offset; else None."""
-        offset, limit, rate = key
-        largest = float(np.nanmax(np.abs(self.trial.commands[:, 2:4]), initial=0.0))
-        for (kept_offset, kept_limit, kept_rate), kept in reversed(self._steering.items()):
-            if (kept_limit, kept_rate) == (limit, rate) and largest + max(abs(offset), abs(kept_offset)) < limit:
-                return kept + (offset - kept_offset)
-        return None
+    def acting(self, delay_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """The commands (n, 4) the boat acts on over the trial when they act ``delay_s`` after they were issued,
+        and their switch times (n,), s after each sample (as
+        :meth:`~boat_twin.vessel.dynamics.Dynamics.run` takes them): the recorded commands with the trial's own
+        switch times (a helm faster than the grid), moved by the delay (:func:`delayed_commands`)."""
+        if delay_s not in self._acting:
+            if len(self._acting) >= STEERING_HISTORIES_KEPT:
+                del self._acting[next(iter(self._acting))]
+            switch = self.trial.command_switch_s
+            switch = np.zeros(len(self.trial)) if switch is None else switch
+            self._acting[delay_s] = delayed_commands(self.trial.commands, switch, self.dt_s, delay_s)
+        return self._acting[delay_s]
+
+    def actuators(self, dynamics: Dynamics) -> np.ndarray:
+        """(n, 4) the outboards' angles and the engines' lagged thrust commands over the trial that
+        ``dynamics``'s boat gives the commands it acts on (:meth:`acting`, its command delay;
+        :meth:`~boat_twin.vessel.dynamics.Dynamics.actuator_history`), read-only. Kept per steering offset,
+        limit and rate, thrust lag and delay: a diagnosis replays the same commands hundreds of times."""
+        p = dynamics.params
+        key = (p.steering_offset_rad, p.max_steering_rad, p.steering_rate_radps, p.thrust_time_constant_s,
+               p.command_delay_s)
+        if key not in self._actuators:
+            if len(self._actuators) >= STEERING_HISTORIES_KEPT:  # a fit of the offset asks a new one each time
+                del self._actuators[next(iter(self._actuators))]
+            history = dynamics.actuator_history(self.dt_s, *self.acting(p.command_delay_s))
+            history.flags.writeable = False
+            self._actuators[key] = history
+        return self._actuators[key]
+
+    def steering_rad(self, dynamics: Dynamics) -> np.ndarray:
+        """(n, 2) the outboards' angles of :meth:`actuators`, rad."""
+        return self.actuators(dynamics)[:, :2]
+
+
+def delayed_commands(commands: np.ndarray, switch_s: np.ndarray, dt_s: float, delay_s: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Commands (n, 4) on a grid ``dt_s`` apart, each taking over ``switch_s`` (n,) after its sample, moved
+    ``delay_s`` later: on the same grid, the commands and switch times that act then (a command acts from its
+    sample k = round(delay / dt) later, plus the remainder within ±half a sample; before the first the first
+    holds). Exact for any delay (no rounding to the grid), and continuous in it."""
+    if delay_s == 0.0:
+        return commands, switch_s
+    shift = int(round(delay_s / dt_s))
+    rest = delay_s - shift * dt_s
+    source = np.maximum(np.arange(len(commands)) - shift, 0)
+    moved = commands[source]
+    changed = np.concatenate([[False], np.any(moved[1:] != moved[:-1], axis=1)])
+    return moved, np.where(changed, switch_s[source] + rest, 0.0)
 
 
 def cut_windows(trial: Trial, window_s: float = 20.0) -> Windows:
@@ -156,15 +185,18 @@ def cut_windows(trial: Trial, window_s: float = 20.0) -> Windows:
                          f"and sensors; the diagnosis needs at least {MIN_WINDOWS}{why}")
     start = np.array(starts)
     index = start[None, :] + np.arange(length)[:, None]
+    measured = np.full(t.size, True) if trial.gnss_bridged is None else ~trial.gnss_bridged
     values = {
-        "vel_east_mps": trial.vel_east_mps, "vel_north_mps": trial.vel_north_mps,
+        "vel_east_mps": np.where(measured, trial.vel_east_mps, np.nan),
+        "vel_north_mps": np.where(measured, trial.vel_north_mps, np.nan),
         "yaw_rate_radps": trial.yaw_rate_radps, "heading_rad": trial.heading_rad,
     }
     return Windows(
         t_s=t[index],
         commands=commands[index],
         measured={name: values[name][index] for name in SIGNALS},
-        position=np.stack([trial.east_m[index], trial.north_m[index]], axis=-1),
+        position=np.stack([np.where(measured, trial.east_m, np.nan)[index],
+                           np.where(measured, trial.north_m, np.nan)[index]], axis=-1),
         trial=trial,
         start_index=start,
     )
@@ -202,20 +234,21 @@ def _integrated(rate: np.ndarray, dt: float) -> np.ndarray:
 
 
 def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, heading: np.ndarray,
-                   surge: np.ndarray, yaw_rate: np.ndarray, steering: np.ndarray) -> np.ndarray:
+                   surge: np.ndarray, yaw_rate: np.ndarray, actuators: np.ndarray) -> np.ndarray:
     """(k·m,) sway through water at each window's start, m/s, for each of the ``k`` vessels of ``dynamics``
     (boat j·m + w: vessel j, window w): the model's sway equation run over the :data:`SWAY_OBSERVER_S` before
-    it, from rest, driven by the recorded commands and the *measured* heading, surge (GNSS) and yaw rate (gyro)
-    of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length) and the outboards' angles that the
-    recorded commands drive on each vessel (``steering``, (n, k, 2)).
+    it, from rest, driven by the commands the boat acts on and the *measured* heading, surge (GNSS) and yaw
+    rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length) and the outboards'
+    angles and lagged thrust those commands drive on each vessel (``actuators``, (n, k, 4)).
 
     Sway is a fast state (time constant m22 / (Y_v·u): 0.4 s at 10 m/s), so it forgets its start; the gyro
     that drives it through the m11·u·r term is 50× less noisy than a sway read from GNSS velocity and IMU
     heading (±0.06 m/s), which at low speed turns into a spurious turn of several degrees per window.
     Samples without commands or sensors hold the sway.
     """
-    trial, dt = windows.trial, windows.dt_s
-    vessels = steering.shape[1]
+    dt = windows.dt_s
+    vessels = actuators.shape[1]
+    acting, _ = windows.acting(config.vessel.command_delay_s)
     start = np.tile(windows.start_index, vessels)
     vessel = np.repeat(np.arange(vessels), windows.start_index.size)
     sway = np.zeros(start.size)
@@ -226,10 +259,12 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
         index = np.maximum(index, 0)
         states = np.zeros((sway.size, 6))
         states[:, 2], states[:, 3], states[:, 4], states[:, 5] = heading[index], surge[index], sway, yaw_rate[index]
-        commands = trial.commands[index][None]
-        angles = steering[index, vessel]
+        commands = acting[index][None]
+        angles = actuators[index, vessel, :2]
         angles = np.where(np.isfinite(angles), angles, dynamics.steering_targets(commands[0]))
-        _, derivative, _ = dynamics.run(states, commands, environments, dt, 1, angles)
+        thrust = actuators[index, vessel, 2:]
+        thrust = np.where(np.isfinite(thrust), thrust, dynamics.thrust_start(commands[0]))
+        _, derivative, _ = dynamics.run(states, commands, environments, dt, 1, angles, thrust)
         rate = derivative[0, :, 4]
         sway = np.where(inside & np.isfinite(rate), sway + dt * rate, sway)
     return sway
@@ -265,11 +300,11 @@ def measured_motion(windows: Windows, config: TwinConfig) -> MeasuredMotion:
     return MeasuredMotion(heading, surge, yaw_rate)
 
 
-def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, steering: np.ndarray,
+def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, actuators: np.ndarray,
                    motion: MeasuredMotion | None = None) -> np.ndarray:
     """(k·m, 6) state at each window's start for each of the ``k`` vessels of ``dynamics`` (boat j·m + w:
-    vessel j, window w), from the sensors as ``config`` says they err (``steering``: the outboards' angles over
-    the trial on each vessel, (n, k, 2), :meth:`~boat_twin.vessel.dynamics.Dynamics.steering_history`).
+    vessel j, window w), from the sensors as ``config`` says they err (``actuators``: the outboards' angles and
+    lagged thrust over the trial on each vessel, (n, k, 4), :meth:`Windows.actuators`).
 
     Heading, surge and yaw rate: :func:`measured_motion` (``motion``, if already computed for ``config``'s
     sensors and current); sway: the :func:`_sway_observer`. Every term is a measurement or driven by
@@ -277,13 +312,13 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, ste
     absorb.
     """
     motion = motion or measured_motion(windows, config)
-    start = np.tile(windows.start_index, steering.shape[1])
+    start = np.tile(windows.start_index, actuators.shape[1])
     states = np.zeros((start.size, 6))
     states[:, 2] = motion.heading_rad[start]
     states[:, 3] = motion.surge_mps[start]
     states[:, 5] = motion.yaw_rate_radps[start]
     states[:, 4] = _sway_observer(windows, config, dynamics, motion.heading_rad, motion.surge_mps,
-                                  motion.yaw_rate_radps, steering)
+                                  motion.yaw_rate_radps, actuators)
     return states
 
 
@@ -310,21 +345,29 @@ def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[Vess
     """:func:`predict` for ``config`` with each of ``vessels`` in turn (they share ``config.vessel``'s resistance
     model), in one run of the dynamics kernel: the windows of every vessel are boats of one ensemble, which
     saves the per-call overhead when a fit replays the same windows through several candidate vessels. Each
-    vessel's outboard angles over the trial come from :meth:`Windows.steering_rad` (kept there).
+    vessel's outboard angles and lagged thrust over the trial come from :meth:`Windows.actuators` (kept there).
     ``initial_shift``: (vessels, m, 6) added to the measured initial states (a fit that estimates a window's
     initial state instead of taking the sensors' word for it)."""
     m = windows.start_index.size
     drag = tow_drag_table(config.tow, config.vessel)
     dynamics = Dynamics(config.vessel, drag, boats=[v for v in vessels for _ in range(m)])
-    history = np.stack([windows.steering_rad(Dynamics(v)) for v in vessels], axis=1)
+    history = np.stack([windows.actuators(Dynamics(v)) for v in vessels], axis=1)
     states = initial_states(windows, config, dynamics, history, motion)
     if initial_shift is not None:
         states += initial_shift.reshape(states.shape)
     substeps = max(1, int(round(windows.dt_s * REPLAY_INTEGRATION_RATE_HZ)))
     environments = np.tile(config.environment.as_vector(), (states.shape[0], 1))
-    commands = np.tile(windows.commands, (1, len(vessels), 1))
-    start_angles = history[windows.start_index].transpose(1, 0, 2).reshape(-1, 2)
-    path, rates, _ = dynamics.run(states, commands, environments, windows.dt_s / substeps, substeps, start_angles)
+    acting, switch = windows.acting(config.vessel.command_delay_s)
+    index = windows.index
+    commands = np.tile(acting[index], (1, len(vessels), 1))
+    switching = None
+    if np.any(switch[index] != 0.0):
+        switching = np.tile(switch[index], (1, len(vessels)))
+    before = np.tile(acting[np.maximum(windows.start_index - 1, 0)], (len(vessels), 1))
+    start = history[windows.start_index].transpose(1, 0, 2).reshape(-1, 4)
+    path, rates, _ = dynamics.run(states, commands, environments, windows.dt_s / substeps, substeps,
+                                  np.ascontiguousarray(start[:, :2]), np.ascontiguousarray(start[:, 2:]),
+                                  switching, before)
     east, north, yaw, u, v, r = (path[..., j] for j in range(6))
     env = config.environment
     vel_east, vel_north = ground_velocity_enu(yaw, u, v, env.current_east_mps, env.current_north_mps)

@@ -50,7 +50,8 @@ from scipy.stats import t as student_t
 
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.effects import Effect
-from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, predict, residual
+from boat_twin.diagnose.initial_state import InitialStateProjection, stack_signals
+from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, predict
 from boat_twin.diagnose.structure import MISFIT_FACTOR
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
@@ -89,10 +90,14 @@ MAX_EVALUATIONS = 40
 
 @dataclass
 class Residuals:
-    """Normalized residuals of one model: signal → (T, m) (NaN where not measured)."""
+    """Normalized residuals of one model: signal → (T, m) (NaN where not measured), each window's best
+    initial-state correction removed (:mod:`~boat_twin.diagnose.initial_state`)."""
 
     values: dict[str, np.ndarray]
     prediction: Prediction
+    """The replay from the measured initial states (uncorrected)."""
+    prior: np.ndarray | None = None
+    """(q, m) the windows' initial-state corrections over their prior standard deviations (None: none made)."""
 
     def sse(self) -> np.ndarray:
         """(n_signals, m) sums of squares per signal and window."""
@@ -151,6 +156,9 @@ class Diagnosis:
         self.windows = windows
         self.base = base
         self.sigma = {s: white_noise_stdev(windows.measured[s]) for s in SIGNALS}
+        """White-noise level per signal, from its measured samples only (GNSS samples bridged across a lost
+        one are NaN in the windows: an interpolation has less noise than a measurement)."""
+        self.projection = InitialStateProjection.for_model(windows, base, self.sigma)
         m = windows.t_s.shape[1]
         self.folds = np.arange(m) % FOLDS
         self.progress = progress or (lambda _msg: None)
@@ -172,11 +180,9 @@ class Diagnosis:
         except InputError:  # parameters the boat cannot have (e.g. a reference turn it could not hold)
             infeasible = {s: np.full(self.windows.t_s.shape, INFEASIBLE_RESIDUAL) for s in SIGNALS}
             return Residuals(infeasible, Prediction(infeasible, np.zeros(self.windows.position.shape)))
-        values = {}
-        for s in SIGNALS:
-            scale = self.sigma[s] if np.isfinite(self.sigma[s]) and self.sigma[s] > 0 else 1.0
-            values[s] = residual(s, self.windows.measured[s], prediction.signals[s]) / scale
-        return Residuals(values, prediction)
+        corrected, prior = self.projection.apply(stack_signals(self.windows, prediction.signals, self.sigma))
+        values = dict(zip(SIGNALS, np.split(corrected, len(SIGNALS)), strict=True))
+        return Residuals(values, prediction, prior)
 
     def _fit_values(self, effects: list[Effect], start: np.ndarray, train: np.ndarray) -> np.ndarray:
         """Least squares over the windows ``train`` (bool (m,)), in scaled parameters; returns SI values."""
@@ -190,7 +196,8 @@ class Diagnosis:
 
         def fun(x: np.ndarray) -> np.ndarray:
             res = self.residuals(self.config(effects, null + scale * x))
-            stacked = np.concatenate([res.values[s][:, train].ravel() for s in SIGNALS])
+            prior = [] if res.prior is None else [res.prior[:, train].ravel()]
+            stacked = np.concatenate([res.values[s][:, train].ravel() for s in SIGNALS] + prior)
             return np.where(np.isfinite(stacked), stacked, 0.0)
 
         result = least_squares(fun, x0, bounds=(lower, upper), diff_step=0.01, max_nfev=MAX_EVALUATIONS,

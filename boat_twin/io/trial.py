@@ -9,6 +9,7 @@ and the gap is reported). Local ENU comes from the geodetic origin with pymap3d 
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -103,6 +104,13 @@ class Trial:
     accel_x_mps2: np.ndarray
     accel_y_mps2: np.ndarray
     metadata: TrialMetadata
+    command_switch_s: np.ndarray | None = None
+    """(n,) when the commands held from each grid time were issued, relative to it, s (within ±half a period:
+    a helm faster than the grid changes them between grid times; 0 where nothing changed); None: at the grid
+    times. The mean over the command roles that changed at that sample."""
+    gnss_bridged: np.ndarray | None = None
+    """(n,) True where the GNSS velocity and position were interpolated across a lost sample (a dropout): not
+    a measurement, and smoother than one; None: none was."""
 
     @property
     def speed_mps(self) -> np.ndarray:
@@ -147,6 +155,29 @@ def _hold(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray, period_s
     out = values[np.maximum(index, 0)].astype(float)
     out[index < 0] = np.nan
     return out
+
+
+def _switch_offsets(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray, period_s: float
+                     ) -> np.ndarray:
+    """(n,) for each grid time whose :func:`_hold` value differs from the previous grid time's, when that value
+    was first issued (its run of equal values began), relative to the grid time, s; NaN elsewhere."""
+    index = np.searchsorted(stamps_s, grid_s + 0.5 * period_s - 1e-9, side="left") - 1
+    changed = np.concatenate([[True], values[1:] != values[:-1]])
+    run_start = stamps_s[np.maximum.accumulate(np.where(changed, np.arange(values.size), 0))]
+    held = values[np.maximum(index, 0)]
+    new = (index >= 0) & np.concatenate([[False], (held[1:] != held[:-1]) & (index[:-1] >= 0)])
+    offset = np.clip(run_start[np.maximum(index, 0)] - grid_s, -0.5 * period_s, 0.5 * period_s)
+    return np.where(new, np.where(np.abs(offset) < 1e-6, 0.0, offset), np.nan)
+
+
+def _bridged(stamps_s: np.ndarray, grid_s: np.ndarray, period_s: float) -> np.ndarray:
+    """(n,) True at grid times strictly between two samples more than 1.5 periods apart (a lost sample
+    between them): an interpolation across a dropout."""
+    right = np.clip(np.searchsorted(stamps_s, grid_s, side="left"), 1, max(stamps_s.size - 1, 1))
+    left = right - 1
+    span = stamps_s[right] - stamps_s[left]
+    inside = (grid_s > stamps_s[left] + 1e-6) & (grid_s < stamps_s[right] - 1e-6)
+    return inside & (span > 1.5 * period_s)
 
 
 def _interpolate(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndarray, max_gap_s: float,
@@ -361,18 +392,24 @@ def build_trial(
     grid_abs = t0 + np.arange(int(np.floor((t1 - t0) / period + 1e-6)) + 1) * period
     meta.start_time_s = t0
     columns: dict[str, np.ndarray] = {}
+    offsets = []
     for role in COMMAND_ROLES:
         columns[role] = _hold(data[role].stamps_s, data[role].values[:, 0], grid_abs, period) if role in data \
             else np.full(grid_abs.size, 0.0 if role.startswith("angle") else np.nan)
+        if role in data:
+            offsets.append(_switch_offsets(data[role].stamps_s, data[role].values[:, 0], grid_abs, period))
         if release:
             data.pop(role, None)
             streams.pop(role, None)
+    bridged: np.ndarray | None = None
     for role, width in (("gnss_fix", 3), ("gnss_vel", 2), ("imu", 4)):
         if role not in data:
             columns[role] = np.full((grid_abs.size, width), np.nan)
             continue
         stream = data[role]
         max_gap = GAP_TOLERANCE_PERIODS / max(meta.rates_hz[role], 1e-9)
+        if role == "gnss_vel":
+            bridged = _bridged(stream.stamps_s, grid_abs, 1.0 / max(meta.rates_hz[role], 1e-9))
         if role == "imu":  # unwrap the heading before interpolating it
             yaw = stream.values[:, :1].copy()
             known = np.isfinite(yaw[:, 0])  # a yaw not provided (NaN) must not poison the unwrap after it
@@ -386,6 +423,9 @@ def build_trial(
         meta.gaps += [(role, float(stream.stamps_s[j] - t0), float(stream.stamps_s[j + 1] - t0)) for j in jumps]
         if release:
             del data[role], streams[role], stream
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # no role changed at most samples: an all-NaN mean
+        switch = np.nan_to_num(np.nanmean(np.array(offsets), axis=0), nan=0.0) if offsets else None
     fix = columns["gnss_fix"]
     if origin is None:
         valid = np.flatnonzero(np.all(np.isfinite(fix), axis=1))
@@ -423,4 +463,6 @@ def build_trial(
         accel_x_mps2=imu[:, 2],
         accel_y_mps2=imu[:, 3],
         metadata=meta,
+        command_switch_s=switch if switch is not None and np.any(switch != 0.0) else None,
+        gnss_bridged=bridged if bridged is not None and bridged.any() else None,
     )

@@ -42,6 +42,11 @@ class LiveTwin:
         self.state = np.zeros((1, 6))
         self.steering_rad: np.ndarray | None = None
         """(1, 2) the outboards' real angles; None until the first tick starts them where it drives them."""
+        self.thrust_N: np.ndarray | None = None
+        """(1, 2) the engines' thrust commands after their lag; None until the first tick starts them there."""
+        self._issued: deque[tuple[int, np.ndarray]] = deque()
+        """Commands issued (tick, row) that the boat does not act on yet (``vessel.command_delay_s``)."""
+        self._acting: np.ndarray | None = None
         self.environments = config.environment.as_vector()[None, :]
         self.commands = np.zeros(4)
         self.epoch_s = epoch_s
@@ -71,14 +76,37 @@ class LiveTwin:
         if math.isfinite(value):
             self.commands[index] = value
 
+    def _acting_command(self, issued: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """(1, 1, 4) the command the boat acts on this tick, (1, 1) when it takes over (s after the tick; None:
+        at it) and (1, 4) the one before it: the issued commands ``vessel.command_delay_s`` late (the first
+        issued one before any is due)."""
+        delay_ticks = self.config.vessel.command_delay_s * OUTPUT_RATE_HZ
+        if delay_ticks == 0.0:
+            return issued, None, issued[0]
+        self._issued.append((self.tick_index, issued[0, 0].copy()))
+        previous = self._acting if self._acting is not None else issued[0, 0]
+        late = self.tick_index - math.floor(delay_ticks)  # the issued tick whose command acts within this one
+        while self._issued and self._issued[0][0] <= late:
+            self._acting = self._issued.popleft()[1]
+        acting = self._acting if self._acting is not None else issued[0, 0]
+        switch = None
+        if np.any(acting != previous):
+            switch = np.array([[(delay_ticks - math.floor(delay_ticks)) / OUTPUT_RATE_HZ]])
+        return acting[None, None, :], switch, previous[None, :]
+
     def tick(self) -> list[messages.Message]:
-        """Record this tick under the held commands, step the dynamics one output period, return the messages."""
+        """Record this tick under the held commands (acting ``vessel.command_delay_s`` after they were issued,
+        the engines' thrust lagging by ``vessel.thrust_time_constant_s``), step the dynamics one output period,
+        return the messages."""
         commands = self.commands[None, None, :].copy()
         substeps = round(INTEGRATION_RATE_HZ / OUTPUT_RATE_HZ)
-        if self.steering_rad is None:
-            self.steering_rad = self.dynamics.steering_targets(commands[0])
-        states, derivatives, steering = self.dynamics.run(self.state, commands, self.environments,
-                                                          1.0 / INTEGRATION_RATE_HZ, substeps, self.steering_rad)
+        acting, switch, before = self._acting_command(commands)
+        if self.steering_rad is None or self.thrust_N is None:
+            self.steering_rad = self.dynamics.steering_targets(acting[0])
+            self.thrust_N = self.dynamics.thrust_start(acting[0])
+        states, derivatives, steering = self.dynamics.run(self.state, acting, self.environments,
+                                                          1.0 / INTEGRATION_RATE_HZ, substeps, self.steering_rad,
+                                                          self.thrust_N, switch, before)
         now = self.time_s
         self._history.append((now, states[0], commands[0], derivatives[0], steering[0]))
         out = list(messages.command_messages(np.array([now]), commands[0]))

@@ -67,6 +67,7 @@ class CompiledModel:
 _K_M11, _K_M22, _K_M33, _K_AV, _K_XC, _K_AR, _K_YVV, _K_NRR = range(8)
 _K_XE, _K_YE, _K_ETA_P, _K_BOLLARD, _K_REVERSE, _K_MAX_STEER = range(8, 14)
 _K_FACTOR_LEFT, _K_FACTOR_RIGHT, _K_STEER_OFFSET, _K_WIND_X, _K_WIND_Y, _K_WIND_XC, _K_STEER_RATE = range(14, 21)
+_K_THRUST_TAU = 21
 
 
 def resistance_grid_mps(params: VesselParams) -> np.ndarray:
@@ -112,6 +113,7 @@ def compile_coefficients(params: VesselParams) -> np.ndarray:
             0.5 * AIR_DENSITY_KGPM3 * WINDAGE_DRAG_COEFFICIENT * params.lateral_windage_area_m2,
             params.windage_centre_x_m,
             params.steering_rate_radps,
+            params.thrust_time_constant_s,
         ]
     )
 
@@ -155,9 +157,20 @@ def _steering_after(angle: float, target: float, k: np.ndarray, tau: float) -> f
 
 
 @numba.njit(cache=True)
+def _thrust_after(thrust: float, target: float, k: np.ndarray, tau: float) -> float:
+    """An engine's thrust command ``tau`` seconds on, approaching ``target`` with the first-order lag's time
+    constant (0: at once), N."""
+    constant = k[_K_THRUST_TAU]
+    if constant <= 0.0:
+        return target
+    return target + (thrust - target) * np.exp(-tau / constant)
+
+
+@numba.njit(cache=True)
 def _derivative(
     s: np.ndarray,
-    cmd: np.ndarray,
+    thrust_left: float,
+    thrust_right: float,
     d_left: float,
     d_right: float,
     k: np.ndarray,
@@ -167,11 +180,12 @@ def _derivative(
     env: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """Time derivative of one boat's state ``s`` under thrust command ``cmd`` and real steering angles
-    ``d_left``, ``d_right`` (rad), written into ``out``."""
+    """Time derivative of one boat's state ``s`` under the engines' thrust commands ``thrust_left``,
+    ``thrust_right`` (N, after the lag) and real steering angles ``d_left``, ``d_right`` (rad), written into
+    ``out``."""
     psi, u, v, r = s[2], s[3], s[4], s[5]
-    t_left = k[_K_FACTOR_LEFT] * _delivered_thrust(cmd[0], u, k)
-    t_right = k[_K_FACTOR_RIGHT] * _delivered_thrust(cmd[1], u, k)
+    t_left = k[_K_FACTOR_LEFT] * _delivered_thrust(thrust_left, u, k)
+    t_right = k[_K_FACTOR_RIGHT] * _delivered_thrust(thrust_right, u, k)
     x_force = t_left * np.cos(d_left) + t_right * np.cos(d_right)
     y_force = t_left * np.sin(d_left) + t_right * np.sin(d_right)
     n_moment = k[_K_XE] * y_force - k[_K_YE] * (t_left * np.cos(d_left) - t_right * np.cos(d_right))
@@ -209,6 +223,7 @@ def _derivative(
 def _step_boat(
     s: np.ndarray,
     steer: np.ndarray,
+    thrust: np.ndarray,
     cmd: np.ndarray,
     k: np.ndarray,
     table: np.ndarray,
@@ -218,8 +233,9 @@ def _step_boat(
     dt: float,
     substeps: int,
 ) -> None:
-    """Advance one boat's state ``s`` and steering angles ``steer`` (2,) in place by ``substeps`` RK4 steps of
-    ``dt`` under a held command; every stage sees the steering angle of its own instant."""
+    """Advance one boat's state ``s``, steering angles ``steer`` (2,) and thrust commands ``thrust`` (2,) in
+    place by ``substeps`` RK4 steps of ``dt`` under a held command; every stage sees the actuators of its own
+    instant."""
     k1 = np.empty(6)
     k2 = np.empty(6)
     k3 = np.empty(6)
@@ -232,28 +248,59 @@ def _step_boat(
         half_right = _steering_after(steer[1], target_right, k, 0.5 * dt)
         end_left = _steering_after(steer[0], target_left, k, dt)
         end_right = _steering_after(steer[1], target_right, k, dt)
-        _derivative(s, cmd, steer[0], steer[1], k, table, u_max, extra, env, k1)
+        half_tl = _thrust_after(thrust[0], cmd[0], k, 0.5 * dt)
+        half_tr = _thrust_after(thrust[1], cmd[1], k, 0.5 * dt)
+        end_tl = _thrust_after(thrust[0], cmd[0], k, dt)
+        end_tr = _thrust_after(thrust[1], cmd[1], k, dt)
+        _derivative(s, thrust[0], thrust[1], steer[0], steer[1], k, table, u_max, extra, env, k1)
         for j in range(6):
             tmp[j] = s[j] + 0.5 * dt * k1[j]
-        _derivative(tmp, cmd, half_left, half_right, k, table, u_max, extra, env, k2)
+        _derivative(tmp, half_tl, half_tr, half_left, half_right, k, table, u_max, extra, env, k2)
         for j in range(6):
             tmp[j] = s[j] + 0.5 * dt * k2[j]
-        _derivative(tmp, cmd, half_left, half_right, k, table, u_max, extra, env, k3)
+        _derivative(tmp, half_tl, half_tr, half_left, half_right, k, table, u_max, extra, env, k3)
         for j in range(6):
             tmp[j] = s[j] + dt * k3[j]
-        _derivative(tmp, cmd, end_left, end_right, k, table, u_max, extra, env, k4)
+        _derivative(tmp, end_tl, end_tr, end_left, end_right, k, table, u_max, extra, env, k4)
         for j in range(6):
             s[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
         steer[0] = end_left
         steer[1] = end_right
+        thrust[0] = end_tl
+        thrust[1] = end_tr
 
 
 @numba.njit(cache=True)
-def _start_step(steer: np.ndarray, cmd: np.ndarray, k: np.ndarray) -> None:
-    """One boat's outboard angles (left, right) at the first instant under ``cmd``: an instantaneous actuator
-    (rate 0) is already at the new command's angle; a rate-limited one has not moved yet."""
+def _start_step(steer: np.ndarray, thrust: np.ndarray, cmd: np.ndarray, k: np.ndarray) -> None:
+    """One boat's outboard angles (left, right) and thrust commands at the first instant under ``cmd``: an
+    instantaneous actuator (rate 0, lag 0) is already at the new command; a rate-limited or lagging one has not
+    moved yet."""
     steer[0] = _steering_after(steer[0], _steering_target(cmd[2], k), k, 0.0)
     steer[1] = _steering_after(steer[1], _steering_target(cmd[3], k), k, 0.0)
+    thrust[0] = _thrust_after(thrust[0], cmd[0], k, 0.0)
+    thrust[1] = _thrust_after(thrust[1], cmd[1], k, 0.0)
+
+
+@numba.njit(cache=True)
+def _segment(
+    s: np.ndarray,
+    steer: np.ndarray,
+    thrust: np.ndarray,
+    cmd: np.ndarray,
+    k: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    env: np.ndarray,
+    dt: float,
+    length: float,
+) -> None:
+    """Advance one boat over ``length`` seconds under ``cmd``, in RK4 steps of at most ``dt``."""
+    if length <= 0.0:
+        return
+    steps = max(1, int(np.ceil(length / dt - 1e-9)))
+    _start_step(steer, thrust, cmd, k)
+    _step_boat(s, steer, thrust, cmd, k, table, u_max, extra, env, length / steps, steps)
 
 
 @numba.njit(cache=True)
@@ -261,7 +308,10 @@ def _boat_ticks(
     b: int,
     states: np.ndarray,
     steering: np.ndarray,
+    thrust: np.ndarray,
     commands: np.ndarray,
+    switch: np.ndarray,
+    before: np.ndarray,
     coefficients: np.ndarray,
     table: np.ndarray,
     u_max: float,
@@ -273,23 +323,98 @@ def _boat_ticks(
     out_derivatives: np.ndarray,
     out_steering: np.ndarray,
 ) -> None:
-    """Boat ``b``'s output ticks: at each tick i record its state, steering and derivative under
-    ``commands[i]``, then step the tick. ``coefficients`` has one row per boat, or one row for all."""
+    """Boat ``b``'s output ticks: at each tick i record its state, steering and derivative under the command
+    in force, then step the tick. ``coefficients`` has one row per boat, or one row for all.
+
+    ``switch[i, b]``, s: ``commands[i]`` takes over at tick i's time plus this (the previous command, ``before``
+    for tick 0, holds until then when it is positive; when it is negative, ``commands[i]`` already took over
+    that long before the tick, within tick i − 1). 0 everywhere: every command acts over its own tick (then the
+    arithmetic is exactly that of a run without switch times)."""
     k = coefficients[0] if coefficients.shape[0] == 1 else coefficients[b]  # (prange's b is unsigned)
-    for i in range(commands.shape[0]):
-        _start_step(steering[b], commands[i, b], k)
+    tick = dt * substeps
+    ticks = commands.shape[0]
+    for i in range(ticks):
+        late = min(max(switch[i, b], 0.0), tick)
+        early = min(max(switch[i + 1, b], -tick), 0.0) if i + 1 < ticks else 0.0
+        previous = before[b] if i == 0 else commands[i - 1, b]
+        if late == 0.0 and early == 0.0:
+            _start_step(steering[b], thrust[b], commands[i, b], k)
+            out_states[i, b] = states[b]
+            out_steering[i, b] = steering[b]
+            _derivative(states[b], thrust[b, 0], thrust[b, 1], steering[b, 0], steering[b, 1], k, table, u_max,
+                        extra, environments[b], out_derivatives[i, b])
+            _step_boat(states[b], steering[b], thrust[b], commands[i, b], k, table, u_max, extra, environments[b],
+                       dt, substeps)
+            continue
+        first = previous if late > 0.0 else commands[i, b]
+        _start_step(steering[b], thrust[b], first, k)
         out_states[i, b] = states[b]
         out_steering[i, b] = steering[b]
-        _derivative(states[b], commands[i, b], steering[b, 0], steering[b, 1], k, table, u_max, extra,
-                    environments[b], out_derivatives[i, b])
-        _step_boat(states[b], steering[b], commands[i, b], k, table, u_max, extra, environments[b], dt, substeps)
+        _derivative(states[b], thrust[b, 0], thrust[b, 1], steering[b, 0], steering[b, 1], k, table, u_max,
+                    extra, environments[b], out_derivatives[i, b])
+        _segment(states[b], steering[b], thrust[b], previous, k, table, u_max, extra, environments[b], dt, late)
+        _segment(states[b], steering[b], thrust[b], commands[i, b], k, table, u_max, extra, environments[b], dt,
+                 tick + early - late)
+        if i + 1 < ticks:
+            _segment(states[b], steering[b], thrust[b], commands[i + 1, b], k, table, u_max, extra,
+                     environments[b], dt, -early)
+
+
+@numba.njit(cache=True)
+def _actuator_history(commands: np.ndarray, switch: np.ndarray, k: np.ndarray, tick: float, out: np.ndarray
+                      ) -> None:
+    """(n, 4) into ``out``: the outboards' real angles (left, right) and thrust commands after the lag (left,
+    right) at every tick of a recorded command series (n, 4) with its switch times (n,) (as
+    :func:`_boat_ticks`'s), starting where the first known command drives them; NaN where the commands are
+    unknown (the next known command starts afresh at its own)."""
+    state = np.full(4, np.nan)
+    previous = np.full(4, np.nan)
+    n = commands.shape[0]
+    for i in range(n):
+        cmd = commands[i]
+        known = True
+        for j in range(4):
+            if not np.isfinite(cmd[j]):
+                known = False
+        if not known:
+            state[:] = np.nan
+            out[i] = state
+            previous[:] = np.nan
+            continue
+        if not np.isfinite(state[0]):
+            state[0] = _steering_target(cmd[2], k)
+            state[1] = _steering_target(cmd[3], k)
+            state[2] = cmd[0]
+            state[3] = cmd[1]
+            previous[:] = cmd
+        late = min(max(switch[i], 0.0), tick)
+        early = min(max(switch[i + 1], -tick), 0.0) if i + 1 < n and np.isfinite(commands[i + 1, 0]) else 0.0
+        first = previous if late > 0.0 else cmd
+        state[0] = _steering_after(state[0], _steering_target(first[2], k), k, 0.0)
+        state[1] = _steering_after(state[1], _steering_target(first[3], k), k, 0.0)
+        state[2] = _thrust_after(state[2], first[0], k, 0.0)
+        state[3] = _thrust_after(state[3], first[1], k, 0.0)
+        out[i] = state
+        for part in range(3):
+            use = previous if part == 0 else (cmd if part == 1 else commands[min(i + 1, n - 1)])
+            length = late if part == 0 else (tick + early - late if part == 1 else -early)
+            if length <= 0.0:
+                continue
+            state[0] = _steering_after(state[0], _steering_target(use[2], k), k, length)
+            state[1] = _steering_after(state[1], _steering_target(use[3], k), k, length)
+            state[2] = _thrust_after(state[2], use[0], k, length)
+            state[3] = _thrust_after(state[3], use[1], k, length)
+        previous[:] = cmd
 
 
 @numba.njit(cache=True)
 def _run_ticks(
     states: np.ndarray,
     steering: np.ndarray,
+    thrust: np.ndarray,
     commands: np.ndarray,
+    switch: np.ndarray,
+    before: np.ndarray,
     coefficients: np.ndarray,
     table: np.ndarray,
     u_max: float,
@@ -303,15 +428,18 @@ def _run_ticks(
 ) -> None:
     """:func:`_boat_ticks` of every boat, one after another."""
     for b in range(states.shape[0]):
-        _boat_ticks(b, states, steering, commands, coefficients, table, u_max, extra, environments, dt, substeps,
-                    out_states, out_derivatives, out_steering)
+        _boat_ticks(b, states, steering, thrust, commands, switch, before, coefficients, table, u_max, extra,
+                    environments, dt, substeps, out_states, out_derivatives, out_steering)
 
 
 @numba.njit(cache=True, parallel=True)
 def _run_ticks_parallel(
     states: np.ndarray,
     steering: np.ndarray,
+    thrust: np.ndarray,
     commands: np.ndarray,
+    switch: np.ndarray,
+    before: np.ndarray,
     coefficients: np.ndarray,
     table: np.ndarray,
     u_max: float,
@@ -325,8 +453,8 @@ def _run_ticks_parallel(
 ) -> None:
     """:func:`_run_ticks` with the boats shared among numba's threads (each boat's arithmetic is the same)."""
     for b in numba.prange(states.shape[0]):
-        _boat_ticks(b, states, steering, commands, coefficients, table, u_max, extra, environments, dt, substeps,
-                    out_states, out_derivatives, out_steering)
+        _boat_ticks(b, states, steering, thrust, commands, switch, before, coefficients, table, u_max, extra,
+                    environments, dt, substeps, out_states, out_derivatives, out_steering)
 
 
 @numba.njit(cache=True)
@@ -334,6 +462,7 @@ def _boat_step(
     b: int,
     states: np.ndarray,
     steering: np.ndarray,
+    thrust: np.ndarray,
     commands: np.ndarray,
     coefficients: np.ndarray,
     table: np.ndarray,
@@ -344,14 +473,15 @@ def _boat_step(
 ) -> None:
     """Advance boat ``b`` one RK4 step of ``dt`` under its command ``commands[b]``, recording nothing."""
     k = coefficients[0] if coefficients.shape[0] == 1 else coefficients[b]  # (prange's b is unsigned)
-    _start_step(steering[b], commands[b], k)
-    _step_boat(states[b], steering[b], commands[b], k, table, u_max, extra, environments[b], dt, 1)
+    _start_step(steering[b], thrust[b], commands[b], k)
+    _step_boat(states[b], steering[b], thrust[b], commands[b], k, table, u_max, extra, environments[b], dt, 1)
 
 
 @numba.njit(cache=True)
 def _step_all(
     states: np.ndarray,
     steering: np.ndarray,
+    thrust: np.ndarray,
     commands: np.ndarray,
     coefficients: np.ndarray,
     table: np.ndarray,
@@ -362,13 +492,14 @@ def _step_all(
 ) -> None:
     """:func:`_boat_step` of every boat, one after another."""
     for b in range(states.shape[0]):
-        _boat_step(b, states, steering, commands, coefficients, table, u_max, extra, environments, dt)
+        _boat_step(b, states, steering, thrust, commands, coefficients, table, u_max, extra, environments, dt)
 
 
 @numba.njit(cache=True, parallel=True)
 def _step_all_parallel(
     states: np.ndarray,
     steering: np.ndarray,
+    thrust: np.ndarray,
     commands: np.ndarray,
     coefficients: np.ndarray,
     table: np.ndarray,
@@ -379,7 +510,7 @@ def _step_all_parallel(
 ) -> None:
     """:func:`_step_all` with the boats shared among numba's threads."""
     for b in numba.prange(states.shape[0]):
-        _boat_step(b, states, steering, commands, coefficients, table, u_max, extra, environments, dt)
+        _boat_step(b, states, steering, thrust, commands, coefficients, table, u_max, extra, environments, dt)
 
 
 PARALLEL_MIN_BOATS = 64
@@ -420,42 +551,58 @@ class Dynamics:
         limit = self.coefficients[:, _K_MAX_STEER, None]
         return np.clip(commands[:, 2:4] + offset, -limit, limit)
 
-    def steering_history(self, dt_s: float, commands: np.ndarray) -> np.ndarray:
-        """(n, 2) the outboards' real angles at each of ``n`` samples ``dt_s`` apart of a recorded command series
-        (n, 4) held from sample to sample, rad: the rate-limited swing towards each target, starting at the first
-        known one; NaN where the commands are unknown (the next known command starts afresh at its target)."""
-        p = self.params
-        targets = np.clip(commands[:, 2:4] + p.steering_offset_rad, -p.max_steering_rad, p.max_steering_rad)
-        rate = self.params.steering_rate_radps
-        reach = rate * dt_s if rate > 0.0 else np.inf
-        out = np.empty_like(targets)
-        angle = np.full(2, np.nan)
-        for i, target in enumerate(targets):
-            out[i] = angle = np.where(np.isnan(angle), target, angle)
-            angle = angle + np.clip(target - angle, -reach, reach)
+    def thrust_start(self, commands: np.ndarray) -> np.ndarray:
+        """(N, 2) the engines' thrust commands after the lag where ``commands`` (N, 4) has held them: the
+        commanded thrust."""
+        return np.array(commands[:, :2], dtype=float)
+
+    def actuator_history(self, dt_s: float, commands: np.ndarray, switch_s: np.ndarray | None = None
+                         ) -> np.ndarray:
+        """(n, 4) the outboards' real angles (left, right, rad) and the engines' thrust commands after the lag
+        (left, right, N) at each of ``n`` samples ``dt_s`` apart of a recorded command series (n, 4), each held
+        from its switch time (``switch_s`` (n,), s after its sample, as :meth:`run`'s; None: at its sample): the
+        rate-limited swing towards each target and the first-order lag, starting at the first known command;
+        NaN where the commands are unknown (the next known command starts afresh)."""
+        commands = np.ascontiguousarray(commands, dtype=float)
+        switch = np.zeros(len(commands)) if switch_s is None else np.ascontiguousarray(switch_s, dtype=float)
+        out = np.empty((len(commands), 4))
+        _actuator_history(commands, switch, self.model.coefficients, float(dt_s), out)
         return out
 
+    def steering_history(self, dt_s: float, commands: np.ndarray, switch_s: np.ndarray | None = None
+                         ) -> np.ndarray:
+        """(n, 2) the outboards' real angles of :meth:`actuator_history`, rad."""
+        return self.actuator_history(dt_s, commands, switch_s)[:, :2]
+
     def step(self, states: np.ndarray, commands: np.ndarray, environments: np.ndarray, dt_s: float,
-             steering_rad: np.ndarray) -> None:
-        """Advance ``states`` (N, 6) and ``steering_rad`` (N, 2) in place by one RK4 step of ``dt_s`` under
-        ``commands`` (N, 4): :meth:`run` of one tick and one substep without its records (a closed-loop helm's
-        steps between output ticks)."""
+             steering_rad: np.ndarray, thrust_N: np.ndarray | None = None) -> None:
+        """Advance ``states`` (N, 6), ``steering_rad`` (N, 2) and ``thrust_N`` (N, 2; None: the lag-free engines
+        of a boat without one, at ``commands``' thrust) in place by one RK4 step of ``dt_s`` under ``commands``
+        (N, 4): :meth:`run` of one tick and one substep without its records (a closed-loop helm's steps between
+        output ticks)."""
         m = self.model
         self._check_boats(states.shape[0])
+        thrust = self.thrust_start(commands) if thrust_N is None else thrust_N
         kernel = _step_all_parallel if states.shape[0] >= PARALLEL_MIN_BOATS else _step_all
-        kernel(states, steering_rad, commands, self.coefficients, m.resistance_N, m.resistance_max_speed_mps,
-                  m.extra_drag_N, environments, dt_s)
+        kernel(states, steering_rad, thrust, commands, self.coefficients, m.resistance_N,
+               m.resistance_max_speed_mps, m.extra_drag_N, environments, dt_s)
 
     def run(
         self, states: np.ndarray, commands: np.ndarray, environments: np.ndarray, dt_s: float, substeps: int,
-        steering_rad: np.ndarray | None = None,
+        steering_rad: np.ndarray | None = None, thrust_N: np.ndarray | None = None,
+        switch_s: np.ndarray | None = None, before: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Run len(commands) output ticks of ``substeps``·``dt_s`` each, commands held over a tick.
 
         ``states`` (N, 6) is advanced in place; ``commands`` is (ticks, N, 4), ``environments`` (N, 4)
         :meth:`Environment.as_vector` rows (current and wind over ground, ENU, m/s). ``steering_rad`` (N, 2)
         holds the outboards' real angles (left, right), advanced in place; None: they start where the first
-        command drives them (an outboard that has been held there).
+        command drives them (an outboard that has been held there). ``thrust_N`` (N, 2) likewise the engines'
+        thrust commands after the lag (None: the first command's, held there).
+        ``switch_s`` (ticks, N), s: ``commands[i]`` takes over at tick i's time plus this (positive: ``before``
+        (N, 4) for tick 0, else the previous command, holds until then; negative: it took over that long before
+        the tick) — commands that change between ticks (a helm faster than the log, a command delay); None: each
+        at its tick (then the arithmetic is exactly that of a run without them).
         Returns the states at the start of every tick and their time derivatives, both (ticks, N, 6), and
         the real steering angles then, (ticks, N, 2).
         """
@@ -463,10 +610,16 @@ class Dynamics:
         self._check_boats(states.shape[0])
         if steering_rad is None:
             steering_rad = self.steering_targets(commands[0]) if len(commands) else np.zeros((len(states), 2))
+        if thrust_N is None:
+            thrust_N = self.thrust_start(commands[0]) if len(commands) else np.zeros((len(states), 2))
+        switch = np.zeros(commands.shape[:2]) if switch_s is None else np.ascontiguousarray(switch_s, dtype=float)
+        if before is None:
+            before = commands[0] if len(commands) else np.zeros((len(states), 4))
         out_states = np.empty((commands.shape[0],) + states.shape)
         out_derivatives = np.empty_like(out_states)
         out_steering = np.empty((commands.shape[0], states.shape[0], 2))
         kernel = _run_ticks_parallel if states.shape[0] >= PARALLEL_MIN_BOATS else _run_ticks
-        kernel(states, steering_rad, commands, self.coefficients, m.resistance_N, m.resistance_max_speed_mps,
-                   m.extra_drag_N, environments, dt_s, substeps, out_states, out_derivatives, out_steering)
+        kernel(states, steering_rad, thrust_N, commands, switch, np.ascontiguousarray(before, dtype=float),
+               self.coefficients, m.resistance_N, m.resistance_max_speed_mps, m.extra_drag_N, environments, dt_s,
+               substeps, out_states, out_derivatives, out_steering)
         return out_states, out_derivatives, out_steering

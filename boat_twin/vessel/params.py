@@ -29,7 +29,8 @@ WINDAGE_DRAG_COEFFICIENT = 0.8
 
 SIGNED_FIELDS = ("engine_x_m", "lateral_centre_x_m", "steering_offset_rad", "windage_centre_x_m")
 """Parameters that may be zero or negative (positions and offsets)."""
-NON_NEGATIVE_FIELDS = ("frontal_windage_area_m2", "lateral_windage_area_m2", "steering_rate_radps")
+NON_NEGATIVE_FIELDS = ("frontal_windage_area_m2", "lateral_windage_area_m2", "steering_rate_radps",
+                       "thrust_time_constant_s", "command_delay_s")
 """Parameters that may be zero (0 m² of windage: no wind force; a steering rate of 0: outboards that swing
 instantly); all others must be positive."""
 MANOEUVRING_KEYS = ("m22_kg", "m33_kgm2", "sway_damping_Nspm2", "yaw_damping_Nms", "sway_quadratic_Ns2pm2",
@@ -79,6 +80,14 @@ class VesselParams:
     per turn = 3.35 turns for a SeaStar-class outboard cylinder and helm (SeaStar Solutions, Hydraulic Steering
     Selection Guide); at a brisk one turn per second (assumed) the 60° from lock to lock take 3.35 s: 18°/s.
     Autopilot pumps are slower (a 13-15 s hard-over to hard-over is their sizing target, ~4°/s)."""
+    thrust_time_constant_s: float = 0.0
+    """First-order lag of each engine's thrust behind its command, s (0: none, the thrust follows at once). An
+    outboard's engine and propeller spin up in about 1-2 s; an electric thruster's ESC in a fraction of that.
+    The lag acts on the commanded thrust; the envelope (bollard thrust, power) then limits it at the speed."""
+    command_delay_s: float = 0.0
+    """Time between a command being logged and the outboards starting to act on it, s (0: none): a radio
+    link, an ESC's or autopilot's processing; 0.3-0.6 s is common. The command log stamps the command when it
+    was issued; the boat feels it this much later."""
     turn_speed_mps: float = 6.0
     """Reference turn: speed through water, m/s (11.7 kn: above the flat 8.5-10.5 kn stretch of Table 1)."""
     turn_steering_rad: float = math.radians(20.0)

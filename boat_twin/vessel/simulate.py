@@ -7,6 +7,7 @@ and a fresh helm is made for every run (no state carried from one run or boat to
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
@@ -128,7 +129,11 @@ def simulate_chunks(
     substeps = int(round(INTEGRATION_RATE_HZ / OUTPUT_RATE_HZ))
     dt_s = 1.0 / INTEGRATION_RATE_HZ
     helm = scenario.helm(states.shape[0])
+    delay_s = params.command_delay_s
     steering: np.ndarray | None = None
+    thrust: np.ndarray | None = None
+    issued_queue: deque[tuple[float, np.ndarray]] = deque()  # a closed-loop helm's commands not yet acting
+    acting: np.ndarray | None = None
     last_command: np.ndarray | None = None  # a closed-loop helm's: its last command and when it changed, per boat
     changed_s = np.zeros(states.shape[0])
     start = 0
@@ -140,10 +145,14 @@ def simulate_chunks(
             index = np.searchsorted(helm.times_s, t_s + 1e-9, side="right") - 1
             rows = np.where(index[:, None] >= 0, helm.values[np.maximum(index, 0)], 0.0)
             commands = np.repeat(rows[:, None, :], states.shape[0], axis=1)
+            applied, switch, before = commands, None, None
+            if delay_s > 0.0:
+                applied, switch, before = _delayed_profile(helm, t_s, delay_s, states.shape[0])
             if steering is None and t_s.size:
-                steering = dynamics.steering_targets(commands[0])
-            out_states, derivatives, out_steering = dynamics.run(states, commands, environments, dt_s, substeps,
-                                                                 steering)
+                steering = dynamics.steering_targets(applied[0])
+                thrust = dynamics.thrust_start(applied[0])
+            out_states, derivatives, out_steering = dynamics.run(states, applied, environments, dt_s, substeps,
+                                                                 steering, thrust, switch, before)
         else:
             commands = np.empty((t_s.size, states.shape[0], 4))
             out_states = np.empty((t_s.size,) + states.shape)
@@ -156,13 +165,18 @@ def simulate_chunks(
                     changed = np.ones(states.shape[0], dtype=bool) if last_command is None else np.any(
                         command != last_command, axis=1)
                     changed_s[changed], last_command = float(t) + j * dt_s, command.copy()
-                    if steering is None:
-                        steering = dynamics.steering_targets(command)
+                    issued_queue.append((float(t) + j * dt_s, command.copy()))
+                    while issued_queue and issued_queue[0][0] <= float(t) + j * dt_s - delay_s + 1e-9:
+                        acting = issued_queue.popleft()[1]
+                    now = command if acting is None else acting  # before the first delayed command: the first
+                    if steering is None or thrust is None:
+                        steering = dynamics.steering_targets(now)
+                        thrust = dynamics.thrust_start(now)
                     if j > 0:
-                        dynamics.step(states, command, environments, dt_s, steering)
+                        dynamics.step(states, now, environments, dt_s, steering, thrust)
                         continue
                     tick_states, tick_derivatives, tick_steering = dynamics.run(
-                        states, command[None], environments, dt_s, 1, steering)
+                        states, now[None], environments, dt_s, 1, steering, thrust)
                     commands[i], out_states[i], derivatives[i] = command, tick_states[0], tick_derivatives[0]
                     out_steering[i] = tick_steering[0]
                     recent = changed_s > float(t) - 1.0 / OUTPUT_RATE_HZ + 1e-9
@@ -176,3 +190,20 @@ def simulate_chunks(
         start = stop
         if start >= n_ticks:
             return
+
+
+def _delayed_profile(profile: CommandProfile, t_s: np.ndarray, delay_s: float, boats: int
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What the outboards act on at the ticks ``t_s`` when ``profile``'s commands act ``delay_s`` late: the
+    commands (ticks, boats, 4) each tick holds from its switch time (ticks, boats), s after the tick, and the
+    command in force before the first tick (boats, 4), as :meth:`~boat_twin.vessel.dynamics.Dynamics.run` takes
+    them; before its first row's time plus the delay the profile's first row acts (the boat held there)."""
+    acting_s = profile.times_s + delay_s
+    tick = 1.0 / OUTPUT_RATE_HZ
+    index = np.maximum(np.searchsorted(acting_s, t_s + 0.5 * tick, side="right") - 1, 0)
+    earlier = np.maximum(np.searchsorted(acting_s, t_s[:1] - 0.5 * tick, side="right") - 1, 0)
+    previous = np.concatenate([earlier, index[:-1]])
+    switch = np.where(index != previous, acting_s[index] - t_s, 0.0)
+    rows = profile.values[index]
+    return (np.repeat(rows[:, None, :], boats, axis=1), np.repeat(switch[:, None], boats, axis=1),
+            np.repeat(profile.values[earlier], boats, axis=0))
