@@ -12,6 +12,9 @@
 | ``tow_load`` | ``drag_scale`` | ``tow`` = the packaged towed body on 50 m of cable, drag × scale |
 | ``wind`` | ``east_mps``, ``north_mps`` | ``environment.wind_*`` = (east, north): air over ground, flowing *to* |
 | ``manoeuvring`` | ``yaw_damping_factor``, ``sway_damping_factor`` | ``vessel.manoeuvring``: a_r, a_v ×= factor |
+| ``command_delay`` | ``delay_s`` | ``vessel.command_delay_s`` = delay (commands act that long after they are logged) |
+| ``thrust_lag`` | ``time_constant_s`` | ``vessel.thrust_time_constant_s`` = τ (first-order lag of each engine's thrust) |
+| ``heading_offset`` | ``offset_rad`` | ``um7.yaw_offset_rad`` = offset (IMU yaw − true heading) |
 
 Each parameter has a *null* value (the effect absent) and a *scale* (a size the data resolve easily), so the
 fit works in ``x = (p − null) / scale``. Each effect has a *size* (:attr:`EffectSpec.magnitude`), a detection
@@ -23,6 +26,11 @@ of the change of the wind's velocity, m/s: threshold 4 m/s, floor 2 m/s (its for
 :mod:`boat_twin.vessel.dynamics`, quadratic in the apparent wind). ``manoeuvring``'s size is the largest
 |factor − 1| of the hull's two lift-damping coefficients (yaw a_r, sway a_v): threshold 15 %, floor 7.5 %; the
 extended model carries the corrected coefficients themselves (N·m·s, N·s²/m²) in ``vessel.manoeuvring``.
+``command_delay``'s size is the change of the delay, s: threshold 0.3 s (radio links and ESC or autopilot
+firmware add 0.3-0.6 s), floor 0.15 s. ``thrust_lag``'s is the change of the engines' time constant, s:
+threshold 1 s (an outboard's engine and propeller spin up in ~1-2 s), floor 0.5 s. ``heading_offset``'s is the
+|change| of the IMU's yaw offset, rad: threshold 2°, floor 1° (declination left out of a magnetic heading is
+−10.6° at the default origin; a sensor mounted turned on the hull a few degrees).
 
 Adding a diagnosis effect
 -------------------------
@@ -70,6 +78,13 @@ reference turn (a 60 m circle at 6 m/s, 20° of steering; :func:`~boat_twin.vess
 a real hull of this size turns in a circle of 3-10 lengths (IMO MSC.137(76) asks a tactical diameter under
 5 lengths), i.e. a turning-rate gain of at most ~2.5× or ~0.4× the assumed one. A fit beyond stands in for
 another cause."""
+
+COMMAND_DELAY_LIMIT_S = 3.0
+"""Longest command delay a fit may take, s: a link or firmware that holds commands for seconds is a fault, not a
+delay to model (and a window of 20 s could no longer see its own commands act)."""
+THRUST_LAG_LIMIT_S = 10.0
+"""Longest engine time constant a fit may take, s: an outboard spins up in 1-2 s, a diesel's governor in a few;
+a fit that wants more stands in for another cause (a resistance or mass change on a slow surge)."""
 
 Draw = Callable[[TwinConfig, float, float, np.random.Generator, np.ndarray | None], tuple[TwinConfig, dict[str, Any]]]
 """(base config, size, sign ±1, generator, speeds the trial visits in m/s or None) → (true config, truth)."""
@@ -324,6 +339,38 @@ def _draw_manoeuvring(base: TwinConfig, size: float, sign: float, rng: np.random
                                          "sway_damping_factor": float(factors[1])}
 
 
+def _delay(config: TwinConfig, p: np.ndarray) -> TwinConfig:
+    return replace(config, vessel=replace(config.vessel, command_delay_s=float(p[0])))
+
+
+def _draw_delay(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+                speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    """Commands acting ``size`` later than the base config says (a delay only grows)."""
+    delay = base.vessel.command_delay_s + size
+    return _delay(base, np.array([delay])), {"delay_s": delay}
+
+
+def _lag(config: TwinConfig, p: np.ndarray) -> TwinConfig:
+    return replace(config, vessel=replace(config.vessel, thrust_time_constant_s=float(p[0])))
+
+
+def _draw_lag(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+              speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    """Engines lagging ``size`` longer than the base config says (a time constant only grows)."""
+    constant = base.vessel.thrust_time_constant_s + size
+    return _lag(base, np.array([constant])), {"time_constant_s": constant}
+
+
+def _heading_offset(config: TwinConfig, p: np.ndarray) -> TwinConfig:
+    return replace(config, um7=replace(config.um7, yaw_offset_rad=float(p[0])))
+
+
+def _draw_heading_offset(base: TwinConfig, size: float, sign: float, rng: np.random.Generator,
+                         speeds_mps: np.ndarray | None) -> tuple[TwinConfig, dict[str, Any]]:
+    offset = base.um7.yaw_offset_rad + sign * size
+    return _heading_offset(base, np.array([offset])), {"offset_rad": offset}
+
+
 # --- the registry -------------------------------------------------------------------------------------------
 
 EFFECTS: Mapping[str, EffectSpec] = MappingProxyType({spec.name: spec for spec in (
@@ -390,6 +437,25 @@ EFFECTS: Mapping[str, EffectSpec] = MappingProxyType({spec.name: spec for spec i
                               lower=DAMPING_FACTOR_RANGE[0], upper=DAMPING_FACTOR_RANGE[1], null=1.0)),
         apply=_manoeuvring, magnitude=lambda p, null: float(np.max(np.abs(p - 1.0))),
         size_unit="- (largest |factor − 1| of a_r, a_v)", threshold=0.15, min_size=0.075, draw=_draw_manoeuvring),
+    EffectSpec(
+        name="command_delay",
+        parameters=(Parameter("delay_s", "s", scale=0.05, lower=0.0, upper=COMMAND_DELAY_LIMIT_S,
+                              null=lambda c: c.vessel.command_delay_s),),
+        apply=_delay, magnitude=lambda p, null: abs(float(p[0]) - float(null[0])),
+        size_unit="s (change of the command delay)", threshold=0.3, min_size=0.15, draw=_draw_delay),
+    EffectSpec(
+        name="thrust_lag",
+        parameters=(Parameter("time_constant_s", "s", scale=0.2, lower=0.0, upper=THRUST_LAG_LIMIT_S,
+                              null=lambda c: c.vessel.thrust_time_constant_s),),
+        apply=_lag, magnitude=lambda p, null: abs(float(p[0]) - float(null[0])),
+        size_unit="s (change of the engines' time constant)", threshold=1.0, min_size=0.5, draw=_draw_lag),
+    EffectSpec(
+        name="heading_offset",
+        parameters=(Parameter("offset_rad", "rad", scale=0.005, lower=-math.pi / 2, upper=math.pi / 2,
+                              null=lambda c: c.um7.yaw_offset_rad),),
+        apply=_heading_offset, magnitude=lambda p, null: abs(float(p[0]) - float(null[0])),
+        size_unit="rad (change of the IMU's yaw offset)", threshold=math.radians(2.0), min_size=math.radians(1.0),
+        draw=_draw_heading_offset),
 )})
 """Every diagnosis effect by canonical name, in the order the report lists them."""
 EFFECT_NAMES = tuple(EFFECTS)

@@ -8,7 +8,8 @@ recorded commands through it (all windows at once, as an ensemble of the dynamic
 prediction gets wrong is then the model's fault, not an accumulated drift: a multiple-shooting simulation error.
 
 The model is a :class:`~boat_twin.config.TwinConfig`: the vessel, the current, a towed body, and the sensors'
-gyro bias (z) and GNSS latency, so every catalogue effect of the diagnosis is a change of that one config.
+gyro bias (z), the IMU's yaw offset and the GNSS latency, so every catalogue effect of the diagnosis is a change
+of that one config (the vessel's command delay and thrust lag included: :meth:`Windows.acting`).
 Only commands and sensor streams are used — never ground truth.
 """
 
@@ -24,7 +25,7 @@ from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.io.trial import Trial
 from boat_twin.sensors.gnss import expected_fix
-from boat_twin.sensors.um7 import expected_gyro
+from boat_twin.sensors.um7 import expected_gyro, expected_yaw
 from boat_twin.validation import number
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.params import VesselParams
@@ -283,14 +284,15 @@ class MeasuredMotion:
 
 def measured_motion(windows: Windows, config: TwinConfig) -> MeasuredMotion:
     """Heading: mean over ±:data:`HEADING_SMOOTHING_S` of IMU yaw with the gyro's turn removed (the 3° IMU yaw
-    noise drops to ~0.3°); yaw rate: gyro − bias, 3-sample mean; surge through water: the GNSS velocity
+    noise drops to ~0.3°), less the IMU's yaw offset; yaw rate: gyro − bias, 3-sample mean; surge through water: the GNSS velocity
     stamped t + latency (it describes t) minus the current, along that heading, averaged over
-    ±:data:`SURGE_SMOOTHING_S` by a local quadratic. Uses ``config``'s gyro bias, GNSS latency and current only."""
+    ±:data:`SURGE_SMOOTHING_S` by a local quadratic. Uses ``config``'s gyro bias, yaw offset, GNSS latency and
+    current only."""
     trial, dt = windows.trial, windows.dt_s
     bias = float(config.um7.gyro_bias_radps[2])
     half = max(1, int(round(HEADING_SMOOTHING_S / dt)))
     turned = _integrated(trial.yaw_rate_radps - bias, dt)
-    heading = _centred_mean(trial.heading_rad - turned, half) + turned
+    heading = _centred_mean(trial.heading_rad - turned, half) + turned - config.um7.yaw_offset_rad
     yaw_rate = _centred_mean(trial.yaw_rate_radps, 1) - bias
     stamped = trial.t_s + float(config.gnss.latency_s)
     env = config.environment
@@ -375,7 +377,7 @@ def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[Vess
     fix = expected_fix(config.gnss, window_t_s, east, north, vel_east, vel_north)  # delayed; held at the start
     skip = int(round(SETTLING_S / windows.dt_s))
     signals = {"vel_east_mps": fix.vel_east_mps, "vel_north_mps": fix.vel_north_mps,
-               "yaw_rate_radps": expected_gyro(config.um7, r)[..., 2], "heading_rad": yaw.copy(),
+               "yaw_rate_radps": expected_gyro(config.um7, r)[..., 2], "heading_rad": expected_yaw(config.um7, yaw),
                LATERAL_ACCEL: rates[..., 4] + r * u}
     position = np.stack([fix.east_m, fix.north_m], axis=-1)
     for values in (*signals.values(), position):

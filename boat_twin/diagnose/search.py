@@ -179,7 +179,8 @@ class Diagnosis:
             prediction = predict(self.windows, config)
         except InputError:  # parameters the boat cannot have (e.g. a reference turn it could not hold)
             infeasible = {s: np.full(self.windows.t_s.shape, INFEASIBLE_RESIDUAL) for s in SIGNALS}
-            return Residuals(infeasible, Prediction(infeasible, np.zeros(self.windows.position.shape)))
+            return Residuals(infeasible, Prediction(infeasible, np.zeros(self.windows.position.shape)),
+                             np.zeros((self.projection.stdev.size, self.windows.t_s.shape[1])))
         corrected, prior = self.projection.apply(stack_signals(self.windows, prediction.signals, self.sigma))
         values = dict(zip(SIGNALS, np.split(corrected, len(SIGNALS)), strict=True))
         return Residuals(values, prediction, prior)

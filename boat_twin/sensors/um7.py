@@ -52,6 +52,7 @@ UM7_LIMITS: dict[str, dict[str, float]] = {
     "accel_stdev_mps2": {"minimum": 0.0, "maximum": ACCEL_FULL_SCALE_MPS2},
     "roll_pitch_stdev_rad": {"minimum": 0.0, "maximum": math.pi},
     "yaw_stdev_rad": {"minimum": 0.0, "maximum": math.pi},
+    "yaw_offset_rad": {"minimum": -math.pi, "maximum": math.pi},
     "orientation_correlation_time_s": {"minimum": 0.0},
     "mag_stdev_tesla": {"minimum": 0.0, "maximum": 1e-4},
     "temperature_celsius": {"minimum": -40.0, "maximum": 85.0},
@@ -79,6 +80,10 @@ class Um7Config:
     """Roll and pitch estimate error stdev, rad: 3 deg, UM7 datasheet dynamic accuracy (driver default)."""
     yaw_stdev_rad: float = math.radians(3.0)
     """Yaw (heading) estimate error stdev, rad: 3 deg, as the driver's default orientation_z_stdev."""
+    yaw_offset_rad: float = 0.0
+    """Constant error of the yaw estimate, IMU yaw − true heading, rad (0: aligned): a magnetic declination the
+    filter does not apply (−10.6° at the default origin, :data:`WMM2020_VLADIVOSTOK_ENU_TESLA`) or a sensor
+    mounted turned on the hull. The gyro and the magnetometer read the true motion and field."""
     orientation_correlation_time_s: float = 0.0
     """Correlation time of the orientation error, s (first-order Gauss-Markov); 0 = white per sample."""
     magnetic_field_enu_tesla: tuple[float, float, float] = WMM2020_VLADIVOSTOK_ENU_TESLA
@@ -163,7 +168,8 @@ class ExpectedImu:
     """What the UM7 reads without noise: arrays of the inputs' shape (...), vectors with a last axis of 3."""
 
     yaw_rad: np.ndarray
-    """ENU yaw of the orientation estimate (roll = pitch = 0: 3-DOF), rad."""
+    """ENU yaw of the orientation estimate (roll = pitch = 0: 3-DOF), rad: the true yaw plus the configured
+    :attr:`Um7Config.yaw_offset_rad`."""
     gyro_radps: np.ndarray
     """(..., 3) angular velocity in the FLU body plus the constant gyro bias, rad/s."""
     accel_mps2: np.ndarray
@@ -195,15 +201,21 @@ def expected_gyro(config: Um7Config, yaw_rate_radps: np.ndarray) -> np.ndarray:
     return gyro
 
 
+def expected_yaw(config: Um7Config, yaw_rad: np.ndarray) -> np.ndarray:
+    """Noise-free yaw estimate, rad: the true ENU yaw plus :attr:`Um7Config.yaw_offset_rad`."""
+    return np.asarray(yaw_rad, dtype=float) + config.yaw_offset_rad
+
+
 def expected_imu(config: Um7Config, yaw_rad: np.ndarray, yaw_rate_radps: np.ndarray, accel_x_mps2: np.ndarray,
                  accel_y_mps2: np.ndarray) -> ExpectedImu:
     """The noise-free UM7 outputs from the true yaw (rad), yaw rate (rad/s) and body acceleration over
-    ground (m/s^2, no gravity), arrays of any one shape (samples, boats, ...)."""
+    ground (m/s^2, no gravity), arrays of any one shape (samples, boats, ...); the yaw estimate carries the
+    configured offset (:func:`expected_yaw`)."""
     yaw = np.asarray(yaw_rad, dtype=float)
     b_east, b_north, b_up = config.magnetic_field_enu_tesla
     cos_yaw, sin_yaw = np.cos(yaw), np.sin(yaw)
     return ExpectedImu(
-        yaw_rad=yaw,
+        yaw_rad=expected_yaw(config, yaw),
         gyro_radps=expected_gyro(config, yaw_rate_radps),
         accel_mps2=np.stack([np.asarray(accel_x_mps2, dtype=float), np.asarray(accel_y_mps2, dtype=float),
                              np.full(yaw.shape, STANDARD_GRAVITY_MPS2)], axis=-1),
