@@ -1,4 +1,5 @@
-"""Replay a trial's commands through a model, window by window, and predict what the sensors should have read.
+"""Replay a trial's commands through a model, window by window, and predict what the sensors should have read:
+the twin's service to the analyses (the diagnosis judges its residuals, the turning identification fits them).
 
 An open-loop replay of a whole trial drifts (a 1° heading error turns into tens of metres), so the trial is
 cut into consecutive windows of ``window_s`` seconds. Each window starts from the state the sensors give at
@@ -9,7 +10,7 @@ prediction gets wrong is then the model's fault, not an accumulated drift: a mul
 
 The model is a :class:`~boat_twin.config.TwinConfig`: the vessel, the current, a towed body, and the sensors'
 gyro bias (z) and GNSS latency, so every catalogue effect of the diagnosis is a change of that one config.
-Only commands and sensor streams are used — never ground truth.
+Only commands and sensor streams are used — never ground truth. Imports config, io, sensors and vessel only.
 """
 
 from __future__ import annotations
