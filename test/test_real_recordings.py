@@ -361,7 +361,7 @@ def test_a_heading_a_turn_apart_is_no_error() -> None:
     rmse = signal_rmse(windows, Prediction(predicted, position))
     assert rmse["heading_rad"] == pytest.approx(2.0 * math.pi - 6.27, abs=1e-9)
     wrapped = residual("heading_rad", np.array([math.pi, -math.pi, 0.5]), np.zeros(3))
-    np.testing.assert_allclose(wrapped, [math.pi, math.pi, 0.5])  # (−π, π]
+    np.testing.assert_allclose(wrapped, [-math.pi, -math.pi, 0.5])  # [−π, π)
     assert residual("vel_east_mps", np.array([7.0]), np.array([0.5]))[0] == 6.5
 
 

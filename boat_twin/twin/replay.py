@@ -23,6 +23,7 @@ from scipy.signal import savgol_filter
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
+from boat_twin.frames import wrap_pi
 from boat_twin.io.trial import Trial
 from boat_twin.sensors.gnss import expected_fix
 from boat_twin.sensors.um7 import expected_gyro
@@ -38,13 +39,13 @@ LATERAL_ACCEL = "accel_y_mps2"
 """The accelerometer's lateral reading v̇ + u·r, m/s² (FLU body), which :func:`predict` also gives (the turning
 identification, boat_twin.ident.manoeuvring, fits it: it sees the sway transient that sets m22)."""
 ANGLE_SIGNALS = ("heading_rad",)
-"""Signals that are angles: their residuals are wrapped to (−π, π]."""
+"""Signals that are angles: their residuals are wrapped to [−π, π) (:func:`~boat_twin.frames.wrap_pi`)."""
 
 
 def residual(signal: str, measured: np.ndarray, predicted: np.ndarray) -> np.ndarray:
-    """measured − predicted of ``signal``; for an angle, wrapped to (−π, π] (a heading 2π off is no error)."""
+    """measured − predicted of ``signal``; for an angle, wrapped to [−π, π) (a heading 2π off is no error)."""
     diff = np.asarray(measured) - np.asarray(predicted)
-    return np.pi - np.mod(np.pi - diff, 2.0 * np.pi) if signal in ANGLE_SIGNALS else diff
+    return wrap_pi(diff) if signal in ANGLE_SIGNALS else diff
 
 
 HEADING_SMOOTHING_S = 5.0
