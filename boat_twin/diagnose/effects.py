@@ -12,8 +12,8 @@
 | ``tow_load`` | ``drag_scale`` | ``tow`` = the packaged towed body on 50 m of cable, drag × scale |
 | ``wind`` | ``east_mps``, ``north_mps`` | ``environment.wind_*`` = (east, north): air over ground, flowing *to* |
 | ``manoeuvring`` | ``yaw_damping_factor``, ``sway_damping_factor`` | ``vessel.manoeuvring``: a_r, a_v ×= factor |
-| ``command_delay`` | ``delay_s`` | ``vessel.command_delay_s`` = delay (commands act that long after they are logged) |
-| ``thrust_lag`` | ``time_constant_s`` | ``vessel.thrust_time_constant_s`` = τ (first-order lag of each engine's thrust) |
+| ``command_delay`` | ``delay_s`` | ``vessel.command_delay_s`` = delay (commands act that late) |
+| ``thrust_lag`` | ``time_constant_s`` | ``vessel.thrust_time_constant_s`` = τ (each engine's first-order lag) |
 | ``heading_offset`` | ``offset_rad`` | ``um7.yaw_offset_rad`` = offset (IMU yaw − true heading) |
 
 Each parameter has a *null* value (the effect absent) and a *scale* (a size the data resolve easily), so the

@@ -1,6 +1,6 @@
 """Each replay window's initial state as a nuisance estimated with its prior: what the sensors cannot pin down.
 
-A window starts from the state the sensors give (:func:`~boat_twin.diagnose.replay.initial_states`): heading
+A window starts from the state the sensors give (:func:`~boat_twin.twin.replay.initial_states`): heading
 within ±0.3° (the smoothed IMU yaw), surge within ±0.02 m/s (±1 s of GNSS velocity), sway from the sway observer,
 yaw rate from the gyro. Those errors are zero-mean but they last through the window (the surge's time constant is
 tens of seconds; a heading error rotates the whole path: 0.3° at 8 m/s is 0.04 m/s sideways) and, seen from the
@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from boat_twin.config import TwinConfig
-from boat_twin.diagnose.replay import (
+from boat_twin.twin.replay import (
     HEADING_SMOOTHING_S,
     SIGNALS,
     SURGE_SMOOTHING_S,
