@@ -103,6 +103,6 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
         angle_right_rad=angle.copy(), lat_deg=np.full(n, np.nan), lon_deg=np.full(n, np.nan),
         heading_rad=noisy(psi + yaw_offset_rad, math.radians(3.0)),
         yaw_rate_radps=noisy(states[:, 5], math.radians(0.06)), accel_x_mps2=np.full(n, np.nan),
-        accel_y_mps2=np.full(n, np.nan), metadata=TrialMetadata(source="independent integrator"),
-        gnss_bridged=bridged if bridged.any() else None, **gnss,
+        accel_y_mps2=np.full(n, np.nan), metadata=TrialMetadata(source="independent integrator"), **gnss,
+        **({"gnss_bridged": bridged} if bridged.any() else {}),
     )

@@ -10,6 +10,7 @@ from boat_twin.sensors.um7 import Um7Config
 from boat_twin.twin.live import LiveTwin
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.environment import Environment
+from boat_twin.vessel.params import VesselParams
 from boat_twin.vessel.scenarios import make_scenario
 
 
@@ -18,7 +19,8 @@ from boat_twin.vessel.scenarios import make_scenario
     TwinConfig(gnss=GnssConfig(rate_hz=5.0, latency_s=0.23),
                um7=Um7Config(rate_hz=2.0, gyro_bias_radps=(0.01, 0.0, -0.02)),
                environment=Environment(current_east_mps=0.3, current_north_mps=-0.2)),
-], ids=["defaults", "slow-sensors-latency-bias-current"])
+    TwinConfig(vessel=VesselParams(command_delay_s=0.3, thrust_time_constant_s=1.5), um7=Um7Config(yaw_offset_rad=0.1)),
+], ids=["defaults", "slow-sensors-latency-bias-current", "command-delay-thrust-lag-yaw-offset"])
 def test_live_ticks_reproduce_the_batch_trial_without_noise(config: TwinConfig) -> None:
     scenario = make_scenario("random", config.vessel, np.random.default_rng(4), duration_s=30.0)
     batch = run_sea_trial(config, scenario, seed=4, noise=False)

@@ -251,3 +251,32 @@ def test_a_diverging_simulation_is_an_error_not_a_bag_of_nan() -> None:
     start = np.array([[0.0, 0.0, 0.0, np.nan, 0.0, 0.0]])
     with pytest.raises(InputError, match=r"diverged at t = 0\.\d s"):
         list(simulate_chunks(params, scenario, initial_states=start))
+
+
+def test_a_thrust_lag_delivers_a_step_as_a_first_order_response() -> None:
+    """Engines with a 1.5 s time constant on a straight run: after a thrust step the force the boat feels,
+    m11·u̇ + Fc(u), follows T_new + (T_old − T_new)·exp(−t/τ) at every tick (the lag state is solved exactly; the kernel tabulates Fc within 1e-5 of it)."""
+    tau, old, new = 1.5, 400.0, 900.0
+    params = replace(VesselParams(), thrust_time_constant_s=tau)
+    profile = CommandProfile("step", np.array([0.0, 2.0]), np.array([[old, old, 0.0, 0.0], [new, new, 0.0, 0.0]]),
+                             8.0, steady_speed_mps(params, 2 * old))
+    record = simulate(params, profile)
+    m11 = derive_coefficients(params).m11_kg
+    u = record.states[:, 0, 3]
+    felt = m11 * record.derivatives[:, 0, 3] + params.resistance.force_N(u)
+    t = record.t_s
+    expected = 2 * np.where(t < 2.0, old, new + (old - new) * np.exp(-(t - 2.0) / tau))
+    assert np.allclose(felt, expected, rtol=0.0, atol=0.01)  # the tabulated resistance: < 1e-5 of Fc
+
+
+def test_a_command_delay_acts_as_the_commands_logged_that_much_later() -> None:
+    """A 0.3 s delay: the boat moves as an undelayed boat under the same profile 0.3 s later; the record
+    keeps the commands as logged (undelayed)."""
+    params = VesselParams()
+    times = np.array([0.0, 3.0, 6.0])
+    rows = np.array([[500.0, 500.0, 0.0, 0.0], [900.0, 700.0, 0.2, 0.2], [600.0, 600.0, -0.1, -0.1]])
+    delayed = simulate(replace(params, command_delay_s=0.3), CommandProfile("p", times, rows, 10.0, 5.0))
+    shifted = simulate(params, CommandProfile("p", np.concatenate([[0.0], times + 0.3]),
+                                              np.vstack([rows[:1], rows]), 10.0, 5.0))
+    assert np.array_equal(delayed.states, shifted.states)
+    assert np.array_equal(delayed.commands[:, 0], rows[np.searchsorted(times, delayed.t_s + 1e-9) - 1])

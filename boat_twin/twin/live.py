@@ -78,21 +78,22 @@ class LiveTwin:
 
     def _acting_command(self, issued: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """(1, 1, 4) the command the boat acts on this tick, (1, 1) when it takes over (s after the tick; None:
-        at it) and (1, 4) the one before it: the issued commands ``vessel.command_delay_s`` late (the first
-        issued one before any is due)."""
+        at it) and (1, 4) the one before it: the command issued ⌊delay·rate⌋ ticks ago, from the rest of
+        ``vessel.command_delay_s`` into this tick (as the batch simulator); the first issued one before any is
+        due."""
         delay_ticks = self.config.vessel.command_delay_s * OUTPUT_RATE_HZ
         if delay_ticks == 0.0:
             return issued, None, issued[0]
+        shift = math.floor(delay_ticks + 1e-9)
         self._issued.append((self.tick_index, issued[0, 0].copy()))
         previous = self._acting if self._acting is not None else issued[0, 0]
-        late = self.tick_index - math.floor(delay_ticks)  # the issued tick whose command acts within this one
-        while self._issued and self._issued[0][0] <= late:
+        while self._issued and self._issued[0][0] <= self.tick_index - shift:
             self._acting = self._issued.popleft()[1]
         acting = self._acting if self._acting is not None else issued[0, 0]
         switch = None
         if np.any(acting != previous):
-            switch = np.array([[(delay_ticks - math.floor(delay_ticks)) / OUTPUT_RATE_HZ]])
-        return acting[None, None, :], switch, previous[None, :]
+            switch = np.array([[(delay_ticks - shift) / OUTPUT_RATE_HZ]])
+        return acting[None, None, :], switch, previous[None, :].copy()
 
     def tick(self) -> list[messages.Message]:
         """Record this tick under the held commands (acting ``vessel.command_delay_s`` after they were issued,

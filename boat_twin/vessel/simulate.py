@@ -194,16 +194,19 @@ def simulate_chunks(
 
 def _delayed_profile(profile: CommandProfile, t_s: np.ndarray, delay_s: float, boats: int
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """What the outboards act on at the ticks ``t_s`` when ``profile``'s commands act ``delay_s`` late: the
-    commands (ticks, boats, 4) each tick holds from its switch time (ticks, boats), s after the tick, and the
-    command in force before the first tick (boats, 4), as :meth:`~boat_twin.vessel.dynamics.Dynamics.run` takes
-    them; before its first row's time plus the delay the profile's first row acts (the boat held there)."""
-    acting_s = profile.times_s + delay_s
-    tick = 1.0 / OUTPUT_RATE_HZ
-    index = np.maximum(np.searchsorted(acting_s, t_s + 0.5 * tick, side="right") - 1, 0)
-    earlier = np.maximum(np.searchsorted(acting_s, t_s[:1] - 0.5 * tick, side="right") - 1, 0)
-    previous = np.concatenate([earlier, index[:-1]])
-    switch = np.where(index != previous, acting_s[index] - t_s, 0.0)
-    rows = profile.values[index]
-    return (np.repeat(rows[:, None, :], boats, axis=1), np.repeat(switch[:, None], boats, axis=1),
-            np.repeat(profile.values[earlier], boats, axis=0))
+    """What the outboards act on at the ticks ``t_s`` when the commands logged at the ticks act ``delay_s``
+    late: the commands (ticks, boats, 4) each tick holds from its switch time (ticks, boats), s after the tick,
+    and the command in force before the first tick (boats, 4), as
+    :meth:`~boat_twin.vessel.dynamics.Dynamics.run` takes them. The command logged at tick j acts from
+    t_j + delay: from tick j + k, k = ⌊delay·rate⌋, plus the rest of the delay (the live twin does the same);
+    before the first logged command acts, the first holds (the boat was held there)."""
+    ticks = np.round(t_s * OUTPUT_RATE_HZ).astype(int)
+    shift = int(np.floor(delay_s * OUTPUT_RATE_HZ + 1e-9))
+    rest = delay_s - shift / OUTPUT_RATE_HZ
+    source = np.maximum(np.concatenate([ticks[:1] - 1, ticks]) - shift, 0) / OUTPUT_RATE_HZ
+    index = np.searchsorted(profile.times_s, source + 1e-9, side="right") - 1
+    rows = np.where(index[:, None] >= 0, profile.values[np.maximum(index, 0)], 0.0)
+    changed = np.any(rows[1:] != rows[:-1], axis=1)
+    switch = np.where(changed, rest, 0.0)
+    return (np.repeat(rows[1:, None, :], boats, axis=1), np.repeat(switch[:, None], boats, axis=1),
+            np.repeat(rows[:1], boats, axis=0))
