@@ -9,9 +9,11 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import math
 from dataclasses import replace
 from pathlib import Path
 
+import independent
 import numpy as np
 import pytest
 import yaml
@@ -26,7 +28,7 @@ from boat_twin.diagnose.search import MIN_MISFIT_SHARE, WIND_ALIASES, Candidate,
 from boat_twin.diagnose.table import runs_test_p
 from boat_twin.io.bags import read_trial, write_bag
 from boat_twin.twin.replay import SIGNALS, cut_windows, predict
-from boat_twin.vessel.params import derive_coefficients
+from boat_twin.vessel.params import VesselParams, derive_coefficients
 
 TRIAL_S = 300.0
 """Length of the test trials, s."""
@@ -354,3 +356,107 @@ def test_a_trial_too_short_to_split_is_refused(tmp_path: Path, capsys: pytest.Ca
     assert main(["diagnose", str(bag)]) == 2
     err = capsys.readouterr().err
     assert "windows" in err and "at least" in err and err.count("\n") == 1
+
+
+# --- issue 23: clean means clean; timing and heading effects, on data the twin did not make --------------------
+
+def _simulated(tmp_path: Path, name: str, *args: str) -> Path:
+    """``boat-twin simulate ARGS --out tmp_path/name`` (the CLI's own scenarios and helm)."""
+    bag = tmp_path / name
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["simulate", *args, "--out", str(bag)]) == 0
+    return bag
+
+
+def test_clean_zigzags_of_the_simulator_are_not_unexplained(tmp_path: Path) -> None:
+    """``boat-twin simulate zigzag-20-20 --seed N`` (130 s; its helm decides at 50 Hz, between the 10 Hz log's
+    samples), seeds 0-5, every one: an empty verdict and not unexplained (issue 23: unexplained on 6 of 6, a
+    steering-correlated yaw-rate residual from commands replayed up to half a sample early or late)."""
+    outcomes = []
+    for seed in range(6):
+        bag = _simulated(tmp_path, f"zigzag-{seed}", "zigzag-20-20", "--seed", str(seed))
+        result = diagnose_trial(read_trial(bag), TwinConfig()).result
+        outcomes.append((seed, _names(result), result["unexplained"], result["signature"]))
+    assert all(not names and not unexplained for _, names, unexplained, _ in outcomes), outcomes
+
+
+def _steps(t_s: float) -> float:
+    """Thrust per engine, N: 400 and 800 in turn every 15 s (7.8-10.8 m/s, inside the engines' envelope)."""
+    return 400.0 + 400.0 * (int(max(t_s, 0.0) // 15.0) % 2)
+
+
+def _zigzag(t_s: float) -> float:
+    """Steering, rad: ±15° reversed every 10 s."""
+    return math.radians(15.0) * (1.0 if int(max(t_s, 0.0) // 10.0) % 2 == 0 else -1.0)
+
+
+def _turns(t_s: float) -> float:
+    """Steering, rad: a course held 20 s, then 10 s of 12° to port, in turn (every heading visited)."""
+    return math.radians(12.0) if t_s % 30.0 > 20.0 else 0.0
+
+
+OTHER_BOATS = {
+    "default": {},
+    "lighter, stronger": {"mass_kg": 900.0, "engine_power_W": 40_000.0, "bollard_thrust_N": 2_400.0},
+    "heavier, slower to turn": {"mass_kg": 1_700.0, "radius_of_gyration_yaw_m": 1.9},
+}
+"""Boats of the straight-run test (VesselParams changes): each diagnosed against its own config."""
+
+
+def test_clean_straight_thrust_steps_are_not_unexplained() -> None:
+    """A straight run of thrust steps at 7.8-10.8 m/s from the independent integrator (test/independent.py),
+    three boats × two seeds, each diagnosed against its own config, every one: an empty verdict and not
+    unexplained (issue 23: 5 of 5 unexplained, the sideways velocity stepping from window to window as each
+    window's heading, 0.3° off at 8 m/s, rotates its path)."""
+    outcomes = []
+    for name, changes in OTHER_BOATS.items():
+        params = replace(VesselParams(steering_rate_radps=0.0), **changes)
+        for seed in (1, 2):
+            trial = independent.boat_trial(params, _steps, lambda t: 0.0, 180.0, np.random.default_rng(seed))
+            result = diagnose_trial(trial, TwinConfig(vessel=params)).result
+            outcomes.append((name, seed, _names(result), result["unexplained"], result["signature"]))
+    assert all(not names and not unexplained for _, _, names, unexplained, _ in outcomes), outcomes
+
+
+@pytest.mark.parametrize("kind", ["zigzag", "random"])
+def test_gnss_dropouts_are_not_alarmed_and_the_noise_is_measured_on_real_fixes(tmp_path: Path, kind: str) -> None:
+    """A quarter of the GNSS fixes lost (the reader interpolates across single losses): the noise floor is the
+    receiver's 0.05 m/s (measured on real fixes only; interpolated ones gave 0.036), and three seeds each come
+    back with an empty verdict, not unexplained."""
+    base = TwinConfig()
+    lossy = replace(base, gnss=replace(base.gnss, dropout_probability=0.25))
+    outcomes = []
+    for seed in (1, 2, 3):
+        bag = hidden.write_trial(tmp_path / f"{kind}-{seed}.mcap", lossy, kind, 230 + seed, 180.0)
+        result = diagnose_trial(read_trial(bag), base).result
+        assert result["noise"]["vel_east_mps"] == pytest.approx(base.gnss.velocity_stdev_mps, rel=0.1)
+        outcomes.append((seed, _names(result), result["unexplained"], result["signature"]))
+    assert all(not names and not unexplained for _, names, unexplained, _ in outcomes), outcomes
+
+
+HIDDEN_TIMING = {
+    "command_delay": ("delay_s", "delay_s", _steps, _zigzag, 0.03),
+    "thrust_lag": ("time_constant_s", "lag_s", _steps, lambda t: 0.0, 0.15),
+    "heading_offset": ("offset_rad", "yaw_offset_rad", lambda t: 350.0, _turns, math.radians(0.3)),
+}
+"""Effect → (its parameter, the independent integrator's argument, thrust per engine (N) and steering (rad) over
+time, absolute tolerance on the size found)."""
+
+
+@pytest.mark.parametrize(("effect", "seed"), [("command_delay", 41), ("thrust_lag", 42), ("heading_offset", 43)])
+def test_timing_and_heading_effects_are_named_and_sized_on_an_independent_boat(effect: str, seed: int) -> None:
+    """Each new effect drawn by the registry (1.2-2× its threshold, seeded) and made by the independent
+    integrator, not the twin: commands acting late on thrust steps and a zigzag, engines lagging on thrust steps
+    (no steering), an IMU yaw offset on a boat that turns through every heading. Named first, sized within the
+    tolerance. (The 95 % intervals are statistical: the delay's, ±0.002 s wide, can miss the truth by microseconds
+    where the replay's segments and this integrator's stages differ; docs/diagnosis.md.)"""
+    parameter, argument, thrust, steering, tolerance = HIDDEN_TIMING[effect]
+    params = VesselParams(steering_rate_radps=0.0)
+    base = TwinConfig(vessel=params)
+    _, truth = hidden.draw_effect(effect, base, np.random.default_rng(seed))
+    trial = independent.boat_trial(params, thrust, steering, 200.0, np.random.default_rng(seed),
+                                   **{argument: truth[parameter]})
+    result = diagnose_trial(trial, base).result
+    assert _names(result)[:1] == [effect], (truth, result["verdict"], result["candidates"][:4])
+    found = result["verdict"][0]
+    assert found["parameters"][parameter] == pytest.approx(truth[parameter], abs=tolerance), (truth, found)

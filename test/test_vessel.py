@@ -255,7 +255,8 @@ def test_a_diverging_simulation_is_an_error_not_a_bag_of_nan() -> None:
 
 def test_a_thrust_lag_delivers_a_step_as_a_first_order_response() -> None:
     """Engines with a 1.5 s time constant on a straight run: after a thrust step the force the boat feels,
-    m11·u̇ + Fc(u), follows T_new + (T_old − T_new)·exp(−t/τ) at every tick (the lag state is solved exactly; the kernel tabulates Fc within 1e-5 of it)."""
+    m11·u̇ + Fc(u), follows T_new + (T_old − T_new)·exp(−t/τ) at every tick (the lag state is solved exactly;
+    the kernel tabulates Fc within 1e-5 of it)."""
     tau, old, new = 1.5, 400.0, 900.0
     params = replace(VesselParams(), thrust_time_constant_s=tau)
     profile = CommandProfile("step", np.array([0.0, 2.0]), np.array([[old, old, 0.0, 0.0], [new, new, 0.0, 0.0]]),

@@ -16,6 +16,7 @@ Only commands and sensor streams are used — never ground truth. Imports config
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -388,7 +389,9 @@ def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[Vess
     for j in range(len(vessels)):
         boats = slice(j * m, (j + 1) * m)
         place = position[:, boats]
-        offset = np.nanmean(windows.position - place, axis=0)  # each window's start position: a nuisance
+        with warnings.catch_warnings():  # a window without one measured position keeps a NaN offset
+            warnings.simplefilter("ignore", RuntimeWarning)
+            offset = np.nanmean(windows.position - place, axis=0)  # each window's start position: a nuisance
         out.append(Prediction(signals={name: values[:, boats] for name, values in signals.items()},
                               position=place + offset[None, :, :]))
     return out
