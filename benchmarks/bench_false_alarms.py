@@ -1,0 +1,234 @@
+"""False alarms of the diagnosis on clean trials: every scenario of the twin, command shapes of our own, other
+boats with their own config, GNSS dropouts up to 30 %.
+
+Run: .venv/bin/python benchmarks/bench_false_alarms.py [--seeds 3] [--duration 180] [--json OUT.json]
+Nothing is asserted: the script prints a Markdown table and the exact command that produced it.
+
+Each trial is clean: the true boat is the config the diagnosis is given (the default twin or another boat,
+:data:`BOATS`, each diagnosed against its own config), simulated by the twin with its default sensor noise
+(GNSS dropouts cycling through :data:`DROPOUTS` from trial to trial), written as a bag, read back and diagnosed
+with the whole catalogue. The commands are every scenario of the twin (:data:`~boat_twin.vessel.scenarios.
+SCENARIO_NAMES`, as ``boat-twin simulate NAME --seed N`` runs them: a zigzag's helm decides at 50 Hz, between
+the 10 Hz log's samples) and :data:`SHAPES`, command profiles written here. A trial *alarms* when its verdict
+names an effect, when it is reported ``ambiguous`` or when it is ``unexplained``: the diagnosis of a clean trial
+must say none of these. The rate is printed with its Wilson 95 % interval; the target is at most 2 %.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shlex
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from boat_twin.config import TwinConfig
+from boat_twin.diagnose.pipeline import diagnose_trial
+from boat_twin.files import atomic_write_text
+from boat_twin.io.bags import read_trial, write_bag
+from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
+from boat_twin.vessel.params import VesselParams
+from boat_twin.vessel.scenarios import SCENARIO_NAMES, CommandProfile, Scenario, make_scenario, steady_speed_mps
+
+BOATS: dict[str, dict[str, float]] = {
+    "default": {},
+    "light-strong": {"mass_kg": 900.0, "engine_power_W": 40_000.0, "bollard_thrust_N": 2_400.0},
+    "heavy-slow-steering": {"mass_kg": 1_700.0, "radius_of_gyration_yaw_m": 1.9, "steering_rate_radps": 0.1},
+}
+"""Boats (changes of the default VesselParams), each the true boat and the model of its own trials."""
+DROPOUTS = (0.0, 0.1, 0.2, 0.3)
+"""Probability that a GNSS fix is lost, cycled through the trials."""
+MAX_SCENARIO_S = 300.0
+"""A twin scenario longer than this runs only this long (s): the thrust steps' 930 s hold the same steps."""
+
+
+def _profile(name: str, duration_s: float, times_s: np.ndarray, rows: np.ndarray, surge_mps: float
+             ) -> CommandProfile:
+    return CommandProfile(name, times_s, rows, duration_s, surge_mps)
+
+
+def _rows(thrust_N: np.ndarray, steering_rad: np.ndarray, difference_N: np.ndarray | None = None) -> np.ndarray:
+    """(n, 4) commands: per-engine thrust (± half a difference) and both outboards at one angle."""
+    diff = np.zeros_like(thrust_N) if difference_N is None else difference_N
+    return np.column_stack([thrust_N + diff / 2, thrust_N - diff / 2, steering_rad, steering_rad])
+
+
+def sine_steering(params: VesselParams, rng: np.random.Generator, duration_s: float) -> CommandProfile:
+    """Steering a sine of 8-15° and a 12-25 s period at a constant cruise thrust (updated at 10 Hz)."""
+    t = np.arange(0.0, duration_s, 0.1)
+    amplitude, period = math.radians(rng.uniform(8.0, 15.0)), rng.uniform(12.0, 25.0)
+    thrust = rng.uniform(0.25, 0.45) * params.bollard_thrust_N
+    rows = _rows(np.full(t.size, thrust), amplitude * np.sin(2 * math.pi * t / period))
+    return _profile("sine-steering", duration_s, t, rows, steady_speed_mps(params, 2 * thrust))
+
+
+def slalom_steps(params: VesselParams, rng: np.random.Generator, duration_s: float) -> CommandProfile:
+    """Steering ±10° every 7 s while the thrust steps between two levels every 30 s."""
+    t = np.arange(0.0, duration_s, 7.0)
+    low, high = rng.uniform(0.15, 0.25), rng.uniform(0.35, 0.5)
+    thrust = params.bollard_thrust_N * np.where((t // 30.0) % 2 == 0, low, high)
+    steering = math.radians(10.0) * np.where(np.arange(t.size) % 2 == 0, 1.0, -1.0)
+    return _profile("slalom-steps", duration_s, t, _rows(thrust, steering), steady_speed_mps(params, 2 * thrust[0]))
+
+
+def thrust_ramp(params: VesselParams, rng: np.random.Generator, duration_s: float) -> CommandProfile:
+    """The thrust ramped up and down between 10 % and 50 % of the bollard thrust (a triangle, 10 Hz), straight."""
+    t = np.arange(0.0, duration_s, 0.1)
+    period = rng.uniform(80.0, 140.0)
+    share = 0.1 + 0.4 * (1.0 - np.abs(2.0 * ((t / period) % 1.0) - 1.0))
+    thrust = share * params.bollard_thrust_N
+    return _profile("thrust-ramp", duration_s, t, _rows(thrust, np.zeros(t.size)),
+                    steady_speed_mps(params, 2 * thrust[0]))
+
+
+def steering_steps(params: VesselParams, rng: np.random.Generator, duration_s: float) -> CommandProfile:
+    """Random steering steps within ±20°, each held 3-12 s, at a constant thrust with a random differential."""
+    times = np.cumsum(np.concatenate([[0.0], rng.uniform(3.0, 12.0, 200)]))
+    times = times[times < duration_s]
+    thrust = rng.uniform(0.25, 0.45) * params.bollard_thrust_N
+    steering = np.radians(rng.uniform(-20.0, 20.0, times.size))
+    difference = rng.uniform(-0.1, 0.1, times.size) * params.bollard_thrust_N
+    return _profile("steering-steps", duration_s, times, _rows(np.full(times.size, thrust), steering, difference),
+                    steady_speed_mps(params, 2 * thrust))
+
+
+def stop_and_go(params: VesselParams, rng: np.random.Generator, duration_s: float) -> CommandProfile:
+    """Cruise 40 s, idle (0 N) 20 s, in turn, with a gentle 5° turn while cruising every other time."""
+    t = np.arange(0.0, duration_s, 20.0)
+    phase = np.arange(t.size) % 3
+    thrust = np.where(phase == 2, 0.0, rng.uniform(0.3, 0.45) * params.bollard_thrust_N)
+    steering = np.where((np.arange(t.size) // 3) % 2 == 1, math.radians(5.0), 0.0) * (phase != 2)
+    return _profile("stop-and-go", duration_s, t, _rows(thrust, steering), steady_speed_mps(params, 2 * thrust[0]))
+
+
+def chirp_steering(params: VesselParams, rng: np.random.Generator, duration_s: float) -> CommandProfile:
+    """Steering a chirp of ±6° whose period falls from 40 s to 6 s, at a random cruise thrust (10 Hz)."""
+    t = np.arange(0.0, duration_s, 0.1)
+    phase = 2 * math.pi * (t / 40.0 + (1 / 6.0 - 1 / 40.0) * t**2 / (2 * duration_s))
+    thrust = rng.uniform(0.2, 0.5) * params.bollard_thrust_N
+    rows = _rows(np.full(t.size, thrust), math.radians(6.0) * np.sin(phase))
+    return _profile("chirp-steering", duration_s, t, rows, steady_speed_mps(params, 2 * thrust))
+
+
+SHAPES: dict[str, Callable[[VesselParams, np.random.Generator, float], CommandProfile]] = {
+    "sine-steering": sine_steering, "slalom-steps": slalom_steps, "thrust-ramp": thrust_ramp,
+    "steering-steps": steering_steps, "stop-and-go": stop_and_go, "chirp-steering": chirp_steering,
+}
+"""Command shapes of this benchmark's own (not the twin's scenarios)."""
+
+
+def plan(seeds: int) -> list[tuple[str, str, int, float]]:
+    """(commands, boat, seed, dropout) of every trial: every command shape on every boat, ``seeds`` seeds each,
+    the dropout cycling through :data:`DROPOUTS`."""
+    trials = [(c, b) for c in (*SCENARIO_NAMES, *SHAPES) for b in BOATS for _ in range(seeds)]
+    return [(c, b, 1000 + i, DROPOUTS[i % len(DROPOUTS)]) for i, (c, b) in enumerate(trials)]
+
+
+def scenario(commands: str, params: VesselParams, seed: int, duration_s: float) -> Scenario:
+    """The twin's scenario ``commands`` as ``boat-twin simulate`` makes it (at least ``duration_s``, at most
+    :data:`MAX_SCENARIO_S`: a diagnosis needs 6 windows of 20 s), or one of :data:`SHAPES` of ``duration_s``."""
+    rng = np.random.default_rng(seed)
+    if commands in SHAPES:
+        return SHAPES[commands](params, rng, duration_s)
+    made = make_scenario(commands, params, rng)
+    length = min(max(made.duration_s, duration_s), MAX_SCENARIO_S)
+    return replace(made, duration_s=length)  # type: ignore[type-var]
+
+
+def run_trial(commands: str, boat: str, seed: int, dropout: float, duration_s: float, folder: Path
+              ) -> dict[str, Any]:
+    """Simulate, write, read and diagnose one clean trial; its outcome."""
+    base = TwinConfig()
+    config = replace(base, vessel=replace(base.vessel, **BOATS[boat]),
+                     gnss=replace(base.gnss, dropout_probability=dropout))
+    bag = folder / f"{commands}-{boat}-{seed}.mcap"
+    write_bag(bag, trial_messages(run_sea_trial(config, scenario(commands, config.vessel, seed, duration_s), seed),
+                                  truth=False), force=True)
+    trial = read_trial(bag)
+    model = replace(config, gnss=base.gnss)  # the model of the boat; the dropouts are the sea's
+    start = time.process_time()
+    result = diagnose_trial(trial, model).result
+    cpu = time.process_time() - start
+    bag.unlink()
+    named = [v["effect"] for v in result["verdict"]]
+    ambiguous = list(result["ambiguous"]["effects"]) if result["ambiguous"] else []
+    return {"commands": commands, "boat": boat, "seed": seed, "dropout": dropout, "named": named,
+            "ambiguous": ambiguous, "unexplained": bool(result["unexplained"]), "signature": result["signature"],
+            "windows": result["windows"]["count"], "cpu_s": cpu,
+            "alarm": bool(named or ambiguous or result["unexplained"])}
+
+
+def wilson(k: int, n: int) -> tuple[float, float]:
+    """Wilson 95 % interval of a rate k/n."""
+    if n == 0:
+        return 0.0, 1.0
+    z, p = 1.96, k / n
+    centre, half = (p + z * z / (2 * n)), z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return max(0.0, (centre - half) / (1 + z * z / n)), min(1.0, (centre + half) / (1 + z * z / n))
+
+
+def table(outcomes: list[dict[str, Any]]) -> str:
+    """Markdown: per command shape and overall, trials, named, ambiguous, unexplained, alarms."""
+    def row(label: str, items: list[dict[str, Any]]) -> str:
+        n = len(items)
+        named = sum(bool(o["named"]) for o in items)
+        ambiguous = sum(bool(o["ambiguous"]) for o in items)
+        unexplained = sum(o["unexplained"] for o in items)
+        alarms = sum(o["alarm"] for o in items)
+        share = 100 * alarms / max(n, 1)
+        return f"| {label} | {n} | {named} | {ambiguous} | {unexplained} | {alarms} ({share:.0f}%) |"
+    lines = ["| commands | trials | named | ambiguous | unexplained | alarms |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    for commands in dict.fromkeys(o["commands"] for o in outcomes):
+        lines.append(row(commands, [o for o in outcomes if o["commands"] == commands]))
+    for boat in dict.fromkeys(o["boat"] for o in outcomes):
+        lines.append(row(f"boat: {boat}", [o for o in outcomes if o["boat"] == boat]))
+    for dropout in sorted({o["dropout"] for o in outcomes}):
+        lines.append(row(f"GNSS dropouts {100 * dropout:.0f} %", [o for o in outcomes if o["dropout"] == dropout]))
+    lines.append(row("**all**", outcomes))
+    alarms = sum(o["alarm"] for o in outcomes)
+    low, high = wilson(alarms, len(outcomes))
+    cpu = np.array([o["cpu_s"] for o in outcomes])
+    lines += ["", f"false-alarm rate {alarms}/{len(outcomes)} = {100 * alarms / max(len(outcomes), 1):.1f} % "
+              f"(Wilson 95 %: {100 * low:.1f}-{100 * high:.1f} %; target ≤ 2 %); diagnosis CPU per trial median "
+              f"{np.median(cpu):.1f} s, max {cpu.max():.1f} s"]
+    return "\n".join(lines)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--seeds", type=int, default=3, help="trials per command shape and boat (default 3)")
+    parser.add_argument("--duration", type=float, default=180.0, help="length of a SHAPES trial, s (default 180)")
+    parser.add_argument("--json", type=Path, help="save every trial's outcome here (rewritten after each trial)")
+    parser.add_argument("--tables-from", type=Path, help="print the table of a saved --json run and exit")
+    args = parser.parse_args()
+    if args.tables_from:
+        print(table(json.loads(args.tables_from.read_text())))
+        return 0
+    print("command: " + " ".join(shlex.quote(a) for a in [".venv/bin/python", *sys.argv]), flush=True)
+    outcomes: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory() as folder:
+        for commands, boat, seed, dropout in plan(args.seeds):
+            outcome = run_trial(commands, boat, seed, dropout, args.duration, Path(folder))
+            outcomes.append(outcome)
+            print(f"{commands:15s} {boat:20s} seed {seed} dropout {dropout:.1f}: named {outcome['named']} "
+                  f"ambiguous {outcome['ambiguous']} unexplained {outcome['unexplained']} "
+                  f"{[(s['signal'], round(s['misfit'], 2), round(s['heldout_r2'], 2)) for s in outcome['signature']]}"
+                  f" ({outcome['cpu_s']:.1f} s CPU)", flush=True)
+            if args.json:
+                atomic_write_text(args.json, json.dumps(outcomes, indent=1))
+    print()
+    print(table(outcomes))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
