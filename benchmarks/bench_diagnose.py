@@ -90,8 +90,10 @@ from boat_twin.twin.replay import Windows, cut_windows, predict
 from boat_twin.vessel.params import derive_coefficients
 from boat_twin.vessel.tow import TowConfig, tow_drag_N
 
-STUDY = ("clean", *EFFECT_NAMES, *PROBES)
-"""Rows of the study: the control, the catalogue, the causes outside it."""
+TIMING_EFFECTS = ("command_delay", "thrust_lag", "heading_offset")
+"""Catalogue effects added by issue 23: their rows follow the probes', so the earlier rows keep their seeds."""
+STUDY = ("clean", *(e for e in EFFECT_NAMES if e not in TIMING_EFFECTS), *PROBES, *TIMING_EFFECTS)
+"""Rows of the study: the control, the catalogue, the causes outside it, the catalogue's timing effects."""
 PROBE_KINDS = ("zigzag", "random")
 """Trial kinds of the probe rows: they steer and turn (on thrust steps the probes do not act)."""
 CALIBRATION_SEED = 10_000
@@ -168,6 +170,12 @@ def size_error(effect: str, params: dict[str, float], truth: dict[str, Any], bas
         return abs(peak - truth["change"]) / abs(truth["change"])
     if effect == "tow_load":
         return abs(params["drag_scale"] - truth["drag_scale"]) / truth["drag_scale"]
+    if effect in ("command_delay", "thrust_lag"):
+        name, null = ("delay_s", base.vessel.command_delay_s) if effect == "command_delay" else (
+            "time_constant_s", base.vessel.thrust_time_constant_s)
+        return abs(params[name] - truth[name]) / abs(truth[name] - null)
+    if effect == "heading_offset":
+        return abs(params["offset_rad"] - truth["offset_rad"]) / abs(truth["offset_rad"] - base.um7.yaw_offset_rad)
     if effect == "manoeuvring":
         keys = ("yaw_damping_factor", "sway_damping_factor")
         return math.hypot(*(params[k] - truth[k] for k in keys)) / math.hypot(*(truth[k] - 1.0 for k in keys))
