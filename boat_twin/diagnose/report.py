@@ -7,7 +7,15 @@ from typing import Any, TypedDict
 import numpy as np
 from matplotlib.figure import Figure
 
-from boat_twin.diagnose.search import BIC_THRESHOLD, MIN_HELDOUT_GAIN, Candidate, Fit, Selection, ci95
+from boat_twin.diagnose.search import (
+    BIC_THRESHOLD,
+    MIN_HELDOUT_GAIN,
+    TIMING_ALIASES,
+    Candidate,
+    Fit,
+    Selection,
+    ci95,
+)
 from boat_twin.diagnose.structure import Signature, SignatureResult
 from boat_twin.diagnose.table import TableDiagnosis
 from boat_twin.twin.replay import SIGNALS, Prediction, Windows, residual
@@ -125,8 +133,18 @@ def ambiguity(selection: Selection) -> AmbiguousResult | None:
     return {"effects": [c.effect.name for c in selection.ambiguous],
             "parameters": {c.effect.name: c.effect.named(c.fit.split()[-1][1]) for c in selection.ambiguous},
             "round": len(selection.rounds),
-            "reason": "the trial holds one heading: a wind is a constant force in the body frame there, as the "
-                      "other cause is; a trial that turns through many headings tells them apart"}
+            "reason": AMBIGUITY_REASONS["timing" if selection.ambiguous[0].effect.name in TIMING_ALIASES
+                                        else "wind"]}
+
+
+AMBIGUITY_REASONS = {
+    "wind": "the trial holds one heading: a wind is a constant force in the body frame there, as the other cause "
+            "is; a trial that turns through many headings tells them apart",
+    "timing": "both move the measured response later by about as much (no evidence against either: ΔBIC within "
+              "10): a command delay moves every response, a GNSS latency only the GNSS's, an engine lag only the "
+              "thrust's; a trial that steers as well as steps the thrust tells them apart",
+}
+"""Why a trial's candidates were reported as ``ambiguous``, by the rule that found them (:mod:`search`)."""
 
 
 def verdict(selection: Selection) -> list[VerdictResult]:

@@ -35,6 +35,9 @@ Method (docs/diagnosis.md states it with the numbers):
   offset or a resistance change are (:data:`WIND_ALIASES`). When the best named candidate of a round is the wind
   or one of those and the other side would be named too, neither is: both are reported as ``ambiguous``
   candidates and forward selection stops.
+- Timing: a command delay, a GNSS latency and an engine lag all move the measured response later; when the best
+  named candidate is one of :data:`TIMING_ALIASES` and another of them is named within |BIC_THRESHOLD| of its ΔBIC,
+  neither is named: both are ``ambiguous`` and forward selection stops.
   Forward selection: the named candidate with the lowest ΔBIC joins the model, its parameters stay free,
   and the remaining candidates are tried again against the extended model.
 """
@@ -84,6 +87,11 @@ ONE_HEADING_SPREAD_RAD = 0.2
 a wind cannot be told from the constant body-frame forces of :data:`WIND_ALIASES` there."""
 WIND_ALIASES = ("water_current", "thrust_asymmetry", "steering_offset", "resistance_shape")
 """Effects a wind is confounded with on a trial that holds one heading."""
+TIMING_ALIASES = ("command_delay", "gnss_latency", "thrust_lag")
+"""Effects that move the measured response later: on a trial that only steps the thrust (no steering), a command
+delay, a GNSS latency and an engine lag of about the same size are nearly the same change of the GNSS velocity.
+When the best candidate of a round is one of them and another would be named too with a ΔBIC within
+|:data:`BIC_THRESHOLD`| of it (no strong evidence against either), neither is named: both are ``ambiguous``."""
 MAX_EVALUATIONS = 40
 """Model evaluations per least-squares fit (each a replay of every window)."""
 
@@ -356,7 +364,7 @@ class Selection:
     """The named candidates in the order they joined the model."""
     ambiguous: list[Candidate] = field(default_factory=list)
     """Candidates the decision rule would name but this trial cannot tell apart (one heading: a wind and one of
-    :data:`WIND_ALIASES`); none of them is named."""
+    :data:`WIND_ALIASES`; or two of :data:`TIMING_ALIASES` within |BIC_THRESHOLD|); none of them is named."""
 
 
 def below_floor(candidate: Candidate) -> bool:
@@ -384,6 +392,16 @@ def _wind_ambiguity(named: list[Candidate], best: Candidate) -> list[Candidate]:
     else:
         return []
     return [best, min(others, key=lambda c: c.delta_bic)] if others else []
+
+
+def _timing_ambiguity(named: list[Candidate], best: Candidate) -> list[Candidate]:
+    """The best candidate and the best other of :data:`TIMING_ALIASES` when both would be named and their ΔBIC
+    differ by less than |:data:`BIC_THRESHOLD`|; empty otherwise."""
+    if best.effect.name not in TIMING_ALIASES:
+        return []
+    close = [c for c in named if c is not best and c.effect.name in TIMING_ALIASES
+             and c.delta_bic - best.delta_bic < -BIC_THRESHOLD]
+    return [best, min(close, key=lambda c: c.delta_bic)] if close else []
 
 
 def forward_select(diagnosis: Diagnosis, effects: dict[str, Effect]) -> Selection:
@@ -421,6 +439,8 @@ def forward_select(diagnosis: Diagnosis, effects: dict[str, Effect]) -> Selectio
             break
         best = min(named, key=lambda c: c.delta_bic)
         if one_heading and (ambiguous := _wind_ambiguity(named, best)):
+            break
+        if ambiguous := _timing_ambiguity(named, best):
             break
         chosen.append(best)
         current = best.fit
