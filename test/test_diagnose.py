@@ -460,3 +460,16 @@ def test_timing_and_heading_effects_are_named_and_sized_on_an_independent_boat(e
     assert _names(result)[:1] == [effect], (truth, result["verdict"], result["candidates"][:4])
     found = result["verdict"][0]
     assert found["parameters"][parameter] == pytest.approx(truth[parameter], abs=tolerance), (truth, found)
+
+
+def test_a_delay_on_straight_thrust_steps_is_ambiguous_with_a_gnss_latency() -> None:
+    """Commands acting 0.45 s late on a straight run of thrust steps (the independent integrator): every measured
+    response moves later by as much as a 0.45 s GNSS latency would move the GNSS's (the gyro sees no turn), so
+    the two come within 10 of each other's ΔBIC and neither is named: ``ambiguous``, with the delay's size."""
+    params = VesselParams(steering_rate_radps=0.0)
+    trial = independent.boat_trial(params, _steps, lambda t: 0.0, 200.0, np.random.default_rng(1), delay_s=0.45)
+    result = diagnose_trial(trial, TwinConfig(vessel=params)).result
+    assert result["verdict"] == [] and result["ambiguous"] is not None, result["candidates"][:4]
+    assert "command_delay" in result["ambiguous"]["effects"], result["ambiguous"]
+    assert set(result["ambiguous"]["effects"]) <= {"command_delay", "gnss_latency", "thrust_lag"}
+    assert result["ambiguous"]["parameters"]["command_delay"]["delay_s"] == pytest.approx(0.45, abs=0.03)
