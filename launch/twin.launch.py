@@ -1,7 +1,8 @@
 """Launch the boat twin: the simulator, the thrust-speed identifier and the towed-cable service.
 
     ros2 launch boat_twin twin.launch.py [namespace:=boat1] [seed:=0] [noise:=true] [config_file:=/path/boat.yaml]
-        [sim_time:=true real_time_factor:=10.0] [order:=5] [memory_s:=3600.0] [model_path:=/path/model.yaml]
+        [sim_time:=true real_time_factor:=10.0] [command_timeout_s:=1.0] [frame_prefix:=boat1/]
+        [publish_truth_tf:=true] [hardware_id:=boat1] [order:=5] [memory_s:=3600.0] [model_path:=/path/model.yaml]
         [cable_case:=/path/case.yaml] [follow_gnss_vel:=true]
         [mavlink_url:=udpout:127.0.0.1:14550] [mavlink_allow_remote:=false]
 
@@ -23,6 +24,10 @@ ARGUMENTS = {
     "noise": ("true", "false: exact measurements"),
     "sim_time": ("false", "true: the simulator publishes /clock and the other nodes use it"),
     "real_time_factor": ("1.0", "simulated seconds per wall second with sim_time"),
+    "command_timeout_s": ("1.0", "thrust goes to zero this long after the last thruster command, s"),
+    "frame_prefix": ("", "prepended to every frame id (several boats: boat1/)"),
+    "publish_truth_tf": ("true", "publish the true map -> base_link on tf (false: a localization stack owns it)"),
+    "hardware_id": ("", "hardware_id of the nodes' /diagnostics (empty: the namespace)"),
     "mavlink_url": ("", "serve the twin to a ground station over MAVLink (empty: off)"),
     "mavlink_allow_remote": ("false", "allow a MAVLink peer that is not on this machine"),
     "order": ("5", "order N of the identified resistance Fc(v) (needs N + 2 steady points)"),
@@ -50,11 +55,14 @@ def generate_launch_description() -> LaunchDescription:
         Node(package="boat_twin", executable="simulator", name="simulator", **common,
              parameters=[{"config_file": arg("config_file"), "seed": arg("seed"), "noise": arg("noise"),
                           "publish_clock": arg("sim_time"), "real_time_factor": arg("real_time_factor"),
+                          "command_timeout_s": arg("command_timeout_s"), "frame_prefix": arg("frame_prefix"),
+                          "publish_truth_tf": arg("publish_truth_tf"), "hardware_id": arg("hardware_id"),
                           "mavlink_url": arg("mavlink_url"), "mavlink_allow_remote": arg("mavlink_allow_remote")}]),
         Node(package="boat_twin", executable="identifier", name="identifier", **common,
              parameters=[{"use_sim_time": arg("sim_time"), "order": arg("order"), "memory_s": arg("memory_s"),
-                          "model_path": arg("model_path")}]),
+                          "model_path": arg("model_path"), "hardware_id": arg("hardware_id")}]),
         Node(package="boat_twin", executable="cable", name="cable", **common,
              parameters=[{"use_sim_time": arg("sim_time"), "case_file": arg("cable_case"),
-                          "follow_gnss_vel": arg("follow_gnss_vel")}]),
+                          "follow_gnss_vel": arg("follow_gnss_vel"), "frame_prefix": arg("frame_prefix"),
+                          "hardware_id": arg("hardware_id")}]),
     ])

@@ -100,6 +100,10 @@ def test_launch_description_builds() -> None:
     assert module.generate_launch_description().entities
 
 
+SHARED_PARAMETERS = {"conventions.frame_prefix(self)": "frame_prefix", "Diagnostics(self)": "hardware_id"}
+"""Parameters that boat_twin.nodes.conventions and .diagnostics declare for the node that calls them."""
+
+
 def test_launch_parameters_are_declared_by_their_nodes() -> None:
     """Every parameter twin.launch.py passes to a node is one the node declares (a typo would be ignored)."""
     tree = ast.parse((ROOT / "launch" / "twin.launch.py").read_text())
@@ -110,4 +114,5 @@ def test_launch_parameters_are_declared_by_their_nodes() -> None:
         passed = {key.value for d in ast.walk(keywords["parameters"]) if isinstance(d, ast.Dict) for key in d.keys}
         source = (ROOT / "boat_twin" / "nodes" / f"{keywords['executable'].value}.py").read_text()
         declared = set(re.findall(r'parameters\.\w+\(\s*self,\s*"([a-z_]+)"', source)) | {"use_sim_time"}
+        declared |= {name for call, name in SHARED_PARAMETERS.items() if call in source}
         assert passed and passed <= declared, (keywords["executable"].value, passed - declared)

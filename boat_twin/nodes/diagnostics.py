@@ -5,8 +5,8 @@ diagnostic_updater's conventions: one diagnostic_msgs/DiagnosticStatus per task 
 ``/diagnostics``, named ``<node>: <task>`` where ``<node>`` is the fully qualified node name without its leading
 slash (``boat1/simulator: simulation``; diagnostic_updater's ``use_fqn`` naming), ``hardware_id`` set, levels
 OK / WARN / ERROR / STALE, values as key/value strings, published about once a second. The ``hardware_id``
-parameter names the boat; it defaults to the namespace without its slash (``boat1``), ``boat_twin`` in the
-root namespace.
+parameter names the boat; it defaults to (and when empty is) the namespace without its slash (``boat1``),
+``boat_twin`` in the root namespace.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ class Diagnostics:
         self.node = node
         default_id = node.get_namespace().strip("/") or "boat_twin"
         self.hardware_id = parameters.string(node, "hardware_id", default_id,
-                                             "hardware_id of /diagnostics (default: the namespace)")
+                                             "hardware_id of /diagnostics (empty: the namespace)") or default_id
         self.prefix = node.get_fully_qualified_name().lstrip("/")
         self.publisher = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
 
