@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -46,7 +47,16 @@ def test_a_best_effort_command_publisher_drives_the_boat(tmp_path) -> None:
     assert "incompatible QoS" not in stderr and "Traceback" not in stderr
 
 
-def test_pymavlink_is_imported_only_with_mavlink_on() -> None:
+def test_pymavlink_is_imported_only_with_mavlink_on(tmp_path) -> None:
     code = "import sys, boat_twin.nodes.simulator; print('pymavlink' in sys.modules)"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and done.stdout.strip() == "False", done.stderr
+    # ...and with MAVLink on, the node imports it and speaks MAVLink 2 to the ground station
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as ground_station:
+        ground_station.bind(("127.0.0.1", 0))
+        ground_station.settimeout(rosnodes.START_TIMEOUT_S)
+        url = f"udpout:127.0.0.1:{ground_station.getsockname()[1]}"
+        with rosnodes.nodes(("simulator", {"mavlink_url": url}), log_dir=tmp_path) as (sim,):
+            packet, _sender = ground_station.recvfrom(4096)
+            stderr = sim.stderr
+    assert packet[0] == 0xFD and "Traceback" not in stderr
