@@ -46,6 +46,15 @@ def test_a_long_stall_slows_the_clock_instead_of_a_burst() -> None:
     assert schedule.due(1.0) == 0 and schedule.due(1.002) == 1  # back on a schedule moved by the stall
 
 
+def test_a_restarted_schedule_does_not_catch_up_the_pause() -> None:
+    schedule = TickSchedule(tick_s=0.1, factor=10.0)
+    schedule.ran(schedule.due(0.0))
+    schedule.restart()  # paused here, resumed 30 s later
+    assert schedule.due(30.0) == 1
+    schedule.ran(1)
+    assert schedule.due(30.005) == 0 and schedule.slowed_s == 0.0 and schedule.late_ticks == 0
+
+
 def test_the_rate_meter_gives_simulated_over_wall_seconds() -> None:
     meter = RateMeter()
     assert meter.factor(10.0, 0.0) is None

@@ -9,6 +9,10 @@ holds, with the system-default (reliable) QoS so that every subscriber connects 
 imu_link; transient local) when tf2_msgs is installed; /diagnostics every wall second. Each tick's messages are
 stamped with the node clock at that tick.
 
+Services: ~/pause (std_srvs/SetBool: true stops the ticks, and with publish_clock the clock; false resumes),
+~/reset (std_srvs/Trigger: the boat at rest at the origin, the sensor noise re-seeded, the watchdog cleared and,
+with publish_clock, the clock back to 0, which resets the identifiers that follow it; refused with mavlink_url).
+
 Parameters (read at start-up)
   config_file (string, "")      twin YAML (empty: the built-in seed boat)
   seed (int, 0), noise (bool, true)   sensor noise
@@ -39,6 +43,7 @@ from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import Float64
+from std_srvs.srv import SetBool, Trigger
 
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.errors import InputError
@@ -93,7 +98,9 @@ class SimulatorNode(Node):
         if self.publish_clock and self.get_parameter("use_sim_time").value:
             raise InputError("simulator: publish_clock and use_sim_time exclude each other (it is the clock)")
         config = load_config(Path(config_file)) if config_file else TwinConfig()
-        self.twin = LiveTwin(config, seed=seed, noise=noise)
+        self.new_twin = partial(LiveTwin, config, seed=seed, noise=noise)
+        self.twin = self.new_twin()
+        self.paused = False
         self.link: MavlinkBoat | None = None
         if mavlink_url:  # pymavlink is imported only then
             from boat_twin.link.mavlink_boat import MavlinkBoat
@@ -102,10 +109,8 @@ class SimulatorNode(Node):
         self.watchdog = CommandWatchdog(timeout_s)
         self.publishers_by_topic = self._sensor_publishers(truth_tf)
         self.velocity_variances = [config.gnss.velocity_stdev_mps ** 2] * 3
-        commands = self.link if self.link is not None else self.twin
         for index, topic in enumerate(messages.COMMAND_TOPICS):
-            self.create_subscription(Float64, topic, partial(self.on_command, commands, index),
-                                     conventions.COMMAND_QOS)
+            self.create_subscription(Float64, topic, partial(self.on_command, index), conventions.COMMAND_QOS)
         self.clock_pub: Publisher | None = None
         self.schedule = TickSchedule(1.0 / OUTPUT_RATE_HZ, factor if self.publish_clock else 1.0)
         self.overruns = 0
@@ -116,13 +121,40 @@ class SimulatorNode(Node):
         else:
             self.create_timer(1.0 / OUTPUT_RATE_HZ, self.on_tick)
         self.create_timer(1.0, self.on_diagnostics, clock=conventions.steady_clock())
+        self.create_service(SetBool, "~/pause", self.on_pause)
+        self.create_service(Trigger, "~/reset", self.on_reset)
         conventions.use_sim_time(self)
         self._publish_static_transforms(config.gnss.antenna_height_m)
 
-    def on_command(self, commands: LiveTwin | MavlinkBoat, index: int, msg: Float64) -> None:
-        """A thruster command (N or rad) into the twin, or into the MAVLink link that arbitrates it."""
-        commands.set_command(index, msg.data)
+    @property
+    def commands(self) -> LiveTwin | MavlinkBoat:
+        """Where commands go: the twin, or the MAVLink link that arbitrates them."""
+        return self.link if self.link is not None else self.twin
+
+    def on_command(self, index: int, msg: Float64) -> None:
+        """A thruster command (N or rad)."""
+        self.commands.set_command(index, msg.data)
         self.watchdog.heard(self._stamp_ns() * 1e-9)
+
+    def on_pause(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        if self.paused and not request.data:
+            self.schedule.restart()  # resume from now, not catch up the pause
+        self.paused = request.data
+        state = "paused" if self.paused else "running"
+        response.success, response.message = True, f"{state} at {self.twin.tick_index / OUTPUT_RATE_HZ:.1f} s"
+        self.get_logger().info(f"simulation {response.message}")
+        return response
+
+    def on_reset(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        if self.link is not None:
+            response.success, response.message = False, "reset is not available with mavlink_url: restart the node"
+            return response
+        self.twin = self.new_twin()
+        self.watchdog = CommandWatchdog(self.watchdog.timeout_s)
+        self.schedule.restart()
+        response.success, response.message = True, "boat at rest at the origin, time 0"
+        self.get_logger().info(f"reset: {response.message}")
+        return response
 
     def _sensor_publishers(self, truth_tf: bool) -> dict[str, Publisher]:
         """One reliable publisher per twin output topic; tf only where tf2_msgs is installed (one warning)."""
@@ -158,6 +190,8 @@ class SimulatorNode(Node):
 
     def on_schedule(self) -> None:
         """publish_clock: run the ticks that are due on the wall clock (more than one after a late wake-up)."""
+        if self.paused:
+            return
         n = self.schedule.due(time.monotonic())
         for _ in range(n):
             self.on_tick()
@@ -171,12 +205,13 @@ class SimulatorNode(Node):
         /clock before the next tick therefore acts at the time it read, as a bag records it. Commands arriving
         between ticks act from the next tick (on the wall clock: 0-100 ms later, a 10 Hz actuator update).
         """
+        if self.paused:
+            return
         started = time.monotonic()
         stamp_ns = self._stamp_ns()
         if self.watchdog.check(stamp_ns * 1e-9):
-            commands = self.link if self.link is not None else self.twin
             for index in THRUST_INDICES:
-                commands.set_command(index, 0.0)
+                self.commands.set_command(index, 0.0)
             self.get_logger().warning(f"no thruster command for {self.watchdog.timeout_s:g} s "
                                       "(command_timeout_s): thrust set to zero")
         tick = self.link.step(1) if self.link is not None else self.twin.tick()
@@ -203,9 +238,12 @@ class SimulatorNode(Node):
         sim_s = self.twin.tick_index / OUTPUT_RATE_HZ
         achieved = self.rate.factor(time.monotonic(), sim_s)
         asked = self.schedule.factor
-        slow = achieved is not None and self.twin.tick_index > 0 and achieved < 0.9 * asked
-        timing = Status("simulation", WARN if slow else OK,
-                        (f"running at {achieved:.1f}x of {asked:g}x" if achieved is not None else "starting"),
+        slow = achieved is not None and self.twin.tick_index > 0 and achieved < 0.9 * asked and not self.paused
+        if self.paused:
+            message = f"paused at {sim_s:.1f} s"
+        else:
+            message = f"running at {achieved:.1f}x of {asked:g}x" if achieved is not None else "starting"
+        timing = Status("simulation", WARN if slow else OK, message,
                         {"real_time_factor_requested": asked, "real_time_factor_achieved": achieved,
                          "ticks": self.twin.tick_index, "simulated_time_s": sim_s, "tick_overruns": self.overruns,
                          "late_ticks": self.schedule.late_ticks, "clock_slowed_s": round(self.schedule.slowed_s, 6)})

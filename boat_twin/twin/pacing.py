@@ -94,6 +94,11 @@ class TickSchedule:
         """``n`` ticks were run."""
         self.ticks += n
 
+    def restart(self) -> None:
+        """Start the schedule afresh at the next :meth:`due` (after a pause or a reset: nothing to catch up)."""
+        self.start_wall_s = None
+        self.ticks = 0
+
 
 class RateMeter:
     """Real-time factor achieved over the last window: simulated seconds advanced per wall second."""
