@@ -215,11 +215,15 @@ class SimulatorNode(Node):
             self.get_logger().warning(f"no thruster command for {self.watchdog.timeout_s:g} s "
                                       "(command_timeout_s): thrust set to zero")
         tick = self.link.step(1) if self.link is not None else self.twin.tick()
-        for topic, _stamp_ns, msg in messages.restamped(tick, stamp_ns, self.frame_prefix):
-            publisher = self.publishers_by_topic.get(topic)
-            if publisher is not None:
-                publisher.publish(messages.serialize(msg, messages.TOPICS[topic]))
-            if topic == messages.TOPIC_GNSS_VEL:
+        listened = {topic for topic, publisher in self.publishers_by_topic.items()
+                    if publisher.get_subscription_count() > 0}  # nobody listening: no message to make
+        with_covariance = messages.TOPIC_GNSS_VEL_COV in listened
+        needed = listened | ({messages.TOPIC_GNSS_VEL} if with_covariance else set())
+        for topic, _stamp_ns, msg in messages.restamped([i for i in tick if i[0] in needed], stamp_ns,
+                                                        self.frame_prefix):
+            if topic in listened:
+                self.publishers_by_topic[topic].publish(messages.serialize(msg, messages.TOPICS[topic]))
+            if topic == messages.TOPIC_GNSS_VEL and with_covariance:
                 self._publish_velocity_covariance(msg)
         if self.clock_pub is not None:
             self.clock_pub.publish(ClockMsg(clock=_time(stamp_ns + TICK_NS)))
@@ -227,11 +231,10 @@ class SimulatorNode(Node):
             self.overruns += 1
 
     def _publish_velocity_covariance(self, velocity: messages.Message) -> None:
-        publisher = self.publishers_by_topic.get(messages.TOPIC_GNSS_VEL_COV)
-        if publisher is not None:
-            msg = messages.velocity_with_covariance(velocity, self.frame_prefix + messages.FRAME_MAP,
-                                                    self.velocity_variances)
-            publisher.publish(messages.serialize(msg, messages.LIVE_TOPICS[messages.TOPIC_GNSS_VEL_COV]))
+        msg = messages.velocity_with_covariance(velocity, self.frame_prefix + messages.FRAME_MAP,
+                                                self.velocity_variances)
+        self.publishers_by_topic[messages.TOPIC_GNSS_VEL_COV].publish(
+            messages.serialize(msg, messages.LIVE_TOPICS[messages.TOPIC_GNSS_VEL_COV]))
 
     def on_diagnostics(self) -> None:
         """Once a wall second: how fast the simulation runs, how late it is, how old the commands are."""
