@@ -25,8 +25,7 @@ def _early_stop(_signum: int, _frame: FrameType | None) -> None:
 
 
 def _run(name: str) -> int:
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, _early_stop)
+    previous = {sig: signal.signal(sig, _early_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         if importlib.util.find_spec("rclpy") is None:
             sys.stderr.write(f"{name}: error: rclpy is not installed: source a ROS 2 Jazzy install, or "
@@ -35,6 +34,9 @@ def _run(name: str) -> int:
         return int(importlib.import_module(f"boat_twin.nodes.{name}").main())
     except _EarlyStop:  # the node runner replaces the handlers first thing: this is before it runs
         return 0
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 def simulator_main() -> int:

@@ -26,11 +26,15 @@ class StopRequest:
 
     def __init__(self) -> None:
         self.requested = False
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, self._handle)
+        self._previous = {sig: signal.signal(sig, self._handle) for sig in (signal.SIGINT, signal.SIGTERM)}
 
     def _handle(self, _signum: int, _frame: FrameType | None) -> None:
         self.requested = True
+
+    def restore(self) -> None:
+        """Put back the handlers found on construction."""
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
 
 
 def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = None) -> int:
@@ -43,6 +47,7 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
     except (InputError, ParameterException) as err:
         sys.stderr.write(f"{name}: error: {' '.join(str(err).split())}\n")
         rclpy.try_shutdown()
+        stop.restore()
         return 2
     executor = SingleThreadedExecutor()
     executor.add_node(node)
@@ -58,4 +63,5 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
+        stop.restore()
     return 0
