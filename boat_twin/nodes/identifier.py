@@ -21,6 +21,7 @@ Parameters (read at start-up)
   thrust_tolerance_N (double, 5)    thrust counts as constant within max(this, 1 %) of a segment's start, N
   model_path (string)       YAML written by ~/save; default $ROS_HOME/boat_twin/identified_model.yaml
                             ($ROS_HOME defaults to ~/.ros)
+  hardware_id (string, namespace)   of the /diagnostics status
 """
 
 from __future__ import annotations

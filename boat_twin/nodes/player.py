@@ -1,10 +1,11 @@
 """ROS 2 node ``player``: plays a scenario's open-loop commands on the thruster topics, on the node clock.
 
 The helmsman of a live walkthrough or a hardware-in-the-loop test: the same command profiles as
-``boat-twin simulate`` (boat_twin.vessel.scenarios), published on change and re-sent every second (a late
-subscriber gets the held value), stamped by the node clock (use_sim_time:=true follows the simulator's /clock).
-It exits when the profile ends. Whenever it stops — the profile's end, Ctrl-C, SIGTERM — it sends zero thrust
-last (the steering stays), so that the boat is not left running on its last command.
+``boat-twin simulate`` (boat_twin.vessel.scenarios), published on change and re-sent every 0.25 s (a late
+subscriber gets the held value; the simulator's 1 s command watchdog stays fed), stamped by the node clock
+(use_sim_time:=true follows the simulator's /clock). It exits when the profile ends. Whenever it stops — the
+profile's end, Ctrl-C, SIGTERM — it sends zero thrust last (the steering stays), so that the boat is not left
+running on its last command.
 
 Parameters (read at start-up)
   scenario (string, thrust-steps)   an open-loop scenario of the registry (boat_twin.vessel.scenarios.SCENARIOS)
