@@ -85,6 +85,8 @@ def test_use_sim_time_is_refused_at_run_time_with_the_reason(cable) -> None:
     _proc, probe = cable
     refused = set_parameter(probe, "use_sim_time", ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=True))
     assert not refused.successful and "use_sim_time is read at start-up only" in refused.reason
+    same = set_parameter(probe, "use_sim_time", ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=False))
+    assert same.successful, same.reason  # setting the value it has is no change
 
 
 def test_bad_parameter_is_refused_with_the_reason_and_integers_are_accepted(cable) -> None:

@@ -46,13 +46,13 @@ def use_sim_time(node: Node) -> bool:
 
     Call at the end of the node's constructor (the refusal runs before rclpy's own handler)."""
     def refuse(params: list[Parameter]) -> SetParametersResult:
-        if any(p.name == "use_sim_time" for p in params):
+        if any(p.name == "use_sim_time" and p.value != simulated for p in params):  # the same value is no change
             return SetParametersResult(successful=False, reason=(
                 "use_sim_time is read at start-up only: restart the node with -p use_sim_time:=true|false"))
         return SetParametersResult(successful=True)
 
-    node.add_on_set_parameters_callback(refuse)
     simulated = bool(node.get_parameter("use_sim_time").value)
+    node.add_on_set_parameters_callback(refuse)
     if simulated:
         timer = None
 
