@@ -225,22 +225,24 @@ def register(subparsers: Any) -> None:
                    help="with --manoeuvring: a trial not fitted, replayed with the fit to report its error")
     p.add_argument("--window", type=float, metavar="S",
                    help="with --manoeuvring: replay window, s (default 20; a trial needs 6 windows)")
-    p.add_argument("--config", type=Path, help="with --manoeuvring: twin configuration YAML (the prior and the held "
-                   "surge; default the built-in boat)")
-    p.add_argument("--model", type=Path, help="with --manoeuvring: identified surge model YAML (identify TRIAL "
-                   "--out) over the config's vessel")
+    p.add_argument("--config", type=Path, metavar="FILE",
+                   help="with --manoeuvring: twin configuration YAML (the prior and the held surge; default the "
+                   "built-in boat)")
+    p.add_argument("--model", type=Path, metavar="FILE",
+                   help="with --manoeuvring: identified surge model YAML (identify TRIAL --out) over the config's "
+                   "vessel")
     p.add_argument(
         "--table",
         choices=["dyda2021"],
         help="built-in steady-state table: dyda2021 = Dyda & Chumakova (2021) Table 1, v in kn, F in kgf",
     )
     p.add_argument(
-        "--order", type=int,
+        "--order", type=int, metavar="N",
         help="power-series order N (default: chosen by leave-one-out cross-validation and the Bayesian information "
         "criterion, BIC)"
     )
     p.add_argument(
-        "--max-order", type=int, default=8,
+        "--max-order", type=int, default=8, metavar="N",
         help="highest order N tried by the selection (default 8; a recorded trial tries at most 6)",
     )
     p.add_argument(
@@ -260,7 +262,7 @@ def register(subparsers: Any) -> None:
         help="thrust counts as constant within this of a segment's start, N (default: derived from the commands: "
         "half their smallest step, or 4 sigma of their jitter)")
     p.add_argument(
-        "--boat", type=Path, metavar="BOAT.yaml",
+        "--boat", type=Path, metavar="FILE",
         help="the boat's facts for the twin --out writes (twin.yaml): any vessel field but the resistance, e.g. "
         "length_m, beam_m, draft_m, engine_y_m, bollard_thrust_N (SI; docs/identification.md); facts not given "
         "are the default boat's carried to the identified mass")

@@ -43,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--current", type=float, nargs=2, metavar=("EAST", "NORTH"),
                    help="water current over ground, m/s (its east and north components)")
     p.add_argument("--duration", type=float, metavar="S", help="trial length, s (default: the scenario's own)")
-    p.add_argument("--seed", type=int, default=0,
+    p.add_argument("--seed", type=int, default=0, metavar="N",
                    help="random seed, 0 to 2^63-1: the same seed gives the same bag (default 0)")
     p.add_argument("--no-noise", action="store_true", help="exact measurements (no noise, dropouts or bias)")
     p.add_argument("--out", type=Path, metavar="BAG", help="output bag: a directory, or a file ending in .mcap")
