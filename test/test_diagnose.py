@@ -274,6 +274,16 @@ def test_a_cause_removing_a_small_share_of_an_8x_misfit_is_a_candidate_not_a_ver
     assert 0.12 <= share <= 0.25 < MIN_MISFIT_SHARE and not within
 
 
+def test_a_candidate_not_judged_says_which_conditions_it_fails() -> None:
+    effect = catalogue(TwinConfig(), np.linspace(0.5, 9.0, 200))["water_current"]
+    fit = _fit([1.0, 1.0, 1.0, 1.0])
+    weak = Candidate(effect, fit, delta_bic=-4.0, size=0.02, at_bound=False, takes_over=True)
+    assert weak.failed_conditions == ["ΔBIC -4.0, not below -10", "size 0.02 below the floor 0.075 m/s",
+                                      "changes an effect already named"]
+    assert not weak.plausible
+    assert Candidate(effect, fit, delta_bic=-40.0, size=0.2, at_bound=False, takes_over=False).failed_conditions == []
+
+
 def test_wind_on_a_trial_that_holds_one_heading_is_reported_with_its_alias_not_guessed(tmp_path: Path) -> None:
     """A 6 m/s head wind on thrust steps (no steering: the heading stays put) is a force along the hull, as a
     current or a thrust loss are: the wind and its best alias are reported as ambiguous, neither is named."""

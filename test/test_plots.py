@@ -95,6 +95,7 @@ def test_evidence_figure_has_plain_ticks_and_no_empty_panel(judged: bool) -> Non
     ax_bic, ax_gain = fig.axes
     ticks = [t.get_text() for t in ax_bic.get_xticklabels() if t.get_text()]
     assert ticks and not any("^" in t or "$" in t for t in ticks), ticks
+    assert "linear within ±10, logarithmic beyond" in ax_bic.get_xlabel() and ax_gain.get_xlabel()
     message = [t.get_text() for t in ax_gain.texts]
     assert bool(message) is not judged  # the panel explains itself when no bar can be drawn
 

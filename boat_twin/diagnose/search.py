@@ -323,10 +323,25 @@ class Candidate:
     cause too small to name, and this one would stand in for it (:func:`below_floor`)."""
 
     @property
+    def failed_conditions(self) -> list[str]:
+        """The in-sample conditions of the decision rule it fails, in words (empty: it is judged held out)."""
+        spec = self.effect.spec
+        failed = [f"ΔBIC {self.delta_bic:.1f}, not below {BIC_THRESHOLD:g}"] if self.delta_bic >= BIC_THRESHOLD else []
+        if self.size < spec.min_size:
+            unit = spec.size_unit.split(" ")[0]
+            failed.append(f"size {self.size:.3g} below the floor {spec.min_size:g}{'' if unit == '-' else ' ' + unit}")
+        if self.at_bound:
+            failed.append("a parameter on a bound of its physical range")
+        if self.takes_over:
+            failed.append("changes an effect already named")
+        if self.outranked:
+            failed.append("a cause too small to name fits better")
+        return failed
+
+    @property
     def plausible(self) -> bool:
         """The in-sample conditions of the decision rule, checked before the held-out judgement."""
-        return (self.delta_bic < BIC_THRESHOLD and self.size >= self.effect.spec.min_size and not self.at_bound
-                and not self.takes_over and not self.outranked)
+        return not self.failed_conditions
 
     @property
     def carries_share(self) -> bool:
