@@ -155,7 +155,11 @@ def _run_trial(args: argparse.Namespace) -> int:
     from boat_twin.ident.report import resimulation_line, write_trial_report
     from boat_twin.ident.twin_config import load_boat
 
-    boat = load_boat(args.boat) if args.boat is not None else None
+    boat_file = load_boat(args.boat) if args.boat is not None else None
+    if boat_file is not None and boat_file.ignored:
+        sys.stderr.write(f"{args.boat}: ignoring {', '.join(boat_file.ignored)} (identify measures the resistance and "
+                         "the effective mass, and reads only the vessel's facts)\n")
+    boat = None if boat_file is None else boat_file.facts
     trials = []
     for path in args.trial:
         sys.stderr.write(f"reading {path} ...\n")
