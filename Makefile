@@ -7,6 +7,10 @@ PY := $(VENV)/bin/python
 BASE_STAMP := $(VENV)/.installed-base
 STAMP := $(VENV)/.installed
 RUFF := $(PY) -m ruff check  # configured in .ruff.toml
+# setuptools warns on every editable install of a flat layout that a folder named like the package in the working
+# directory could shadow it (a box of asterisks); here that folder is the package itself, so the warnings of that
+# one setuptools module are silenced.
+PIP_INSTALL := PYTHONWARNINGS=ignore:::setuptools.command.editable_wheel $(PY) -m pip install -q
 OUT ?= out
 
 .PHONY: setup test lint demo bench sample clean
@@ -18,12 +22,12 @@ setup: $(STAMP)
 $(BASE_STAMP): setup.py setup.cfg package.xml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e .
+	$(PIP_INSTALL) -e .
 	$(VENV)/bin/boat-twin simulate thrust-steps --duration 1 --json > /dev/null
 	touch $(BASE_STAMP)
 
 $(STAMP): $(BASE_STAMP)
-	$(PY) -m pip install -q -e '.[test,ros]'
+	$(PIP_INSTALL) -e '.[test,ros]'
 	touch $(STAMP)
 
 lint: $(STAMP)

@@ -185,9 +185,10 @@ def _run_trial(args: argparse.Namespace) -> int:
     fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
     dyn = result.get("dynamic", {})
     names = ", ".join(map(str, args.trial))
+    rejected = len(result.get("rejected_segments", []))
     lines = [
-        f"trial{'s' if len(trials) > 1 else ''} {names}: {len(result['steady_points'])} steady points, "
-        f"{len(result.get('rejected_segments', []))} segments rejected",
+        f"trial{'s' if len(trials) > 1 else ''} {names}: {_count(len(result['steady_points']), 'steady point')}, "
+        f"{_count(rejected, 'segment')} rejected",
         f"steady-state detector: window {result['steady_criteria']['window_s']:.3g} s, thrust tolerance "
         f"{result['steady_criteria']['thrust_tolerance_N']:.3g} N",
         f"selected order N = {result['selected_order']} ({result.get('selection_reason', '')})",
@@ -209,6 +210,11 @@ def _run_trial(args: argparse.Namespace) -> int:
     lines += [f"warning: {w}" for w in result.get("warnings", [])]
     sys.stdout.write("\n".join(lines) + "\n")
     return 0
+
+
+def _count(n: int, noun: str) -> str:
+    """``n`` and ``noun``, plural unless one ("1 segment", "2 segments")."""
+    return f"{n} {noun}" + ("" if n == 1 else "s")
 
 
 def register(subparsers: Any) -> None:
