@@ -157,3 +157,14 @@ def test_a_simulated_manoeuvre_is_drawn_to_scale_with_its_imo_figures(scenario: 
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert main(["simulate", scenario, "--duration", "40", "--plot", str(png)]) == 2  # exists: --force needed
     assert main(["simulate", scenario, "--duration", "40", "--plot", str(tmp_path / "run.pdf")]) == 2
+
+
+def test_a_saved_figure_carries_its_trial_as_title(tmp_path) -> None:
+    from matplotlib.figure import Figure
+
+    from boat_twin.files import atomic_save_figure
+
+    fig = Figure()
+    fig.subplots()
+    atomic_save_figure(tmp_path / "a.png", fig, "diagnose trial.mcap")
+    assert fig.get_suptitle() == "diagnose trial.mcap" and (tmp_path / "a.png").stat().st_size > 0

@@ -112,7 +112,8 @@ def identification_summary(sample: Trial, out: Path) -> str:
     t_s, thrust, speed = sample.t_s[keep], sample.surge_thrust_N[keep], sample.speed_mps[keep]
     result = identify_arrays(t_s, thrust, speed)
     write_trial_report(out / "identify", result, t_s, thrust, speed,
-                       true_resistance_N=TwinConfig().vessel.resistance.force_N)  # the sample's own boat
+                       true_resistance_N=TwinConfig().vessel.resistance.force_N,  # the sample's own boat
+                       title=f"demo: identify {sample.metadata.source}")
     fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
     dyn = result["dynamic"]
     paper = reproduce()

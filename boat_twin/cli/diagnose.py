@@ -58,9 +58,10 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
         result["extended_model"] = str(out / EXTENDED_MODEL_NAME)
         concerned = concerned_signals(result)
         before, after = done.baseline_prediction, done.extended_prediction
-        atomic_save_figure(out / "diagnosis_signals.png", signal_figure(done.windows, before, after, concerned))
-        atomic_save_figure(out / "diagnosis_residuals.png", residual_figure(done.windows, before, after))
-        atomic_save_figure(out / "diagnosis_evidence.png", evidence_figure(result))
+        title = f"diagnose {args.trial}"
+        atomic_save_figure(out / "diagnosis_signals.png", signal_figure(done.windows, before, after, concerned), title)
+        atomic_save_figure(out / "diagnosis_residuals.png", residual_figure(done.windows, before, after), title)
+        atomic_save_figure(out / "diagnosis_evidence.png", evidence_figure(result), title)
         atomic_write_text(out / "diagnosis.json", to_json(result) + "\n")
     print(to_json(result) if args.json else text_report(result))
     return 0
@@ -76,7 +77,8 @@ def _run_table(args: argparse.Namespace, out: Path | None) -> int:
         atomic_write_yaml(out / EXTENDED_MODEL_NAME, {"vessel": {"resistance": resistance.to_dict()}})
         result["extended_model"] = str(out / EXTENDED_MODEL_NAME)
     if out is not None:
-        atomic_save_figure(out / "diagnosis_table.png", table_figure(diag))
+        atomic_save_figure(out / "diagnosis_table.png", table_figure(diag),
+                           f"diagnose --table dyda2021 (the paper's N = {args.model_order} fit)")
     print(to_json(result) if args.json else table_text(result, diag))
     return 0
 

@@ -47,8 +47,8 @@ def _run_table(args: argparse.Namespace, out: Path | None) -> int:
             f"Dyda & Chumakova (2021) Table 1 read as kn/kgf, least squares N = {si_fit.order}, SI units",
         )
         fits_fig, resid_fig = table_figures(result)
-        atomic_save_figure(out / "fits.png", fits_fig)
-        atomic_save_figure(out / "residuals.png", resid_fig)
+        atomic_save_figure(out / "fits.png", fits_fig, "identify --table dyda2021")
+        atomic_save_figure(out / "residuals.png", resid_fig, "identify --table dyda2021")
     sys.stdout.write(to_json(result) + "\n" if args.json else report)
     return 0
 
@@ -178,7 +178,8 @@ def _run_trial(args: argparse.Namespace) -> int:
                         f"load with: boat-twin simulate ... --config {args.out / 'twin.yaml'}")
         t_s, thrust, speed = (np.concatenate(column) for column in zip(*pool([trial_samples(tr) for tr in trials]),
                                                                        strict=True))
-        write_trial_report(args.out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None)
+        write_trial_report(args.out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None,
+                           title=f"identify {', '.join(map(str, args.trial))}")
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0
