@@ -274,9 +274,10 @@ def register(subparsers: Any) -> None:
         "half their smallest step, or 4 sigma of their jitter)")
     p.add_argument(
         "--boat", type=Path, metavar="FILE",
-        help="the boat's facts for the twin --out writes (twin.yaml): any vessel field but the resistance, e.g. "
-        "length_m, beam_m, draft_m, engine_y_m, bollard_thrust_N (SI; docs/identification.md); facts not given "
-        "are the default boat's carried to the identified mass")
+        help="the boat's facts for the twin --out writes (twin.yaml): vessel fields, e.g. length_m, beam_m, "
+        "draft_m, engine_y_m, bollard_thrust_N (SI; docs/identification.md), or a twin config as simulate --config "
+        "takes (its resistance, effective mass and other sections are ignored: identify measures them); facts not "
+        "given are the default boat's carried to the identified mass")
     p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
     p.add_argument(
         "--out",
