@@ -27,7 +27,7 @@ from independent import rk4_held
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig, load_config, save_config
 from boat_twin.errors import InputError
-from boat_twin.ident.twin_config import load_boat
+from boat_twin.ident.twin_config import load_boat, read_boat_file
 from boat_twin.io import messages
 from boat_twin.io.bags import read_trial, write_bag
 from boat_twin.io.sources import read_trial_file
@@ -218,8 +218,8 @@ def test_one_boat_file_serves_simulate_and_identify(tmp_path, capsys) -> None:
     write_commands(tmp_path / "steps.csv")
     assert main(["simulate", "--commands", str(tmp_path / "steps.csv"), "--config", str(config), "--duration",
                  "5", "--json"]) == 0
-    boat = load_boat(config)
-    assert boat.facts == {k: float(v) for k, v in OTTER.items()}
+    boat = read_boat_file(config)
+    assert boat.facts == load_boat(config) == {k: float(v) for k, v in OTTER.items()}
     assert boat.ignored == ("vessel.resistance", "environment")
     (tmp_path / "typo.yaml").write_text("vessel: {length_m: 2.0, lenght_m: 2.0}\n")
     with pytest.raises(InputError, match="typo.yaml: unknown vessel field 'lenght_m'"):

@@ -153,9 +153,9 @@ def _run_trial(args: argparse.Namespace) -> int:
     from boat_twin.config import TwinConfig, save_config
     from boat_twin.ident.pipeline import identify_trials, pool, trial_samples
     from boat_twin.ident.report import resimulation_line, write_trial_report
-    from boat_twin.ident.twin_config import load_boat
+    from boat_twin.ident.twin_config import read_boat_file
 
-    boat_file = load_boat(args.boat) if args.boat is not None else None
+    boat_file = read_boat_file(args.boat) if args.boat is not None else None
     if boat_file is not None and boat_file.ignored:
         sys.stderr.write(f"{args.boat}: ignoring {', '.join(boat_file.ignored)} (identify measures the resistance and "
                          "the effective mass, and reads only the vessel's facts)\n")

@@ -29,6 +29,7 @@ _EXPORTS = {
     "identify_trials": "boat_twin.ident.pipeline",
     "identified_vessel": "boat_twin.ident.twin_config",
     "load_boat": "boat_twin.ident.twin_config",
+    "read_boat_file": "boat_twin.ident.twin_config",
     "model_dict": "boat_twin.ident.pipeline",
     "resimulate": "boat_twin.ident.resimulate",
     "select_order": "boat_twin.ident.steady",

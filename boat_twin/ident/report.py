@@ -27,7 +27,7 @@ def write_trial_report(
     resimulation: Resimulation | None = None,
     true_resistance_N: Callable[[np.ndarray], np.ndarray] | None = None,
     *,
-    title: str,
+    title: str | None = None,
 ) -> list[Path]:
     """Write identify.json, model.yaml, trial.png, resistance.png (and resimulation.png: measured vs
     re-simulated speed, when ``resimulation`` is given) for an :func:`identify_arrays` result, each figure titled

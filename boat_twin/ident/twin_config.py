@@ -41,7 +41,12 @@ class BoatFile:
     sections (``environment``, ``gnss``, ...), as the file names them."""
 
 
-def load_boat(path: Path) -> BoatFile:
+def load_boat(path: Path) -> dict[str, float]:
+    """The vessel facts of a boat file (:func:`read_boat_file`), SI."""
+    return read_boat_file(path).facts
+
+
+def read_boat_file(path: Path) -> BoatFile:
     """A boat file: a mapping of vessel fields, or a twin configuration (``simulate --config``'s file: the
     ``vessel:`` section is read), checked as the vessel loader checks them. The resistance and effective mass
     are ignored (identify measures them), as are the config's other sections; both are reported in
