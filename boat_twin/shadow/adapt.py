@@ -66,9 +66,9 @@ class SurgeModel:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready (SI)."""
-        return {"mass_kg": self.mass_kg, "mass_ci95_kg": list(self.mass_ci95_kg),
-                "resistance_factor": self.resistance_factor, "resistance_factor_ci95": list(self.factor_ci95),
-                "windows": self.windows}
+        return {"mass_kg": float(self.mass_kg), "mass_ci95_kg": [float(x) for x in self.mass_ci95_kg],
+                "resistance_factor": float(self.resistance_factor),
+                "resistance_factor_ci95": [float(x) for x in self.factor_ci95], "windows": self.windows}
 
 
 def fit_surge(t_s: np.ndarray, force_N: np.ndarray, surge_mps: np.ndarray, base: VesselParams,
@@ -94,7 +94,7 @@ def fit_surge(t_s: np.ndarray, force_N: np.ndarray, surge_mps: np.ndarray, base:
     theta, cov = _least_squares(x, y)
     if theta is not None and math.sqrt(max(cov[0, 0], 0.0)) <= MAX_MASS_REL_STDERR * abs(theta[0]):
         q = float(stats.t.ppf(0.975, max(len(y) - 2, 1)))
-        m11, k = theta
+        m11, k = float(theta[0]), float(theta[1])
         se_m, se_k = math.sqrt(cov[0, 0]), math.sqrt(max(cov[1, 1], 0.0))
         return SurgeModel(m11 / added, k, ((m11 - q * se_m) / added, (m11 + q * se_m) / added),
                           (k - q * se_k, k + q * se_k), len(y))

@@ -6,7 +6,7 @@ the trial has them, the heading wrapped as an IMU gives it: gaps stay gaps), and
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -16,7 +16,7 @@ from boat_twin.config import TwinConfig
 from boat_twin.io.trial import Trial
 from boat_twin.sensors.um7 import wrap_pi
 from boat_twin.shadow.session import Shadow, ShadowSettings
-from boat_twin.shadow.sync import COMMAND_KINDS
+from boat_twin.shadow.sync import COMMAND_KINDS, SENSOR_KINDS
 
 TIMELINE_PERIOD_S = 60.0
 """One timeline entry per this much trial time, s."""
@@ -31,6 +31,8 @@ class FollowResult:
     timeline: list[dict[str, Any]]
     final: dict[str, Any]
     log: list[str]
+    twin: TwinConfig
+    """The twin as it predicts at the end (adapted vessel, environment with a named current or wind)."""
     speed_innovations: np.ndarray
     """(n, 3) t_s, speed innovation m/s, its stated spread m/s."""
     models: list[dict[str, Any]] = field(default_factory=list)
@@ -54,29 +56,10 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
     models: list[dict[str, Any]] = []
     diagnoses: list[dict[str, Any]] = []
     seen_runs = 0
-    commands = trial.commands
-    sensors = {
-        "gnss_fix": np.column_stack([trial.lat_deg, trial.lon_deg, np.zeros_like(trial.lat_deg)]),
-        "gnss_vel": np.column_stack([trial.vel_east_mps, trial.vel_north_mps]),
-        "imu": np.column_stack([wrap_pi(trial.heading_rad), trial.yaw_rate_radps, trial.accel_x_mps2, trial.accel_y_mps2]),
-    }
-    required = {"gnss_fix": 2, "gnss_vel": 2, "imu": 2}
-    rows = {kind: values.tolist() for kind, values in sensors.items()}
-    finite = {kind: np.all(np.isfinite(values[:, :required[kind]]), axis=1).tolist()
-              for kind, values in sensors.items()}
-    held = [math.nan] * 4
-    sent = [-math.inf] * 4
     next_entry = TIMELINE_PERIOD_S
-    t_all = trial.t_s.tolist()
-    command_rows = commands.tolist()
-    for i, t in enumerate(t_all):
-        for k, value in enumerate(command_rows[i]):
-            if math.isfinite(value) and (value != held[k] or t - sent[k] >= COMMAND_HEARTBEAT_S):
-                shadow.add(COMMAND_KINDS[k], t, (value,))
-                held[k], sent[k] = value, t
-        for kind in ("gnss_fix", "gnss_vel", "imu"):
-            if finite[kind][i]:
-                shadow.add(kind, t, tuple(rows[kind][i]))
+    end_s = float(trial.t_s[-1]) if trial.t_s.size else 0.0
+    for kind, t, values in trial_samples(trial):
+        shadow.add(kind, t, values)
         if shadow.rolling.runs != seen_runs and shadow.rolling.latest is not None:
             seen_runs = shadow.rolling.runs
             diagnoses.append(shadow.rolling.latest.to_dict())
@@ -86,12 +69,35 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
                            "latest_fit": shadow.adapter.candidate.to_dict() if shadow.adapter.candidate else None})
             next_entry += TIMELINE_PERIOD_S
             if progress is not None:
-                progress(f"follow: {t:.0f} of {t_all[-1]:.0f} s")
+                progress(f"follow: {t:.0f} of {end_s:.0f} s")
     shadow.flush()
     final = {**_entry(shadow), "model": shadow.model(), "twin": _twin_summary(shadow)}
     if not timeline:
         timeline.append(_entry(shadow))
-    return FollowResult(timeline, final, log, np.array(speed).reshape(-1, 3), models, diagnoses)
+    return FollowResult(timeline, final, log, shadow.twin_config(), np.array(speed).reshape(-1, 3), models, diagnoses)
+
+
+def trial_samples(trial: Trial) -> Iterator[tuple[str, float, tuple[float, ...]]]:
+    """The samples of ``trial`` as a live boat sends them, in time order: (kind, stamp s, values) for
+    :meth:`Shadow.add` (see the module docstring)."""
+    sensors = {
+        "gnss_fix": np.column_stack([trial.lat_deg, trial.lon_deg, np.zeros_like(trial.lat_deg)]),
+        "gnss_vel": np.column_stack([trial.vel_east_mps, trial.vel_north_mps]),
+        "imu": np.column_stack([wrap_pi(trial.heading_rad), trial.yaw_rate_radps, trial.accel_x_mps2,
+                                trial.accel_y_mps2]),
+    }
+    rows = {kind: values.tolist() for kind, values in sensors.items()}
+    finite = {kind: np.all(np.isfinite(values[:, :2]), axis=1).tolist() for kind, values in sensors.items()}
+    held = [math.nan] * 4
+    sent = [-math.inf] * 4
+    for i, (t, command_row) in enumerate(zip(trial.t_s.tolist(), trial.commands.tolist(), strict=True)):
+        for k, value in enumerate(command_row):
+            if math.isfinite(value) and (value != held[k] or t - sent[k] >= COMMAND_HEARTBEAT_S):
+                yield COMMAND_KINDS[k], t, (value,)
+                held[k], sent[k] = value, t
+        for kind in SENSOR_KINDS:
+            if finite[kind][i]:
+                yield kind, t, tuple(rows[kind][i])
 
 
 def _entry(shadow: Shadow) -> dict[str, Any]:

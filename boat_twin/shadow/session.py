@@ -199,8 +199,8 @@ class Shadow:
             "t_s": self.twin.t_s,
             "synchronised": self.twin.synchronised,
             "speed_innovation_ratio": _finite(self.speed_ratio()),
-            "mass_kg": self.adapter.current.mass_kg,
-            "resistance_factor": self.adapter.current.resistance_factor,
+            "mass_kg": float(self.adapter.current.mass_kg),
+            "resistance_factor": float(self.adapter.current.resistance_factor),
             "causes": self.causes(),
             "unexplained": bool(latest.unexplained) if latest is not None else False,
         }

@@ -2,7 +2,7 @@
 sensor sample before it comes and corrects its state with a small filter (no ROS here).
 
 Arrival: samples come in any order, at any rate, duplicated or late. They wait :attr:`SyncSettings.reorder_s`
-in a queue and are processed in stamp order once a newer stamp has passed them by that much (``flush()`` takes
+in a queue and are processed in stamp order (commands first at one stamp) once a newer stamp has passed them by that much (``flush()`` takes
 the rest). A sample older than the twin's time is late and dropped, the same stamp twice on one stream a
 duplicate, a non-finite value dropped; each kind is counted and logged once. A stamp more than
 :attr:`SyncSettings.restart_s` before the newest one is a clock jump backwards (a restarted player, a bag
@@ -45,6 +45,8 @@ COMMAND_KINDS = ("thrust_left", "thrust_right", "angle_left", "angle_right")
 SENSOR_KINDS = ("gnss_fix", "gnss_vel", "imu")
 """Sensor streams: fix (lat deg, lon deg, alt m), velocity over ground (east, north m/s), IMU (yaw rad, yaw
 rate rad/s, accel x, y m/s²): the roles and columns of :mod:`boat_twin.io.trial`."""
+KIND_ORDER = {kind: i for i, kind in enumerate(COMMAND_KINDS + SENSOR_KINDS)}
+"""Samples with one stamp are processed in this order (commands first), whatever order they arrived in."""
 INTEGRATION_STEP_S = 0.05
 """Longest RK4 step of the propagation, s (the diagnosis replays at 20 Hz as well)."""
 
@@ -161,7 +163,7 @@ class ShadowTwin:
         """Time the state describes (and up to which samples are processed), s."""
         self.commands = np.array([math.nan, math.nan, 0.0, 0.0])
         self._steering: np.ndarray | None = None
-        self._queue: list[tuple[float, int, str, tuple[float, ...]]] = []
+        self._queue: list[tuple[float, int, int, str, tuple[float, ...]]] = []
         self._seq = 0
         self.newest_s = -math.inf
         self._last_stamp: dict[str, float] = {}
@@ -203,7 +205,7 @@ class ShadowTwin:
             self._once(f"late-{kind}-{same}", f"{kind}: {'duplicate' if same else 'late'} sample at {stamp_s:.3f} s "
                        f"(twin at {self.t_s:.3f} s) dropped (further ones counted, not logged)")
             return
-        heapq.heappush(self._queue, (stamp_s, self._seq, kind, tuple(values)))
+        heapq.heappush(self._queue, (stamp_s, KIND_ORDER[kind], self._seq, kind, tuple(values)))
         self._seq += 1
         self.newest_s = max(self.newest_s, stamp_s)
         self._drain(self.newest_s - self.settings.reorder_s)
@@ -214,7 +216,7 @@ class ShadowTwin:
 
     def _drain(self, until_s: float) -> None:
         while self._queue and self._queue[0][0] <= until_s:
-            stamp_s, _, kind, values = heapq.heappop(self._queue)
+            stamp_s, _, _, kind, values = heapq.heappop(self._queue)
             if stamp_s == self._last_stamp.get(kind):
                 self.counts["duplicate"] += 1
                 self._once(f"dup-{kind}", f"{kind}: duplicate sample at {stamp_s:.3f} s dropped (further ones "
