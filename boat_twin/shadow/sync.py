@@ -5,8 +5,9 @@ Arrival: samples come in any order, at any rate, duplicated or late. They wait :
 in a queue and are processed in stamp order (commands first at one stamp) once a newer stamp has passed them by that much (``flush()`` takes
 the rest). A sample older than the twin's time is late and dropped, the same stamp twice on one stream a
 duplicate, a non-finite value dropped; each kind is counted and logged once. A stamp more than
-:attr:`SyncSettings.restart_s` before the newest one is a clock jump backwards (a restarted player, a bag
-looped): logged, and the twin starts afresh from the samples that follow.
+:attr:`SyncSettings.restart_s` before the newest one of its own stream is a clock jump backwards (a restarted
+player, a bag looped): logged, and the twin starts afresh from the samples that follow. (One stream lagging the
+others, a backlog drained late, is not a jump: its samples are late.)
 
 State: the 3-DOF state of :mod:`boat_twin.vessel.dynamics` (ENU position, yaw, body velocity through the
 water, yaw rate), propagated by the same kernel under the held commands, from the first complete set of
@@ -61,7 +62,8 @@ class SyncSettings:
     gap_s: float = 2.0
     """No sensor sample for this long: the twin re-synchronises from the next measurements, s."""
     restart_s: float = 5.0
-    """A stamp this far before the newest one is a clock jump backwards (a restarted player): reset, s."""
+    """A stamp this far before the newest one of its stream is a clock jump backwards (a restarted player):
+    reset, s."""
     velocity_walk_mps_per_sqrt_s: float = 0.008
     """Process noise of the velocity over ground, m/s/√s: unmodelled forces (waves, gusts) as a random walk.
     With the M8's 0.05 m/s at 10 Hz it gives a gain of ~0.05 per fix: the model carries the velocity for
@@ -166,6 +168,7 @@ class ShadowTwin:
         self._queue: list[tuple[float, int, int, str, tuple[float, ...]]] = []
         self._seq = 0
         self.newest_s = -math.inf
+        self._newest: dict[str, float] = {}
         self._last_stamp: dict[str, float] = {}
         self._latest: dict[str, tuple[float, tuple[float, ...]]] = {}
         self._last_sensor_s = -math.inf
@@ -194,11 +197,13 @@ class ShadowTwin:
             self._once(f"nan-{kind}", f"{kind}: sample with a non-finite stamp or value at {stamp_s:.3f} s dropped "
                        "(further ones counted, not logged)")
             return
-        if stamp_s < self.newest_s - self.settings.restart_s:
+        newest = self._newest.get(kind, -math.inf)
+        if stamp_s < newest - self.settings.restart_s:
             self.counts["restarts"] += 1
-            self.log(f"clock jumped back {self.newest_s - stamp_s:.1f} s ({kind} stamped {stamp_s:.3f} s after "
-                     f"{self.newest_s:.3f} s): a restarted player or a looped bag; the twin starts afresh")
+            self.log(f"clock jumped back {newest - stamp_s:.1f} s ({kind} stamped {stamp_s:.3f} s after "
+                     f"{newest:.3f} s): a restarted player or a looped bag; the twin starts afresh")
             self.reset()
+        self._newest[kind] = max(self._newest.get(kind, -math.inf), stamp_s)
         same = stamp_s == self._last_stamp.get(kind)
         if same or stamp_s < self.t_s:
             self.counts["duplicate" if same else "late"] += 1
