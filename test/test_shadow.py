@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pymap3d
 import pytest
+from independent import rk4_held
 
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig, load_config
@@ -23,7 +24,6 @@ from boat_twin.shadow.session import Shadow, ShadowSettings
 from boat_twin.shadow.sync import ShadowTwin
 from boat_twin.twin.sea_trial import measured_trial, run_sea_trial
 from boat_twin.vessel.resistance import CorrectedResistance
-from independent import rk4_held
 
 NO_DIAGNOSIS = ShadowSettings(diagnose=False)
 

@@ -39,8 +39,9 @@ from boat_twin.nodes.simulator import _time, message_class
 from boat_twin.nodes.spin import run_node
 from boat_twin.shadow.playback import playback_messages
 
-TICK_S = 0.01
-"""Wall time between two publishing rounds, s."""
+TICK_S = 0.002
+"""Wall time between two publishing rounds, s: at 10x, messages go out within 0.02 s of trial time of their stamp
+(a subscriber that stamps a command on arrival, by /clock, sees its time that close)."""
 MAX_RATE = 100.0
 """Upper bound of ``rate``."""
 

@@ -5,13 +5,15 @@ Subscribes (found as the bag reader finds them, boat_twin.io.bags.resolve_topics
 ``topics`` remaps first, then the default names under ``namespace``, then a topic whose name ends in the default
 one, then the one topic of the role's type): thrusters/{left,right}/thrust and pos (std_msgs/Float64, stamped
 by the node clock on arrival), gnss/fix (NavSatFix), gnss/vel (TwistStamped, TwistWithCovarianceStamped, or
-an Odometry when it is the only velocity), imu/data (Imu); sensors best effort (SensorDataQoS, 1,000 samples of history),
+an Odometry when it is the only velocity), imu/data (Imu); sensors best effort (SensorDataQoS, 1,000 samples of
+history),
 commands reliable. The graph is searched again every 2 s until a GNSS stream is found.
 Publishes: shadow/odom (nav_msgs/Odometry: the twin's predicted state, pose in ENU ``map`` about the first fix,
 twist through the water in ``base_link``), shadow/innovations (std_msgs/Float64MultiArray per velocity fix:
 layout label ``t_s,speed_innovation_mps,stdev_mps,ratio``), shadow/model (Float64MultiArray at 1 Hz: label
 ``mass_kg,mass_low_kg,mass_high_kg,resistance_factor,factor_low,factor_high``, 95 % intervals) and
-/diagnostics at 1 Hz (OK: in step, innovations within 1.5× their noise and no cause; WARN: not synchronised,
+/diagnostics at 1 Hz (the rolling diagnosis runs in a worker thread meanwhile; OK: in step, innovations within
+1.5× their noise and no cause; WARN: not synchronised,
 misfit, or the named causes with their sizes). Services: ~/save (the twin as it predicts, a twin.yaml, to
 ``twin_path``), ~/reset (back to the configured model). Works on the node clock (use_sim_time:=true with a
 bag_player or simulator /clock).
@@ -21,6 +23,8 @@ Parameters (read at start-up)
   topics (string, "")        ROLE=TOPIC,... remaps; namespace (string, "")
   adapt (bool, true), diagnose (bool, true)   online adaptation, rolling diagnosis
   twin_path (string, "")     YAML written by ~/save; default $ROS_HOME/boat_twin/twin.yaml
+  reorder_s (double, 0.3)    samples wait this long for late siblings, s of the node clock (a recording played
+                             at N x on a busy machine: N x the executor's delays)
 """
 
 from __future__ import annotations
@@ -48,7 +52,7 @@ from boat_twin.nodes.simulator import message_class
 from boat_twin.nodes.spin import run_node
 from boat_twin.sensors.um7 import quaternion_xyzw
 from boat_twin.shadow.session import Shadow, ShadowSettings
-from boat_twin.shadow.sync import COMMAND_KINDS, Innovation
+from boat_twin.shadow.sync import COMMAND_KINDS, Innovation, SyncSettings
 
 SENSOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
 """SensorDataQoS with 100 s of a 10 Hz stream as history: a rolling diagnosis holds the executor for 2-3 s, which
@@ -74,12 +78,15 @@ class ShadowNode(Node):
         adapt = parameters.boolean(self, "adapt", True, "adapt the surge model online")
         diagnose = parameters.boolean(self, "diagnose", True, "run the rolling diagnosis")
         twin_path = parameters.string(self, "twin_path", "", "YAML written by ~/save")
+        reorder_s = parameters.double(self, "reorder_s", SyncSettings().reorder_s,
+                                      "samples wait this long (node clock) for late siblings, s", above=0.0)
         from boat_twin.nodes.bag_player import _remap
 
         self.remap = _remap(topics)
         self.twin_path = Path(twin_path).expanduser() if twin_path else default_model_path().with_name("twin.yaml")
         config = load_config(Path(config_file)) if config_file else TwinConfig()
-        self.shadow = Shadow(config, ShadowSettings(adapt=adapt, diagnose=diagnose), self.get_logger().info)
+        self.shadow = Shadow(config, ShadowSettings(SyncSettings(reorder_s=reorder_s), adapt=adapt, diagnose=diagnose,
+                                                    diagnose_in_background=True), self.get_logger().info)
         self.shadow.on_innovation = self.on_innovation
         self.subscribed: dict[str, str] = {}
         self.odom_pub = self.create_publisher(Odometry, "shadow/odom", 10)
@@ -180,6 +187,12 @@ class ShadowNode(Node):
         self.shadow.reset()
         response.success, response.message = True, "shadow twin reset to the configured model"
         return response
+
+
+    def destroy_node(self) -> None:
+        """Stop the diagnosis worker with the node."""
+        self.shadow.close()
+        super().destroy_node()
 
 
 def main(args: list[str] | None = None) -> int:

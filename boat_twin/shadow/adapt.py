@@ -86,9 +86,10 @@ def fit_surge(t_s: np.ndarray, force_N: np.ndarray, surge_mps: np.ndarray, base:
 
     rows, rhs = [], []
     for start, stop in bounds:
-        row, y, _ = window_row(t_s[start:stop], force_N[start:stop], surge_mps[start:stop], window.ramp_s, basis)
+        row, right, _ = window_row(t_s[start:stop], force_N[start:stop], surge_mps[start:stop], window.ramp_s,
+                                   basis)
         rows.append(row)
-        rhs.append(y)
+        rhs.append(right)
     x, y = np.array(rows), np.array(rhs)
     added = 1.0 + base.surge_added_mass_ratio
     theta, cov = _least_squares(x, y)

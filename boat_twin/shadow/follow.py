@@ -1,7 +1,8 @@
 """A recorded trial replayed through the live twin as if it arrived live, faster than real time: what
 ``boat-twin follow TRIAL`` runs. The samples of the trial's grid go to :class:`~boat_twin.shadow.session.Shadow`
 in time order (commands when they change and at least every second, as a helm publishes them; sensors where
-the trial has them, the heading wrapped as an IMU gives it: gaps stay gaps), and the twin's state is read every simulated minute."""
+the trial has them, the heading wrapped as an IMU gives it: gaps stay gaps), and the twin's state is read every
+simulated minute."""
 
 from __future__ import annotations
 

@@ -3,8 +3,9 @@ current (adapted) model; it names causes, their sizes and whether something stay
 
 A full diagnosis of a 2-minute window costs ~2-3 s of one core (:mod:`boat_twin.diagnose.search` fits every
 catalogue effect with held-out folds), so it runs every ``period_s`` while the twin's speed innovations stay
-above ``misfit_ratio`` × their noise (something is wrong: find out what, soon), and every ``idle_period_s``
-otherwise (a check that nothing crept in). The window holds the last ``window_s`` of samples; the causes held
+above ``misfit_ratio`` × their noise (something is wrong: find out what, soon) or the last run had too little
+data, and every ``idle_period_s`` otherwise (a check that nothing crept in). The window holds the last
+``window_s`` of samples; the causes held
 are those of the latest run.
 """
 
@@ -129,29 +130,60 @@ class RollingDiagnosis:
         first = self.streams.first_s
         if math.isnan(first) or t_s - first < self.window_s:
             return False
-        busy = math.isfinite(speed_ratio) and speed_ratio > self.misfit_ratio
+        failed = self.latest is not None and bool(self.latest.error)  # too little data last time: try again soon
+        busy = failed or (math.isfinite(speed_ratio) and speed_ratio > self.misfit_ratio)
         return t_s - self._last_run_s >= (self.period_s if busy else self.idle_period_s)
 
     def run(self, t_s: float, base: TwinConfig) -> RollingResult:
-        """Diagnose the buffered window against ``base`` (the twin's current model, environment as configured)."""
+        """Diagnose the buffered window against ``base`` (the twin's current model, environment as configured)
+        now; :meth:`start` + :meth:`finish` split it for a worker thread."""
+        job = self.start(t_s, base)
+        return self.finish(job, job.compute())
+
+    def start(self, t_s: float, base: TwinConfig) -> DiagnosisJob:
+        """Take the window's samples now (the caller's thread) for a diagnosis that may run elsewhere."""
         self._last_run_s = t_s
         self.runs += 1
         start = t_s - self.window_s
-        result = RollingResult(t_s, (start, t_s))
         try:
-            trial = self.streams.trial(start, t_s)
-            diagnosis = diagnose_trial(trial, base)
+            return DiagnosisJob(t_s, start, self.streams.trial(start, t_s), base)
         except InputError as err:
-            result.error = str(err)
-            self.log(f"rolling diagnosis at {t_s:.0f} s: {err}")
+            return DiagnosisJob(t_s, start, None, base, str(err))
+
+    def finish(self, job: DiagnosisJob, diagnosis: TrialDiagnosis | str) -> RollingResult:
+        """Record a job's outcome (a diagnosis, or why there is none) as the latest result; logged."""
+        result = RollingResult(job.t_s, (job.start_s, job.t_s))
+        if isinstance(diagnosis, str):
+            result.error = diagnosis
+            self.log(f"rolling diagnosis at {job.t_s:.0f} s: {diagnosis}")
         else:
             result.causes = causes_of(diagnosis)
             result.unexplained = bool(diagnosis.result["unexplained"])
             named = ", ".join(f"{c.name} ({c.size:.3g} {c.size_unit})" for c in result.causes) or "no cause"
-            self.log(f"rolling diagnosis of {start:.0f}-{t_s:.0f} s: {named}"
+            self.log(f"rolling diagnosis of {job.start_s:.0f}-{job.t_s:.0f} s: {named}"
                      + ("; something stays unexplained" if result.unexplained else ""))
         self.latest = result
         return result
+
+
+@dataclass
+class DiagnosisJob:
+    """One run's input, taken from the buffers: computable in a worker thread (it shares nothing live)."""
+
+    t_s: float
+    start_s: float
+    trial: Trial | None
+    base: TwinConfig
+    error: str = ""
+
+    def compute(self) -> TrialDiagnosis | str:
+        """The diagnosis, or why there is none."""
+        if self.trial is None:
+            return self.error
+        try:
+            return diagnose_trial(self.trial, self.base)
+        except InputError as err:
+            return str(err)
 
 
 def causes_of(diagnosis: TrialDiagnosis) -> list[Cause]:

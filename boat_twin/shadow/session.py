@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -14,10 +15,20 @@ import numpy as np
 
 from boat_twin.config import TwinConfig, save_config
 from boat_twin.diagnose.defaults import WINDOW_S as REPLAY_WINDOW_S
+from boat_twin.diagnose.pipeline import TrialDiagnosis
 from boat_twin.diagnose.replay import cut_windows, predict
 from boat_twin.errors import InputError
 from boat_twin.shadow.adapt import SurgeAdapter, SurgeModel
-from boat_twin.shadow.rolling import IDLE_PERIOD_S, MISFIT_RATIO, PERIOD_S, WINDOW_S, RecentStreams, RollingDiagnosis
+from boat_twin.shadow.rolling import (
+    IDLE_PERIOD_S,
+    MISFIT_RATIO,
+    PERIOD_S,
+    WINDOW_S,
+    DiagnosisJob,
+    RecentStreams,
+    RollingDiagnosis,
+    RollingResult,
+)
 from boat_twin.shadow.sync import Innovation, ShadowTwin, SyncSettings
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import derive_coefficients
@@ -43,6 +54,9 @@ class ShadowSettings:
     """Time between adaptation attempts, s."""
     diagnose: bool = True
     """Run the rolling diagnosis."""
+    diagnose_in_background: bool = False
+    """Run it in a worker thread (a live node: the samples keep coming meanwhile); False: in line, so a replay
+    is deterministic."""
     diagnosis_window_s: float = WINDOW_S
     diagnosis_period_s: float = PERIOD_S
     diagnosis_idle_period_s: float = IDLE_PERIOD_S
@@ -61,6 +75,7 @@ class Shadow:
         self.base = config
         self.settings = settings or ShadowSettings()
         self.log = log or (lambda _line: None)
+        self._worker: ThreadPoolExecutor | None = None
         self.on_innovation: Callable[[Innovation], None] | None = None
         """Sees every innovation as it is made (a plot's trace, a node's publisher)."""
         self._build()
@@ -77,6 +92,7 @@ class Shadow:
         self._speed: deque[tuple[float, float, float]] = deque()
         self._restarts = 0
         self._m22_kg: float | None = None
+        self._pending: tuple[DiagnosisJob, Future[TrialDiagnosis | str]] | None = None
 
     # --- intake ------------------------------------------------------------------------------------------
     def add(self, kind: str, stamp_s: float, values: tuple[float, ...]) -> None:
@@ -92,6 +108,11 @@ class Shadow:
     def flush(self) -> None:
         """Process what is still queued (end of a recording)."""
         self.twin.flush()
+
+    def close(self) -> None:
+        """Stop the background diagnosis worker (a node shutting down)."""
+        if self._worker is not None:
+            self._worker.shutdown(wait=False, cancel_futures=True)
 
     def reset(self) -> None:
         """Start afresh from the configured model (the ``reset`` service)."""
@@ -115,7 +136,8 @@ class Shadow:
             if self.adapter.due(t_s) and self.adapter.update(self._held_out_score(t_s)):
                 self.twin.set_config(replace(self.twin.config, vessel=self.adapter.vessel()))
                 self._m22_kg = None
-        if self.settings.diagnose and self.rolling.due(t_s, self.speed_ratio()):
+        self._poll_diagnosis()
+        if self.settings.diagnose and self._pending is None and self.rolling.due(t_s, self.speed_ratio()):
             self._diagnose(t_s)
 
     def _held_out_score(self, t_s: float) -> Callable[[SurgeModel], float]:
@@ -156,8 +178,23 @@ class Shadow:
         return force
 
     def _diagnose(self, t_s: float) -> None:
-        base = replace(self.base, vessel=self.adapter.vessel())
-        result = self.rolling.run(t_s, base)
+        job = self.rolling.start(t_s, replace(self.base, vessel=self.adapter.vessel()))
+        if self.settings.diagnose_in_background:
+            if self._worker is None:
+                self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rolling_diagnosis")
+            self._pending = (job, self._worker.submit(job.compute))
+        else:
+            self._take(self.rolling.finish(job, job.compute()))
+
+    def _poll_diagnosis(self) -> None:
+        """Take a background diagnosis that has finished."""
+        if self._pending is not None and self._pending[1].done():
+            job, future = self._pending
+            self._pending = None
+            self._take(self.rolling.finish(job, future.result()))
+
+    def _take(self, result: RollingResult) -> None:
+        """The twin predicts with the current or wind a diagnosis named (or without, once none is named)."""
         if result.error:
             return
         environment = self.base.environment

@@ -2,7 +2,8 @@
 sensor sample before it comes and corrects its state with a small filter (no ROS here).
 
 Arrival: samples come in any order, at any rate, duplicated or late. They wait :attr:`SyncSettings.reorder_s`
-in a queue and are processed in stamp order (commands first at one stamp) once a newer stamp has passed them by that much (``flush()`` takes
+in a queue and are processed in stamp order (commands first at one stamp) once a newer stamp has passed them by
+that much (``flush()`` takes
 the rest). A sample older than the twin's time is late and dropped, the same stamp twice on one stream a
 duplicate, a non-finite value dropped; each kind is counted and logged once. A stamp more than
 :attr:`SyncSettings.restart_s` before the newest one of its own stream is a clock jump backwards (a restarted
@@ -142,6 +143,15 @@ class ShadowTwin:
         self._logged: set[str] = set()
         self.set_config(config)
         self.reset()
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Load the compiled kernels now (a step and a run on a scratch boat), not on the first live sample: a
+        live node would lose the samples arriving meanwhile."""
+        scratch, steering = np.zeros((1, 6)), np.zeros((1, 2))
+        commands = np.zeros((1, 4))
+        self.dynamics.step(scratch, commands, self._environment, INTEGRATION_STEP_S, steering)
+        self.dynamics.run(scratch, commands[None], self._environment, INTEGRATION_STEP_S, 1, steering)
 
     # --- configuration and state -------------------------------------------------------------------------
     def set_config(self, config: TwinConfig) -> None:
@@ -308,7 +318,9 @@ class ShadowTwin:
         the oldest kept when the history is shorter)."""
         t = np.array([h[0] for h in self._history])
         at = stamp_s - self.config.gnss.latency_s
-        return tuple(float(np.interp(at, t, np.array([h[k] for h in self._history]))) for k in range(1, 5))
+        east, north, vel_east, vel_north = (float(np.interp(at, t, np.array([h[k] for h in self._history])))
+                                            for k in range(1, 5))
+        return east, north, vel_east, vel_north
 
     def _record(self, stamp_s: float, channel: str, measured: float, predicted: float, stdev: float) -> None:
         self.innovations.append(Innovation(stamp_s, channel, measured, predicted, stdev))
