@@ -45,12 +45,12 @@ from std_srvs.srv import Trigger
 
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.errors import InputError
+from boat_twin.frames import quaternion_xyzw
 from boat_twin.io.bags import EXTRACTORS, resolve_topics
 from boat_twin.nodes import parameters
 from boat_twin.nodes.identifier import default_model_path
 from boat_twin.nodes.simulator import message_class
 from boat_twin.nodes.spin import run_node
-from boat_twin.sensors.um7 import quaternion_xyzw
 from boat_twin.shadow.session import Shadow, ShadowSettings
 from boat_twin.shadow.sync import COMMAND_KINDS, Innovation, SyncSettings
 

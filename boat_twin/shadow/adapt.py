@@ -15,7 +15,7 @@ with the covariance that gives the 95 % intervals. A horizon whose speed barely 
 Adoption (:class:`SurgeAdapter`): every ``period_s``, the candidate is fitted on the horizon without its last
 ``holdout_s``, and a score given by the caller says how well a model predicts those held-out seconds (the
 session replays them through the whole 3-DOF twin and its sensor models, open loop in windows started from the
-measurements, as the diagnosis does: :func:`boat_twin.diagnose.replay.predict`). The candidate replaces the
+measurements, as the diagnosis does: :func:`boat_twin.twin.replay.predict`). The candidate replaces the
 current model only when its held-out error is below (1 − :data:`ADOPT_MARGIN`) × the current one's; the
 previous model is kept, and reinstated when it predicts the newest held-out data better by the same margin.
 """

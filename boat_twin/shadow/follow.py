@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 
 from boat_twin.config import TwinConfig
+from boat_twin.frames import wrap_pi
 from boat_twin.io.trial import Trial
-from boat_twin.sensors.um7 import wrap_pi
 from boat_twin.shadow.session import Shadow, ShadowSettings
 from boat_twin.shadow.sync import COMMAND_KINDS, SENSOR_KINDS
 

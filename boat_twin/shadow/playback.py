@@ -12,9 +12,9 @@ from collections.abc import Iterator
 import numpy as np
 
 from boat_twin.config import TwinConfig
+from boat_twin.frames import quaternion_xyzw
 from boat_twin.io import messages
 from boat_twin.io.trial import Trial
-from boat_twin.sensors.um7 import quaternion_xyzw
 from boat_twin.shadow.follow import trial_samples
 from boat_twin.units import STANDARD_GRAVITY_MPS2
 

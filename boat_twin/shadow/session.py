@@ -16,7 +16,6 @@ import numpy as np
 from boat_twin.config import TwinConfig, save_config
 from boat_twin.diagnose.defaults import WINDOW_S as REPLAY_WINDOW_S
 from boat_twin.diagnose.pipeline import TrialDiagnosis
-from boat_twin.diagnose.replay import cut_windows, predict
 from boat_twin.errors import InputError
 from boat_twin.shadow.adapt import SurgeAdapter, SurgeModel
 from boat_twin.shadow.rolling import (
@@ -30,6 +29,7 @@ from boat_twin.shadow.rolling import (
     RollingResult,
 )
 from boat_twin.shadow.sync import Innovation, ShadowTwin, SyncSettings
+from boat_twin.twin.replay import cut_windows, predict
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import derive_coefficients
 

@@ -37,7 +37,7 @@ import numpy as np
 import pymap3d
 
 from boat_twin.config import TwinConfig
-from boat_twin.sensors.um7 import wrap_pi
+from boat_twin.frames import wrap_pi
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.tow import tow_drag_table
 from boat_twin.vessel.truth import ground_velocity_enu
