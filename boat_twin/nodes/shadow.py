@@ -10,10 +10,10 @@ history),
 commands reliable. The graph is searched again every 2 s until a GNSS stream is found.
 Publishes: shadow/odom (nav_msgs/Odometry: the twin's predicted state, pose in ENU ``map`` about the first fix,
 twist through the water in ``base_link``), shadow/innovations (std_msgs/Float64MultiArray per velocity fix:
-layout label ``t_s,speed_innovation_mps,stdev_mps,ratio``), shadow/model (Float64MultiArray at 1 Hz: label
+layout label ``t_s,speed_innovation_mps,stdev_mps,ratio``), shadow/model (Float64MultiArray every wall second: label
 ``mass_kg,mass_low_kg,mass_high_kg,resistance_factor,factor_low,factor_high``, 95 % intervals) and
-/diagnostics at 1 Hz (the rolling diagnosis runs in a worker thread meanwhile; OK: in step, innovations within
-1.5× their noise and no cause; WARN: not synchronised,
+/diagnostics every wall second (the rolling diagnosis runs in a worker process meanwhile; OK: in step,
+innovations within 1.5× their noise and no cause; WARN: not synchronised,
 misfit, or the named causes with their sizes). Services: ~/save (the twin as it predicts, a twin.yaml, to
 ``twin_path``), ~/reset (back to the configured model). Works on the node clock (use_sim_time:=true with a
 bag_player or simulator /clock).
@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from nav_msgs.msg import Odometry
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
@@ -95,7 +96,9 @@ class ShadowNode(Node):
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_service(Trigger, "~/save", self.on_save)
         self.create_service(Trigger, "~/reset", self.on_reset)
-        self.create_timer(1.0, self.on_publish)
+        # wall-clock (steady) timers: with use_sim_time, a node clock stops with the player, and a diagnosis that
+        # finishes then must still be taken and published
+        self.create_timer(1.0, self.on_publish, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.discovery = self.create_timer(2.0, self.discover)
         self.discover()
 
@@ -133,6 +136,7 @@ class ShadowNode(Node):
             self.innovation_pub.publish(_array([item.t_s, item.value, item.stdev, ratio], INNOVATION_LABEL))
 
     def on_publish(self) -> None:
+        self.shadow.poll()
         self._publish_odometry()
         surge = self.shadow.adapter.current
         self.model_pub.publish(_array([surge.mass_kg, *surge.mass_ci95_kg, surge.resistance_factor,
@@ -190,7 +194,7 @@ class ShadowNode(Node):
 
 
     def destroy_node(self) -> None:
-        """Stop the diagnosis worker with the node."""
+        """Stop the diagnosis worker process with the node."""
         self.shadow.close()
         super().destroy_node()
 

@@ -2,9 +2,9 @@
 current (adapted) model; it names causes, their sizes and whether something stays unexplained.
 
 A full diagnosis of a 2-minute window costs ~2-3 s of one core (:mod:`boat_twin.diagnose.search` fits every
-catalogue effect with held-out folds), so it runs every ``period_s`` while the twin's speed innovations stay
-above ``misfit_ratio`` × their noise (something is wrong: find out what, soon) or the last run had too little
-data, and every ``idle_period_s`` otherwise (a check that nothing crept in). The window holds the last
+catalogue effect with held-out folds; a live node runs it in a worker process), so it runs every ``period_s``
+while the twin's speed innovations stay above ``misfit_ratio`` × their noise (something is wrong: find out what,
+soon) or the last run had too little data, and every ``idle_period_s`` otherwise (a check that nothing crept in). The window holds the last
 ``window_s`` of samples; the causes held
 are those of the latest run.
 """
@@ -150,15 +150,15 @@ class RollingDiagnosis:
         except InputError as err:
             return DiagnosisJob(t_s, start, None, base, str(err))
 
-    def finish(self, job: DiagnosisJob, diagnosis: TrialDiagnosis | str) -> RollingResult:
-        """Record a job's outcome (a diagnosis, or why there is none) as the latest result; logged."""
+    def finish(self, job: DiagnosisJob, outcome: Outcome) -> RollingResult:
+        """Record a job's outcome (causes and the unexplained flag, or why there is none) as the latest result;
+        logged."""
         result = RollingResult(job.t_s, (job.start_s, job.t_s))
-        if isinstance(diagnosis, str):
-            result.error = diagnosis
-            self.log(f"rolling diagnosis at {job.t_s:.0f} s: {diagnosis}")
+        if isinstance(outcome, str):
+            result.error = outcome
+            self.log(f"rolling diagnosis at {job.t_s:.0f} s: {outcome}")
         else:
-            result.causes = causes_of(diagnosis)
-            result.unexplained = bool(diagnosis.result["unexplained"])
+            result.causes, result.unexplained = outcome
             named = ", ".join(f"{c.name} ({c.size:.3g} {c.size_unit})" for c in result.causes) or "no cause"
             self.log(f"rolling diagnosis of {job.start_s:.0f}-{job.t_s:.0f} s: {named}"
                      + ("; something stays unexplained" if result.unexplained else ""))
@@ -166,9 +166,14 @@ class RollingDiagnosis:
         return result
 
 
+Outcome = tuple[list[Cause], bool] | str
+"""A run's causes and unexplained flag, or why it could not diagnose."""
+
+
 @dataclass
 class DiagnosisJob:
-    """One run's input, taken from the buffers: computable in a worker thread (it shares nothing live)."""
+    """One run's input, taken from the buffers: computable in another process (it shares nothing live, and it
+    and its outcome pickle)."""
 
     t_s: float
     start_s: float
@@ -176,14 +181,15 @@ class DiagnosisJob:
     base: TwinConfig
     error: str = ""
 
-    def compute(self) -> TrialDiagnosis | str:
-        """The diagnosis, or why there is none."""
+    def compute(self) -> Outcome:
+        """The named causes and the unexplained flag, or why there are none."""
         if self.trial is None:
             return self.error
         try:
-            return diagnose_trial(self.trial, self.base)
+            diagnosis = diagnose_trial(self.trial, self.base)
         except InputError as err:
             return str(err)
+        return causes_of(diagnosis), bool(diagnosis.result["unexplained"])
 
 
 def causes_of(diagnosis: TrialDiagnosis) -> list[Cause]:

@@ -4,9 +4,10 @@ sample at a time. The one core that the ``shadow`` node, ``boat-twin follow`` an
 from __future__ import annotations
 
 import math
+import multiprocessing
 from collections import deque
 from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -15,7 +16,6 @@ import numpy as np
 
 from boat_twin.config import TwinConfig, save_config
 from boat_twin.diagnose.defaults import WINDOW_S as REPLAY_WINDOW_S
-from boat_twin.diagnose.pipeline import TrialDiagnosis
 from boat_twin.errors import InputError
 from boat_twin.shadow.adapt import SurgeAdapter, SurgeModel
 from boat_twin.shadow.rolling import (
@@ -24,6 +24,7 @@ from boat_twin.shadow.rolling import (
     PERIOD_S,
     WINDOW_S,
     DiagnosisJob,
+    Outcome,
     RecentStreams,
     RollingDiagnosis,
     RollingResult,
@@ -55,8 +56,8 @@ class ShadowSettings:
     diagnose: bool = True
     """Run the rolling diagnosis."""
     diagnose_in_background: bool = False
-    """Run it in a worker thread (a live node: the samples keep coming meanwhile); False: in line, so a replay
-    is deterministic."""
+    """Run it in a worker process (a live node: the samples keep coming meanwhile, and a thread would fight the
+    executor for the GIL); False: in line, so a replay is deterministic."""
     diagnosis_window_s: float = WINDOW_S
     diagnosis_period_s: float = PERIOD_S
     diagnosis_idle_period_s: float = IDLE_PERIOD_S
@@ -75,7 +76,7 @@ class Shadow:
         self.base = config
         self.settings = settings or ShadowSettings()
         self.log = log or (lambda _line: None)
-        self._worker: ThreadPoolExecutor | None = None
+        self._worker: ProcessPoolExecutor | None = None
         self.on_innovation: Callable[[Innovation], None] | None = None
         """Sees every innovation as it is made (a plot's trace, a node's publisher)."""
         self._build()
@@ -92,7 +93,7 @@ class Shadow:
         self._speed: deque[tuple[float, float, float]] = deque()
         self._restarts = 0
         self._m22_kg: float | None = None
-        self._pending: tuple[DiagnosisJob, Future[TrialDiagnosis | str]] | None = None
+        self._pending: tuple[DiagnosisJob, Future[Outcome]] | None = None
 
     # --- intake ------------------------------------------------------------------------------------------
     def add(self, kind: str, stamp_s: float, values: tuple[float, ...]) -> None:
@@ -110,7 +111,7 @@ class Shadow:
         self.twin.flush()
 
     def close(self) -> None:
-        """Stop the background diagnosis worker (a node shutting down)."""
+        """Stop the background diagnosis worker process (a node shutting down)."""
         if self._worker is not None:
             self._worker.shutdown(wait=False, cancel_futures=True)
 
@@ -181,17 +182,25 @@ class Shadow:
         job = self.rolling.start(t_s, replace(self.base, vessel=self.adapter.vessel()))
         if self.settings.diagnose_in_background:
             if self._worker is None:
-                self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rolling_diagnosis")
+                self._worker = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
             self._pending = (job, self._worker.submit(job.compute))
         else:
             self._take(self.rolling.finish(job, job.compute()))
 
+    def poll(self) -> None:
+        """Take a background diagnosis that has finished (also done on every velocity sample; a node calls this
+        on a timer, for when the samples stop)."""
+        self._poll_diagnosis()
+
     def _poll_diagnosis(self) -> None:
-        """Take a background diagnosis that has finished."""
         if self._pending is not None and self._pending[1].done():
             job, future = self._pending
             self._pending = None
-            self._take(self.rolling.finish(job, future.result()))
+            try:
+                outcome = future.result()
+            except Exception as err:  # noqa: BLE001 - a worker that died (killed, out of memory) is one log line
+                outcome = f"the diagnosis worker failed: {type(err).__name__}: {err}"
+            self._take(self.rolling.finish(job, outcome))
 
     def _take(self, result: RollingResult) -> None:
         """The twin predicts with the current or wind a diagnosis named (or without, once none is named)."""
