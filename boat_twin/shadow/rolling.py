@@ -4,9 +4,8 @@ current (adapted) model; it names causes, their sizes and whether something stay
 A full diagnosis of a 2-minute window costs ~2-3 s of one core (:mod:`boat_twin.diagnose.search` fits every
 catalogue effect with held-out folds; a live node runs it in a worker process), so it runs every ``period_s``
 while the twin's speed innovations stay above ``misfit_ratio`` × their noise (something is wrong: find out what,
-soon) or the last run had too little data, and every ``idle_period_s`` otherwise (a check that nothing crept in). The window holds the last
-``window_s`` of samples; the causes held
-are those of the latest run.
+soon) or the last run had too little data, and every ``idle_period_s`` otherwise (a check that nothing crept
+in). The window holds the last ``window_s`` of samples; the causes held are those of the latest run.
 """
 
 from __future__ import annotations
