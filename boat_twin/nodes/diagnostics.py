@@ -27,7 +27,7 @@ OK, WARN, ERROR, STALE = (DiagnosticStatus.OK, DiagnosticStatus.WARN, Diagnostic
 @dataclass
 class Status:
     """One task's state: ``level`` (OK, WARN, ERROR, STALE), a one-line ``message`` and named ``values``
-    (sent JSON-encoded, so numbers and lists read back as they were)."""
+    (sent JSON-encoded, so numbers and lists read back as they were; anything else as its text)."""
 
     task: str
     level: bytes
@@ -49,6 +49,6 @@ class Diagnostics:
     def publish(self, *statuses: Status) -> None:
         array = DiagnosticArray(status=[DiagnosticStatus(
             name=f"{self.prefix}: {s.task}", hardware_id=self.hardware_id, level=s.level, message=s.message,
-            values=[KeyValue(key=k, value=json.dumps(v)) for k, v in s.values.items()]) for s in statuses])
+            values=[KeyValue(key=k, value=json.dumps(v, default=str)) for k, v in s.values.items()]) for s in statuses])
         array.header.stamp = self.node.get_clock().now().to_msg()
         self.publisher.publish(array)
