@@ -71,9 +71,11 @@ def register(subparsers: Any) -> None:
         "over the last minute / their stated noise, -), mass_kg, resistance_factor (-), causes.")
     p.add_argument("trial", type=Path, help=TRIAL_HELP)
     add_trial_options(p)
-    p.add_argument("--config", type=Path, help="twin configuration YAML to start from (default: the built-in boat)")
-    p.add_argument("--model", type=Path, help="identified model YAML overriding the vessel (resistance, mass)")
-    p.add_argument("--out", type=Path,
+    p.add_argument("--config", type=Path, metavar="FILE",
+                   help="twin configuration YAML to start from (default: the built-in boat)")
+    p.add_argument("--model", type=Path, metavar="FILE",
+                   help="identified model YAML overriding the vessel (resistance, mass)")
+    p.add_argument("--out", type=Path, metavar="DIR",
                    help="directory for follow.json, the adapted twin.yaml and PNG plots (innovations against the "
                    "noise band, the model converging with its 95 %% intervals, the cause timeline)")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs in --out")
