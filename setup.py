@@ -18,6 +18,7 @@ setup(
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
         (f"share/{PACKAGE}/config/cable", glob("config/cable/*.yaml")),
         (f"share/{PACKAGE}/config/mavlink", glob("config/mavlink/*.yaml")),
+        (f"share/{PACKAGE}/config/ros", glob("config/ros/*.yaml")),
     ],
     python_requires=">=3.10",
     install_requires=[
@@ -73,6 +74,8 @@ setup(
             "identifier = boat_twin.nodes:identifier_main",
             "cable = boat_twin.nodes:cable_main",
             "player = boat_twin.nodes:player_main",
+            "shadow = boat_twin.nodes:shadow_main",
+            "bag_player = boat_twin.nodes:bag_player_main",
         ],
     },
 )

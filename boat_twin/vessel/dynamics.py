@@ -39,6 +39,7 @@ import numpy as np
 
 from boat_twin.units import AIR_DENSITY_KGPM3
 from boat_twin.vessel.params import WINDAGE_DRAG_COEFFICIENT, VesselParams, derive_coefficients
+from boat_twin.vessel.steering import steering_target
 
 STATE_NAMES = ("east_m", "north_m", "yaw_rad", "u_mps", "v_mps", "r_radps")
 """Order of the state vector's components."""
@@ -138,13 +139,15 @@ def _delivered_thrust(command: float, u: float, k: np.ndarray) -> float:
 
 @numba.njit(cache=True)
 def _steering_target(command: float, k: np.ndarray) -> float:
-    """Where the outboard is driven: the commanded angle plus the offset, within ±δ_max, rad."""
+    """Where the outboard is driven: the commanded angle plus the offset, within ±δ_max, rad (the kernel's copy
+    of :func:`~boat_twin.vessel.steering.steering_target`; test_steering.py checks they agree)."""
     return min(max(command + k[_K_STEER_OFFSET], -k[_K_MAX_STEER]), k[_K_MAX_STEER])
 
 
 @numba.njit(cache=True)
 def _steering_after(angle: float, target: float, k: np.ndarray, tau: float) -> float:
-    """The steering angle ``tau`` seconds on, swinging from ``angle`` towards ``target`` at the rate limit."""
+    """The steering angle ``tau`` seconds on, swinging from ``angle`` towards ``target`` at the rate limit (the
+    kernel's copy of :func:`~boat_twin.vessel.steering.steering_after`)."""
     rate = k[_K_STEER_RATE]
     if rate <= 0.0:
         return target
@@ -361,8 +364,8 @@ def _actuator_history(commands: np.ndarray, switch: np.ndarray, k: np.ndarray, t
                       ) -> None:
     """(n, 4) into ``out``: the outboards' real angles (left, right) and thrust commands after the lag (left,
     right) at every tick of a recorded command series (n, 4) with its switch times (n,) (as
-    :func:`_boat_ticks`'s), starting where the first known command drives them; NaN where the commands are
-    unknown (the next known command starts afresh at its own)."""
+    :func:`_boat_ticks`'s), starting where the first known command drives them; NaN after an unknown command
+    (the next known command starts afresh at its own)."""
     state = np.full(4, np.nan)
     previous = np.full(4, np.nan)
     n = commands.shape[0]
@@ -372,9 +375,9 @@ def _actuator_history(commands: np.ndarray, switch: np.ndarray, k: np.ndarray, t
         for j in range(4):
             if not np.isfinite(cmd[j]):
                 known = False
-        if not known:
-            state[:] = np.nan
+        if not known:  # its start is known; what follows an unknown command is not
             out[i] = state
+            state[:] = np.nan
             previous[:] = np.nan
             continue
         if not np.isfinite(state[0]):
@@ -542,10 +545,10 @@ class Dynamics:
             raise ValueError(f"{n_boats} boats stepped with the coefficients of {self.coefficients.shape[0]}")
 
     def steering_targets(self, commands: np.ndarray) -> np.ndarray:
-        """(N, 2) angles the outboards are driven to under ``commands`` (N, 4): command + offset, within ±δ_max."""
-        offset = self.coefficients[:, _K_STEER_OFFSET, None]
-        limit = self.coefficients[:, _K_MAX_STEER, None]
-        return np.clip(commands[:, 2:4] + offset, -limit, limit)
+        """(N, 2) angles the outboards are driven to under ``commands`` (N, 4): command + offset, within ±δ_max
+        (:func:`~boat_twin.vessel.steering.steering_target` with each boat's coefficients)."""
+        return steering_target(commands[:, 2:4], self.coefficients[:, _K_STEER_OFFSET, None],
+                               self.coefficients[:, _K_MAX_STEER, None])
 
     def thrust_start(self, commands: np.ndarray) -> np.ndarray:
         """(N, 2) the engines' thrust commands after the lag where ``commands`` (N, 4) has held them: the
