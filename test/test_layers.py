@@ -8,7 +8,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1] / "boat_twin"
 LAYERS = (
-    ("errors", "units", "signal_noise", "files", "validation", "lazy", "data"),  # util: no domain knowledge
+    ("errors", "units", "signal_noise", "files", "validation", "lazy", "data", "threads"),  # util: no domain knowledge
     ("cable",),  # towed body + cable (the vessel's tow load uses it)
     ("vessel",),  # params, resistance, dynamics, environment, scenarios
     ("sensors",),  # observation models: truth -> measurements
@@ -17,6 +17,7 @@ LAYERS = (
     ("twin",),  # the twin run batch (sea trial) or tick by tick (live)
     ("ident", "diagnose", "plots"),  # analyses of trials
     ("link",),  # the twin as a live MAVLink boat
+    ("fleet",),  # many trials and large ensembles as tasks on Dask (or one after another)
     ("nodes", "cli"),  # front ends: ROS 2 nodes, the boat-twin command
 )
 

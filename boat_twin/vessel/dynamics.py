@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from boat_twin.threads import configure_openmp
 from boat_twin.vessel.params import (
     AIR_DENSITY_KGPM3,
     WINDAGE_DRAG_COEFFICIENT,
@@ -48,6 +49,8 @@ STATE_NAMES = ("east_m", "north_m", "yaw_rad", "u_mps", "v_mps", "r_radps")
 """Order of the state vector's components."""
 COMMAND_NAMES = ("thrust_left_N", "thrust_right_N", "angle_left_rad", "angle_right_rad")
 """Order of the command vector's components (per-engine thrust and steering angle, the VRX convention)."""
+
+configure_openmp()  # before the first parallel kernel loads the OpenMP runtime: idle threads sleep, never spin
 
 RESISTANCE_TABLE_POINTS = 4001
 """Grid points of the tabulated resistance over [0, u_max]; linear-interpolation error < 1e-5 of Fc here."""
