@@ -144,5 +144,5 @@ def run_each(args: argparse.Namespace, job: Any) -> int:
                          f"{result.summary_csv}\n")
     if failed:
         raise InputError(f"{len(failed)} of {len(result.rows)} trial(s) failed, each named with its error in "
-                         f"{result.summary_csv} (first: {failed[0]['trial']}: {failed[0]['error']})")
+                         f"{result.summary_csv} (first: {failed[0]['trial']})")
     return 0
