@@ -79,7 +79,7 @@ def run_task(job: Job, task: TrialTask, report_dir: str, one_thread: bool) -> di
     except InputError as err:
         row.update(status="error", error=str(err))
     except Exception as err:  # noqa: BLE001  a bug or a broken file the readers did not foresee: this trial's row
-        row.update(status="error", error=f"{type(err).__name__}: {err}")
+        row.update(status="error", error=f"{task.path}: {type(err).__name__}: {err}")
     row.update(seconds=time.perf_counter() - start, worker=f"{socket.gethostname()}:{os.getpid()}")
     if row["status"] == "ok":
         atomic_write_text(out / ROW_FILE, to_json(row) + "\n")
