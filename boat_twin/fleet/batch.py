@@ -8,7 +8,7 @@
 - ``DIR/summary.csv`` and ``DIR/summary.json`` (a list of rows, one per trial in the order given) are rewritten
   after every trial, so that a killed run leaves the rows of the trials it finished. Each row has at least
   ``trial``, ``status`` ("ok" or "error"), ``error`` (null when ok), ``boat``, ``source``, ``duration_s``, the
-  verb's headline (the job's ``columns``), ``seconds`` and ``worker``.
+  verb's headline (the job's ``columns``), ``seconds``, ``cpu_s`` and ``worker``.
 - A failing trial (bad file, a pipeline error, even a crash of its worker) is reported in its row and never stops
   the others.
 """
@@ -70,7 +70,7 @@ def run_task(job: Job, task: TrialTask, report_dir: str, one_thread: bool) -> di
         from boat_twin.threads import use_one_numba_thread
 
         use_one_numba_thread()
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     row: dict[str, Any] = {"trial": task.name, "status": "ok", "error": None, "boat": task.boat,
                            "source": task.path, "duration_s": None, **dict.fromkeys(job.columns)}
     out = Path(report_dir)
@@ -80,7 +80,8 @@ def run_task(job: Job, task: TrialTask, report_dir: str, one_thread: bool) -> di
         row.update(status="error", error=str(err))
     except Exception as err:  # noqa: BLE001  a bug or a broken file the readers did not foresee: this trial's row
         row.update(status="error", error=f"{task.path}: {type(err).__name__}: {err}")
-    row.update(seconds=time.perf_counter() - start, worker=f"{socket.gethostname()}:{os.getpid()}")
+    row.update(seconds=time.perf_counter() - start, cpu_s=time.process_time() - cpu,
+               worker=f"{socket.gethostname()}:{os.getpid()}")
     if row["status"] == "ok":
         atomic_write_text(out / ROW_FILE, to_json(row) + "\n")
     return row
@@ -90,7 +91,7 @@ def _crashed(task: TrialTask, job: Job, err: BaseException) -> dict[str, Any]:
     """The row of a trial whose task did not return (its worker died, the cluster lost it)."""
     return {"trial": task.name, "status": "error", "error": f"task lost: {type(err).__name__}: {err}",
             "boat": task.boat, "source": task.path, "duration_s": None, **dict.fromkeys(job.columns),
-            "seconds": None, "worker": None}
+            "seconds": None, "cpu_s": None, "worker": None}
 
 
 def _cell(value: Any) -> Any:

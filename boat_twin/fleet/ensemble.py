@@ -43,7 +43,7 @@ MAX_CHUNK_BOATS = 2000
 """Largest default chunk, boats (the training sets' ensemble runs)."""
 SETTINGS_FILE = "ensemble.json"
 CHUNK_COLUMNS = ("chunk", "first_boat", "boats", "status", "error", "file", "finite_feature_rows", "seconds",
-                 "worker", "peak_rss_mb")
+                 "cpu_s", "worker", "peak_rss_mb")
 """Columns of the ensemble's summary (one row per chunk)."""
 TRACK_COLUMNS = ("max_surge_mps", "max_abs_yaw_rate_radps", "final_east_m", "final_north_m", "final_yaw_rad")
 """Figures of every boat's track (truth)."""
@@ -152,7 +152,7 @@ def run_chunk(spec: EnsembleSpec, chunk: int, first: int, count: int, path: str,
         from boat_twin.threads import use_one_numba_thread
 
         use_one_numba_thread()
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     row: dict[str, Any] = {"chunk": chunk, "first_boat": first, "boats": count, "status": "ok", "error": None,
                            "file": Path(path).name, "finite_feature_rows": None}
     try:
@@ -162,7 +162,8 @@ def run_chunk(spec: EnsembleSpec, chunk: int, first: int, count: int, path: str,
     except (InputError, ValueError, FloatingPointError) as err:
         row.update(status="error", error=f"{type(err).__name__}: {err}" if not isinstance(err, InputError)
                    else str(err))
-    row.update(seconds=time.perf_counter() - start, worker=f"{socket.gethostname()}:{os.getpid()}",
+    row.update(seconds=time.perf_counter() - start, cpu_s=time.process_time() - cpu,
+               worker=f"{socket.gethostname()}:{os.getpid()}",
                peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
     return row
 
@@ -201,7 +202,7 @@ def run_ensemble(spec: EnsembleSpec, out: Path, client: Any = None, *, force: bo
             if not force and (out / chunk_file(chunk)).exists():
                 rows[chunk] = {"chunk": chunk, "first_boat": first, "boats": count, "status": "ok", "error": None,
                                "file": chunk_file(chunk), "finite_feature_rows": None, "seconds": None,
-                               "worker": "an earlier run", "peak_rss_mb": None}
+                               "cpu_s": None, "worker": "an earlier run", "peak_rss_mb": None}
                 if progress is not None:
                     progress(rows[chunk])
             else:
@@ -240,7 +241,8 @@ def _run_on_dask(client: Any, spec: EnsembleSpec, chunks: list[tuple[int, int, i
             except Exception as err:  # noqa: BLE001  the worker died or the task was lost: this chunk's row
                 row = {"chunk": chunk, "first_boat": first, "boats": count, "status": "error",
                        "error": f"task lost: {type(err).__name__}: {err}", "file": chunk_file(chunk),
-                       "finite_feature_rows": None, "seconds": None, "worker": None, "peak_rss_mb": None}
+                       "finite_feature_rows": None, "seconds": None, "cpu_s": None, "worker": None,
+                       "peak_rss_mb": None}
             finished(row)
     finally:
         client.cancel(list(futures))

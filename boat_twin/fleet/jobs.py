@@ -14,8 +14,9 @@ from boat_twin.io.trial import Trial
 
 COMMON_COLUMNS = ("trial", "status", "error", "boat", "source", "duration_s")
 """Columns every summary row starts with (then the verb's :attr:`columns`, then ``seconds`` and ``worker``)."""
-RUN_COLUMNS = ("seconds", "worker")
-"""Columns every summary row ends with: the task's wall time, s, and where it ran (host:pid)."""
+RUN_COLUMNS = ("seconds", "cpu_s", "worker")
+"""Columns every summary row ends with: the task's wall time and the CPU time of its process meanwhile, s, and
+where it ran (host:pid)."""
 
 
 @dataclass(frozen=True)
