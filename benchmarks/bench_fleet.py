@@ -131,7 +131,7 @@ def ensemble(boats: int, out: Path) -> None:
 
 def busy_child(boats: int) -> None:
     """(In a child process, its OpenMP wait policy set by the parent.) The ensemble at numba's default thread
-    count, on 1 and on 2 threads, each best of 2, as JSON on stdout."""
+    count, on 1 and on 2 threads, each the best of 3 interleaved rounds, as JSON on stdout."""
     import numba
 
     from boat_twin.fleet.ensemble import boat_draws
@@ -143,16 +143,14 @@ def busy_child(boats: int) -> None:
     zigzag = Zigzag(config.vessel, angle, angle, duration_s=75.0, decision_rate_hz=OUTPUT_RATE_HZ)
     vessels, _ = boat_draws(EnsembleSpec("zigzag-20-20", boats, config=config), 0, boats)
     simulate(config.vessel, zigzag, boats=vessels[:64])  # the threaded kernels loaded
-    default = numba.get_num_threads()
-    times = {}
-    for label, threads in (("default", default), ("1 thread", 1), ("2 threads", 2)):
-        numba.set_num_threads(threads)
-        best = math.inf
-        for _ in range(2):
+    settings = (("default", numba.get_num_threads()), ("1 thread", 1), ("2 threads", 2))
+    times = dict.fromkeys((label for label, _ in settings), math.inf)
+    for _ in range(3):  # rounds, the settings interleaved: the other jobs' load drifts between runs
+        for label, threads in settings:
+            numba.set_num_threads(threads)
             start = time.perf_counter()
             simulate(config.vessel, zigzag, boats=vessels)
-            best = min(best, time.perf_counter() - start)
-        times[label] = best
+            times[label] = min(times[label], time.perf_counter() - start)
     print(json.dumps(times))
 
 
@@ -160,11 +158,19 @@ def busy(boats: int) -> None:
     """The ensemble beside a busy loop on one core: the default (passive waiting) and OpenMP's own active
     waiting, each in a fresh process (the runtime reads its policy once)."""
     loop = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    limit_s = math.inf
     try:
         for policy in ("PASSIVE", "ACTIVE"):
             env = {**os.environ, "OMP_WAIT_POLICY": policy}
-            out = subprocess.run([sys.executable, __file__, "--busy-child", str(boats)], env=env, check=True,
-                                 capture_output=True, text=True).stdout
+            start = time.perf_counter()
+            try:
+                out = subprocess.run([sys.executable, __file__, "--busy-child", str(boats)], env=env, check=True,
+                                     capture_output=True, text=True, timeout=limit_s).stdout
+            except subprocess.TimeoutExpired:
+                print(f"beside a busy loop, OMP_WAIT_POLICY {policy}: not done in {limit_s:.0f} s, 5x the passive "
+                      "run's time (stopped)")
+                continue
+            limit_s = 5.0 * (time.perf_counter() - start)
             times = json.loads(out.splitlines()[-1])
             best = min(times["1 thread"], times["2 threads"])
             label = "default (passive)" if policy == "PASSIVE" else "active waiting (numba's own default)"
@@ -216,6 +222,8 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=150.0, help="length of each recording, s")
     parser.add_argument("--boats", type=int, default=6000, help="zigzag ensemble size (issue's target: 100000)")
     parser.add_argument("--busy-boats", type=int, default=2000, help="ensemble size beside the busy loop")
+    parser.add_argument("--parts", default="batch,loopback,ensemble,busy",
+                        help="which parts to run, comma-separated (default: all)")
     parser.add_argument("--busy-child", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.busy_child is not None:
@@ -223,14 +231,19 @@ def main() -> None:
         return
     print(f"sizes: {args.recordings} recordings of {args.duration:g} s, ensemble {args.boats} boats, busy-loop "
           f"ensemble {args.busy_boats} boats; {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}")
+    parts = args.parts.split(",")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        (folder / "recordings").mkdir()
-        paths = recordings(folder / "recordings", args.recordings, args.duration)
-        serial = batch(paths, folder / "batch")
-        loopback(paths, serial, folder / "loopback")
-        ensemble(args.boats, folder / "ensemble")
-    busy(args.busy_boats)
+        if "batch" in parts or "loopback" in parts:
+            (folder / "recordings").mkdir()
+            paths = recordings(folder / "recordings", args.recordings, args.duration)
+            serial = batch(paths, folder / "batch")
+            if "loopback" in parts:
+                loopback(paths, serial, folder / "loopback")
+        if "ensemble" in parts:
+            ensemble(args.boats, folder / "ensemble")
+    if "busy" in parts:
+        busy(args.busy_boats)
     print(f"load average at the end {os.getloadavg()[0]:.1f}")
 
 
