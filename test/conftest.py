@@ -12,6 +12,7 @@ import pytest
 
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "ros_nodes: starts ROS 2 node processes (run apart from the rest)")
+    config.addinivalue_line("markers", "slow: longer than ~20 s (a multi-process check); deselect with -m 'not slow'")
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

@@ -214,6 +214,7 @@ def free_port() -> int:
         return int(sock.getsockname()[1])
 
 
+@pytest.mark.slow  # 30 s on the shared 2-core machine: three processes start and import the package
 def test_a_scheduler_and_two_workers_started_by_hand_give_the_serial_results(otters, tmp_path) -> None:
     """As on two machines: `dask scheduler` and two `dask worker` processes, here on loopback."""
     pytest.importorskip("distributed")
