@@ -34,7 +34,8 @@ def write_identify_report(out: Path, result: TrialIdentifyResult, trials: Sequen
                     f"load with: boat-twin simulate ... --config {out / 'twin.yaml'}")
     t_s, thrust, speed = (np.concatenate(column) for column in zip(*pool([trial_samples(tr) for tr in trials]),
                                                                    strict=True))
-    write_trial_report(out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None)
+    write_trial_report(out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None,
+                       title=f"identify {sources}")
 
 
 def write_diagnosis_report(out: Path, done: TrialDiagnosis, source: str) -> None:
@@ -48,7 +49,8 @@ def write_diagnosis_report(out: Path, done: TrialDiagnosis, source: str) -> None
     result["extended_model"] = str(out / EXTENDED_MODEL_NAME)
     concerned = concerned_signals(result)
     before, after = done.baseline_prediction, done.extended_prediction
-    atomic_save_figure(out / "diagnosis_signals.png", signal_figure(done.windows, before, after, concerned))
-    atomic_save_figure(out / "diagnosis_residuals.png", residual_figure(done.windows, before, after))
-    atomic_save_figure(out / "diagnosis_evidence.png", evidence_figure(result))
+    title = f"diagnose {source}"
+    atomic_save_figure(out / "diagnosis_signals.png", signal_figure(done.windows, before, after, concerned), title)
+    atomic_save_figure(out / "diagnosis_residuals.png", residual_figure(done.windows, before, after), title)
+    atomic_save_figure(out / "diagnosis_evidence.png", evidence_figure(result), title)
     atomic_write_text(out / "diagnosis.json", to_json(result) + "\n")
