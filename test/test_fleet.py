@@ -1,5 +1,5 @@
-"""Fleets: identify / diagnose --each over many trials (one corrupt), resume after a killed run, ensembles whose
-rows do not depend on the chunking or the workers, and a cluster started by hand on loopback (docs/fleet.md).
+"""Fleets: identify / diagnose / follow --each over many trials (one corrupt), resume after a killed run, ensembles
+whose rows do not depend on the chunking or the workers, and a cluster started by hand on loopback (docs/fleet.md).
 
 The identify batch runs on independently integrated trials of another boat (test_other_boat's Otter, RK4 written
 apart from the twin's kernel), whose true mass each row must find."""
@@ -113,6 +113,22 @@ def test_diagnose_each_names_a_hidden_current_and_keeps_going_past_a_corrupt_fil
     assert {r["trial"]: r["verdict"] for r in table}["current"] == "water_current"
     assert by_name["empty"]["status"] == "error" and "empty.mcap" in by_name["empty"]["error"]
     assert (out / "current" / "diagnosis.json").is_file() and (out / "current" / "extended_model.yaml").is_file()
+
+
+def test_follow_each_rows_are_what_follow_reports_alone(tmp_path) -> None:
+    trial = hidden.write_trial(tmp_path / "random.mcap", TwinConfig(), "random", 3, 120.0)
+    (tmp_path / "empty.mcap").write_bytes(b"")
+    code, stdout, _ = run_cli("follow", trial, "--json")
+    assert code == 0
+    final = json.loads(stdout)["final"]
+    code, _, _ = run_cli("follow", trial, tmp_path / "empty.mcap", "--each", "--out", tmp_path / "out",
+                         "--scheduler", "sync")
+    assert code == 2
+    rows, _ = summary(tmp_path / "out")
+    assert rows[0]["status"] == "ok" and rows[1]["status"] == "error" and "empty.mcap" in rows[1]["error"]
+    assert rows[0]["mass_kg"] == final["mass_kg"] and rows[0]["causes"] == final["causes"]
+    assert rows[0]["misfit_speed_innovation_ratio"] == final["speed_innovation_ratio"]
+    assert (tmp_path / "out" / "random" / "twin.yaml").is_file()
 
 
 def test_resume_after_a_killed_run_skips_complete_reports_and_force_redoes_them(otters, tmp_path) -> None:

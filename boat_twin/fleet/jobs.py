@@ -114,6 +114,33 @@ class DiagnoseJob:
                 "misfit_extended_x_noise": _misfit(result["extended"]["rmse"], result["noise"])}
 
 
+@dataclass(frozen=True)
+class FollowJob:
+    """``boat-twin follow TRIAL --out DIR`` on one trial, the live twin started from ``config``."""
+
+    config: TwinConfig = field(default_factory=TwinConfig)
+    read: ReadOptions = field(default_factory=ReadOptions)
+    verb = "follow"
+    columns = ("mass_kg", "resistance_factor", "causes", "unexplained", "misfit_speed_innovation_ratio")
+    """The headline at the trial's end: the adapted surge mass, kg, and resistance factor, -; the causes the
+    rolling diagnosis names and whether something is unexplained; the speed innovations' RMS over their noise
+    in the last minute, -."""
+
+    def __call__(self, path: Path, out: Path) -> dict[str, Any]:
+        """Follow the trial at ``path``, write its report into ``out``; its row's values."""
+        from boat_twin.fleet.reports import write_follow_report
+        from boat_twin.shadow.follow import follow_trial
+
+        trial = self.read.read(path)
+        done = follow_trial(trial, self.config)
+        out.mkdir(parents=True, exist_ok=True)
+        write_follow_report(out, done, self.config, str(path))
+        final = done.final
+        return {"duration_s": duration_s(trial), "mass_kg": final["mass_kg"],
+                "resistance_factor": final["resistance_factor"], "causes": list(final["causes"]),
+                "unexplained": final["unexplained"], "misfit_speed_innovation_ratio": final["speed_innovation_ratio"]}
+
+
 def _misfit(rmse: dict[str, float], noise: dict[str, float]) -> float | None:
     """The largest RMSE over noise of the signals whose noise is known, -."""
     ratios = [rmse[s] / noise[s] for s in noise if s in rmse and np.isfinite(noise[s]) and noise[s] > 0.0]

@@ -1,5 +1,5 @@
-"""One trial's report files, written the same way by ``identify`` / ``diagnose TRIAL --out DIR`` and by a batch
-(``--each --out DIR``: each trial's report in ``DIR/<trial name>/``)."""
+"""One trial's report files, written the same way by ``identify`` / ``diagnose`` / ``follow TRIAL --out DIR`` and
+by a batch (``--each --out DIR``: each trial's report in ``DIR/<trial name>/``)."""
 
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ from boat_twin.ident.pipeline import TrialIdentifyResult, pool, trial_samples
 from boat_twin.ident.report import write_trial_report
 from boat_twin.ident.resimulate import Resimulation
 from boat_twin.io.trial import Trial
+from boat_twin.shadow.follow import FollowResult
 from boat_twin.vessel.params import VesselParams
 
 
@@ -54,3 +55,15 @@ def write_diagnosis_report(out: Path, done: TrialDiagnosis, source: str) -> None
     atomic_save_figure(out / "diagnosis_residuals.png", residual_figure(done.windows, before, after), title)
     atomic_save_figure(out / "diagnosis_evidence.png", evidence_figure(result), title)
     atomic_write_text(out / "diagnosis.json", to_json(result) + "\n")
+
+
+def write_follow_report(out: Path, done: FollowResult, config: TwinConfig, source: str) -> None:
+    """The report of a :func:`~boat_twin.shadow.follow.follow_trial` of ``source`` (started from ``config``) into
+    ``out``: follow.json, the three figures and the adapted twin.yaml."""
+    from boat_twin.shadow.plots import cause_figure, innovation_figure, model_figure
+
+    atomic_write_text(out / "follow.json", to_json(done.to_dict()) + "\n")
+    atomic_save_figure(out / "follow_innovations.png", innovation_figure(done))
+    atomic_save_figure(out / "follow_model.png", model_figure(done, config.vessel.mass_kg))
+    atomic_save_figure(out / "follow_causes.png", cause_figure(done))
+    save_config(done.twin, out / "twin.yaml", f"boat_twin live twin adapted by: boat-twin follow {source}")
