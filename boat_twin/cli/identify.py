@@ -90,15 +90,19 @@ def run(args: argparse.Namespace) -> int:
 def _run_each(args: argparse.Namespace) -> int:
     """--each: every trial identified on its own (not pooled), on the --scheduler's workers."""
     from boat_twin.fleet.jobs import IdentifyJob, ReadOptions
-    from boat_twin.ident.twin_config import load_boat
+    from boat_twin.ident.twin_config import read_boat_file
 
     for name in ("table", "manoeuvring", "validate", "window", "config", "model"):
         if getattr(args, name):
             raise InputError(f"--each identifies each trial's thrust-speed model; --{name} does not apply")
     read = ReadOptions(parse_remap(args.topic), args.namespace or "",
                        str(args.calibration) if args.calibration is not None else None, args.columns)
+    boat_file = read_boat_file(args.boat) if args.boat is not None else None
+    if boat_file is not None and boat_file.ignored:
+        sys.stderr.write(f"{args.boat}: ignoring {', '.join(boat_file.ignored)} (identify measures the resistance and "
+                         "the effective mass, and reads only the vessel's facts)\n")
     job = IdentifyJob(read, args.order, min(args.max_order, 6), args.monotone, args.steady_window,
-                      args.thrust_tolerance, load_boat(args.boat) if args.boat is not None else None,
+                      args.thrust_tolerance, None if boat_file is None else boat_file.facts,
                       str(args.boat) if args.boat is not None else None)
     return run_each(args, job)
 
