@@ -87,22 +87,30 @@ def run(args: argparse.Namespace) -> int:
         return _run_trial(args)
 
 
+def _boat_facts(args: argparse.Namespace) -> dict[str, float] | None:
+    """The vessel facts of --boat (None without it); fields identify measures itself are said to be ignored."""
+    from boat_twin.ident.twin_config import read_boat_file
+
+    if args.boat is None:
+        return None
+    boat_file = read_boat_file(args.boat)
+    if boat_file.ignored:
+        sys.stderr.write(f"{args.boat}: ignoring {', '.join(boat_file.ignored)} (identify measures the resistance and "
+                         "the effective mass, and reads only the vessel's facts)\n")
+    return boat_file.facts
+
+
 def _run_each(args: argparse.Namespace) -> int:
     """--each: every trial identified on its own (not pooled), on the --scheduler's workers."""
     from boat_twin.fleet.jobs import IdentifyJob, ReadOptions
-    from boat_twin.ident.twin_config import read_boat_file
 
     for name in ("table", "manoeuvring", "validate", "window", "config", "model"):
         if getattr(args, name):
             raise InputError(f"--each identifies each trial's thrust-speed model; --{name} does not apply")
     read = ReadOptions(parse_remap(args.topic), args.namespace or "",
                        str(args.calibration) if args.calibration is not None else None, args.columns)
-    boat_file = read_boat_file(args.boat) if args.boat is not None else None
-    if boat_file is not None and boat_file.ignored:
-        sys.stderr.write(f"{args.boat}: ignoring {', '.join(boat_file.ignored)} (identify measures the resistance and "
-                         "the effective mass, and reads only the vessel's facts)\n")
     job = IdentifyJob(read, args.order, min(args.max_order, 6), args.monotone, args.steady_window,
-                      args.thrust_tolerance, None if boat_file is None else boat_file.facts,
+                      args.thrust_tolerance, _boat_facts(args),
                       str(args.boat) if args.boat is not None else None)
     return run_each(args, job)
 
@@ -176,13 +184,8 @@ def _run_trial(args: argparse.Namespace) -> int:
     from boat_twin.fleet.reports import write_identify_report
     from boat_twin.ident.pipeline import identify_trials
     from boat_twin.ident.report import resimulation_line
-    from boat_twin.ident.twin_config import read_boat_file
 
-    boat_file = read_boat_file(args.boat) if args.boat is not None else None
-    if boat_file is not None and boat_file.ignored:
-        sys.stderr.write(f"{args.boat}: ignoring {', '.join(boat_file.ignored)} (identify measures the resistance and "
-                         "the effective mass, and reads only the vessel's facts)\n")
-    boat = None if boat_file is None else boat_file.facts
+    boat = _boat_facts(args)
     trials = []
     for path in args.trial:
         sys.stderr.write(f"reading {path} ...\n")
