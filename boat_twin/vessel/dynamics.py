@@ -388,9 +388,10 @@ PARALLEL_MIN_BOATS = 64
 """Ensembles of at least this many boats are stepped on numba's threads (one per core). Measured per RK4 step
 (benchmarks/bench_simulator.py, idle 2-core machine): 1 boat 2.3 µs threaded against 1.3 µs on one thread,
 4 boats 0.86×, 8 boats 1.25× faster, 64 boats 2.9×. On a busy machine the threads compete with the other work
-(OpenMP's workers spin while they wait): with the threshold at 8 the test suite on both cores (pytest-xdist)
-took 5:49 and twice the CPU time instead of 2:35, since the diagnosis replays of 8-60 boats went threaded. 64
-keeps the threads to the ensembles where a call's work dwarfs that (training sets, a fit's batched Jacobian)."""
+(measured while OpenMP's workers still spun as they waited; they now sleep: boat_twin.threads): with the
+threshold at 8 the test suite on both cores (pytest-xdist) took 5:49 and twice the CPU time instead of 2:35, since
+the diagnosis replays of 8-60 boats went threaded. 64 keeps the threads to the ensembles where a call's work dwarfs
+that (training sets, a fit's batched Jacobian)."""
 
 
 class Dynamics:
