@@ -1,4 +1,4 @@
-"""Suite-wide test configuration: the `ros_nodes` marker.
+"""Suite-wide test configuration: the `ros_nodes` and `slow` markers.
 
 Tests of a module that starts ROS 2 nodes (it imports ``test/rosnodes.py``) are marked ``ros_nodes``. `make test`
 runs the rest on every core (pytest-xdist) and these alone afterwards: a live recorder that shares the cores with
@@ -12,6 +12,7 @@ import pytest
 
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "ros_nodes: starts ROS 2 node processes (run apart from the rest)")
+    config.addinivalue_line("markers", "slow: longer than ~20 s (several fits or long simulations)")
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
