@@ -7,7 +7,8 @@ Run: .venv/bin/python benchmarks/bench_zigzag_inverse.py [--samples 600] [--larg
 Nothing is asserted: the script prints Markdown tables for docs/identification.md and the command that made them.
 
 Training sets (the paper's recipe on this boat): every manoeuvring coefficient (m22, m33, a_v, a_r, Y_vv, N_rr
-and x_c) drawn normally around the twin's with a standard deviation of 10 % (z clipped to ±3), one 20°/20°
+and x_c) drawn normally around the twin's with a standard deviation of 10 % (z clipped to ±3) and the steering
+offset with 0.5° (the features record the outboards' actual angle, command + offset), one 20°/20°
 zigzag at 6 m/s each (helm at the 10 Hz log rate), simulated as one ensemble (each boat its own coefficients in
 one kernel run) and summarised by the 42 features (:mod:`boat_twin.ident.zigzag_features`); split 400/100/100
 (train / verification / test) as the paper, and 80/10/10 % of ``--large`` (10^4; simulated for the length of
@@ -32,6 +33,10 @@ coefficients, and from the answers for the measured features of that same trial 
 noise-free features and of the largest set's MLP trained on measured features (is the network a useful starting
 point?).
 Speed: zigzags per second, one simulate() per boat against the ensemble, in the same run.
+Sensitivity (the paper's Fig. 17, Statistica's analysis): each input of a trained MLP replaced by its mean (and,
+apart, shuffled across the samples), the error over the error with all inputs, ranked; beside the ranks of
+VAR1-14 the paper shows. And the features that do not vary over the noise-free set, with the actual rudder angle
+and with the commanded one.
 """
 
 from __future__ import annotations

@@ -55,6 +55,8 @@ def test_hidden_boat_coefficients_are_found_within_the_targets(hidden) -> None:
         assert abs(err[key]) < 0.15, (key, err)
     covered = sum(lo <= truth[k] <= hi for k, (lo, hi) in fit.ci95.items())
     assert covered >= 7, (fit.ci95, truth)
+    timing = fit.steering_timing  # the twin's own steering acts when commanded (measured: +0.001 s, t −0.6)
+    assert not timing["flagged"] and abs(timing["delay_s"]) < 0.02, timing
     assert fit.correlation.shape == (8, 8) and np.allclose(np.diag(fit.correlation), 1.0)
 
 
