@@ -56,6 +56,7 @@ from typing import Any
 import numpy as np
 
 from boat_twin.config import TwinConfig
+from boat_twin.errors import InputError
 from boat_twin.ident.manoeuvring import apply_parameters, fit_manoeuvring
 from boat_twin.ident.manoeuvring_trials import recorded
 from boat_twin.ident.zigzag_features import (
@@ -473,7 +474,8 @@ def main() -> int:
               "noisy": f"the answer of the MLP ({args.large or 600}, measured features)"}
     start_net = {"clean": "600 noise-free", "noisy": f"{args.large or 600} measured"}
     net_err: dict[str, list[np.ndarray]] = {name: [] for name in nets}
-    fits: dict[str, dict[str, list[Any]]] = {k: {"err": [], "s": [], "evals": [], "start": []} for k in starts}
+    fits: dict[str, dict[str, list[Any]]] = {k: {"err": [], "s": [], "evals": [], "start": [], "failed": []}
+                                             for k in starts}
     fit_sd = []
     test = small_split.test[:args.fit_boats]
     with tempfile.TemporaryDirectory(prefix="zigzag_inverse_") as tmp:
@@ -488,7 +490,12 @@ def main() -> int:
             line = []
             for key in starts:
                 prior = centre if key == "twin" else guesses[start_net[key]]
-                fit = fit_manoeuvring([trial], apply_parameters(config, dict(zip(KEYS, prior, strict=True))))
+                try:
+                    fit = fit_manoeuvring([trial], apply_parameters(config, dict(zip(KEYS, prior, strict=True))))
+                except InputError as err:  # a fit that ends nowhere is a result: counted, not a crash
+                    fits[key]["failed"].append(f"boat {j}: {err}")
+                    line.append(f"from {key} failed")
+                    continue
                 fitted = np.array([fit.values[k] for k in KEYS])
                 fits[key]["err"].append(relative_error(fitted[None], y[i][None], centre)[0])
                 fits[key]["start"].append(relative_error(prior[None], y[i][None], centre)[0])
@@ -608,7 +615,8 @@ def main() -> int:
             f = fits[key]
             print(f"- output-error fit from {label}: start error median {med(f['start']):.1%}; median "
                   f"{np.median(f['s']):.1f} s, {np.median(f['evals']):.0f} evaluations (range {min(f['evals'])}–"
-                  f"{max(f['evals'])}), error {med(f['err']):.2%}")
+                  f"{max(f['evals'])}), error {med(f['err']):.2%}; failed {len(f['failed'])}"
+                  + "".join(f"\n  - {why}" for why in f["failed"]))
     return 0
 
 
