@@ -18,6 +18,7 @@ setup(
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
         (f"share/{PACKAGE}/config/cable", glob("config/cable/*.yaml")),
         (f"share/{PACKAGE}/config/mavlink", glob("config/mavlink/*.yaml")),
+        (f"share/{PACKAGE}/config/ros", glob("config/ros/*.yaml")),
     ],
     python_requires=">=3.10",
     install_requires=[
