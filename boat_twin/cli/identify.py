@@ -155,6 +155,11 @@ def _run_manoeuvring(args: argparse.Namespace, out: Path | None) -> int:
                   "residual RMS / measured noise: ") + ratios + (
                   f"; thresholds {block['misfit_threshold']}): the model lacks a cause in these trials and the "
                   "coefficients are biased" if block["misfit"] else ""))
+    timing = block["steering_timing"]
+    if not timing["flagged"]:  # a flagged check says so in its note
+        low, high = timing["delay_ci95_s"]
+        lines.append(f"steering timing: delay {timing['delay_s']:+.3f} s, 95% CI [{low:+.3f}, {high:+.3f}] s (score "
+                     f"test t {timing['t']:+.2f}, limit ±{timing['t_limit']:g})")
     for check in block["validation"]:
         line = (f"validation {check['source']}: heading RMSE {check['heading_rmse_deg']:.2f}°, yaw rate RMSE "
                 f"{check['yaw_rate_rmse_degps']:.3f}°/s, track RMSE {check['track_rmse_m']:.1f} m")

@@ -224,6 +224,73 @@ def turning_circle(params: VesselParams, speed_mps: float = 6.0, approach_s: flo
                          execute_s=approach_s)
 
 
+@dataclass(frozen=True)
+class EngineTurningCircle:
+    """A turning circle at a constant engine setting (IMO MSC.137(76): the approach's engine setting held):
+    straight approach at ``speed_mps``, full steering to starboard from ``execute_s``, s; each outboard held at the
+    shaft power that holds the approach speed, so its thrust grows as the turn slows the boat
+    (:func:`engine_setting_thrust_N`; docs/model.md, "engine setting"). Closed loop: the thrust follows each boat's
+    speed through water at every integration step."""
+
+    params: VesselParams
+    speed_mps: float = 6.0
+    execute_s: float = 10.0
+    duration_s: float = 130.0
+    name: str = "turning-circle-engine"
+
+    @property
+    def initial_surge_mps(self) -> float:
+        """The boat starts at the approach speed, m/s."""
+        return self.speed_mps
+
+    @property
+    def shaft_power_W(self) -> float:
+        """Shaft power per outboard of the engine setting that holds the approach speed straight ahead, W."""
+        return _approach_thrust_N(self.params, self.speed_mps) * self.speed_mps / self.params.propulsive_efficiency
+
+    def helm(self, n_boats: int) -> EngineTurningCircle:
+        """Stateless: the engine setting and the steering follow the time and each boat's speed."""
+        return self
+
+    def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
+        """Thrust of the engine setting at each boat's surge speed; full steering from the execute."""
+        out = np.zeros((states.shape[0], 4))
+        out[:, 0] = out[:, 1] = engine_setting_thrust_N(self.params, self.shaft_power_W, states[:, 3])
+        if t_s >= self.execute_s - 1e-9:
+            out[:, 2:] = self.params.max_steering_rad
+        return out
+
+
+def engine_setting_thrust_N(params: VesselParams, shaft_power_W: float, speed_mps: np.ndarray) -> np.ndarray:
+    """Thrust per outboard at a constant engine setting (throttle) that delivers ``shaft_power_W``, at speed
+    through water ``speed_mps``, N: η·P/|u| (the power branch of the engine envelope at that power, with its
+    propulsive efficiency η), within the full-throttle envelope (the bollard thrust at low speed)."""
+    speed = np.abs(np.asarray(speed_mps, dtype=float))
+    power_limited = params.propulsive_efficiency * shaft_power_W / np.maximum(speed, 1e-9)
+    return np.minimum(max_thrust_N(params, speed), power_limited)
+
+
+@dataclass(frozen=True)
+class CrashStop(CommandProfile):
+    """The full-astern stopping test (IMO MSC.137(76) §5.3, MSC/Circ.1053): straight approach, then full astern
+    on both outboards from ``execute_s``, s (the engine envelope limits astern thrust to the reverse ratio of the
+    bollard thrust)."""
+
+    execute_s: float = 0.0
+
+
+def crash_stop(params: VesselParams, speed_mps: float = 6.0, approach_s: float = 10.0,
+               stop_s: float = 30.0) -> CrashStop:
+    """Start at ``speed_mps`` at the thrust that holds it, then full astern (−bollard thrust commanded on both
+    outboards, steering amidships) from ``approach_s`` for ``stop_s``, s; the boat is dead in the water within
+    seconds and then backs (the figures end at the stop)."""
+    thrust = _approach_thrust_N(params, speed_mps)
+    astern = -params.bollard_thrust_N
+    rows = np.array([[thrust, thrust, 0.0, 0.0], [astern, astern, 0.0, 0.0]])
+    return CrashStop("crash-stop", np.array([0.0, approach_s]), rows, approach_s + stop_s, speed_mps,
+                     execute_s=approach_s)
+
+
 def random_commands(params: VesselParams, rng: np.random.Generator, duration_s: float = 600.0,
                     min_hold_s: float = 5.0, max_hold_s: float = 25.0) -> CommandProfile:
     """Random piecewise-constant commands: total thrust, differential thrust and steering, each held 5-25 s.
@@ -262,6 +329,8 @@ SCENARIOS: Mapping[str, ScenarioFactory] = MappingProxyType({
     "zigzag-20-20": _zigzag("zigzag-20-20", 20.0),
     "zigzag-10-10": _zigzag("zigzag-10-10", 10.0),
     "turning-circle": lambda params, rng: turning_circle(params),
+    "turning-circle-engine": lambda params, rng: EngineTurningCircle(params),
+    "crash-stop": lambda params, rng: crash_stop(params),
     "random": lambda params, rng: random_commands(params, rng),
 })
 """Every named scenario: name (as the command line takes it) → factory."""
