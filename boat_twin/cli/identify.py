@@ -124,7 +124,8 @@ def _run_manoeuvring(args: argparse.Namespace, out: Path | None) -> int:
                   "coefficients are biased" if block["misfit"] else ""))
     for check in block["validation"]:
         line = (f"validation {check['source']}: heading RMSE {check['heading_rmse_deg']:.2f}°, yaw rate RMSE "
-                f"{check['yaw_rate_rmse_degps']:.3f}°/s, track RMSE {check['track_rmse_m']:.1f} m")
+                f"{check['yaw_rate_rmse_degps']:.3f}°/s, " + ("track: no GNSS positions" if check["track_rmse_m"] is None
+                                                              else f"track RMSE {check['track_rmse_m']:.1f} m"))
         if "tactical_diameter_m" in check:
             d = check["tactical_diameter_m"]
             line += f", tactical diameter {d['predicted']:.1f} m predicted vs {d['measured']:.1f} m measured"
@@ -152,7 +153,7 @@ def _run_trial(args: argparse.Namespace) -> int:
 
     from boat_twin.config import TwinConfig, save_config
     from boat_twin.ident.pipeline import identify_trials, pool, trial_samples
-    from boat_twin.ident.report import resimulation_line, write_trial_report
+    from boat_twin.ident.report import count, model_lines, resimulation_line, write_trial_report
     from boat_twin.ident.twin_config import load_boat
 
     boat = load_boat(args.boat) if args.boat is not None else None
@@ -178,20 +179,10 @@ def _run_trial(args: argparse.Namespace) -> int:
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0
-    fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
-    dyn = result.get("dynamic", {})
-    names = ", ".join(map(str, args.trial))
-    lines = [
-        f"trial{'s' if len(trials) > 1 else ''} {names}: {len(result['steady_points'])} steady points, "
-        f"{len(result.get('rejected_segments', []))} segments rejected",
-        f"steady-state detector: window {result['steady_criteria']['window_s']:.3g} s, thrust tolerance "
-        f"{result['steady_criteria']['thrust_tolerance_N']:.3g} N",
-        f"selected order N = {result['selected_order']} ({result.get('selection_reason', '')})",
-        "Fc(v) coefficients c0..cN, N/(m/s)^i: " + ", ".join(f"{c:.4g}" for c in fit["coefficients"]),
-        f"RMSE {fit['rmse']:.2f} N",
-        f"effective mass {dyn['mass_kg']:.0f} kg, 95% CI [{dyn['mass_ci95_kg'][0]:.0f}, {dyn['mass_ci95_kg'][1]:.0f}]"
-        if "mass_kg" in dyn else f"effective mass: {dyn.get('error', 'not identified')}",
-    ]
+    lines = [f"trial{'s' if len(trials) > 1 else ''} {', '.join(map(str, args.trial))}: "
+             f"{count(len(result['steady_points']), 'steady point')}, "
+             f"{count(len(result.get('rejected_segments', [])), 'segment')} rejected"]
+    lines += model_lines(result)
     if result.get("rejected_segments"):
         lines.append(rejected_summary(result["rejected_segments"]))
     if vessel is not None:

@@ -33,7 +33,7 @@ from scipy.optimize import brentq
 
 from boat_twin.errors import InputError
 from boat_twin.units import KGF_N
-from boat_twin.vessel.params import VesselParams, max_thrust_N, surge_time_constant_s
+from boat_twin.vessel.params import VesselParams, max_thrust_N, surge_time_constant_s, top_speed_mps
 from boat_twin.vessel.scenario_names import SCENARIO_NAMES
 
 SETTLED_RECORD_S = 30.0
@@ -109,16 +109,29 @@ def steady_speed_mps(params: VesselParams, total_thrust_N: float) -> float:
     return float(brentq(lambda u: float(params.resistance.force_N(u)) - total_thrust_N, 0.0, hi, xtol=1e-10))
 
 
+def top_thrust_N(params: VesselParams) -> float:
+    """Total thrust that holds the boat's top speed straight ahead (both outboards at their limit), N."""
+    return float(params.resistance.force_N(top_speed_mps(params)))
+
+
+def staircase_levels_N(params: VesselParams) -> tuple[float, ...]:
+    """The paper's staircase (:data:`THRUST_STEP_LEVELS_KGF`) carried to ``params``' boat: each level the same
+    share of the thrust that holds the top speed as on the default boat (exactly the paper's levels there)."""
+    scale = top_thrust_N(params) / top_thrust_N(VesselParams())
+    return tuple(f * KGF_N * scale for f in THRUST_STEP_LEVELS_KGF)
+
+
 def thrust_steps(
     params: VesselParams, levels_N: tuple[float, ...] | None = None, settle_time_constants: float = 6.0
 ) -> CommandProfile:
-    """The paper's experiment: a staircase of total thrust levels, split equally between the outboards.
+    """The paper's experiment: a staircase of total thrust levels, split equally between the outboards; by
+    default the paper's levels carried to the boat (:func:`staircase_levels_N`).
 
     Each level is held for ``settle_time_constants`` local surge time constants m11/(dFc/du) at its steady
     speed (6 → within 0.25 % of the final speed; at least 30 s, at most 150 s), plus
     :data:`SETTLED_RECORD_S` of settled speed for the steady-state detector to average; then 60 s at idle.
     """
-    levels = levels_N or tuple(f * KGF_N for f in THRUST_STEP_LEVELS_KGF)
+    levels = levels_N or staircase_levels_N(params)
     times, rows, t = [], [], 0.0
     for level in levels:
         tau = surge_time_constant_s(params, steady_speed_mps(params, level))
@@ -251,7 +264,7 @@ def _zigzag(name: str, angle_deg: float) -> ScenarioFactory:
 
     def make(params: VesselParams, rng: np.random.Generator) -> Scenario:
         angle = math.radians(angle_deg)
-        return Zigzag(params, angle, angle, name=name)
+        return Zigzag(params, angle, angle, speed_mps=params.turn_speed_mps, name=name)
 
     return make
 
@@ -261,7 +274,7 @@ SCENARIOS: Mapping[str, ScenarioFactory] = MappingProxyType({
     "accel-stop": lambda params, rng: accel_stop(params),
     "zigzag-20-20": _zigzag("zigzag-20-20", 20.0),
     "zigzag-10-10": _zigzag("zigzag-10-10", 10.0),
-    "turning-circle": lambda params, rng: turning_circle(params),
+    "turning-circle": lambda params, rng: turning_circle(params, params.turn_speed_mps),
     "random": lambda params, rng: random_commands(params, rng),
 })
 """Every named scenario: name (as the command line takes it) → factory."""
@@ -322,3 +335,20 @@ def read_command_csv(path: Path) -> CommandProfile:
         raise InputError(f"{path}:2: time must not be negative")
     table = np.array(rows)
     return CommandProfile(path.name, table[:, 0], table[:, 1:], float(max(table[-1, 0], 0.1)))
+
+
+def scenario_warnings(params: VesselParams, scenario: Scenario) -> list[str]:
+    """What in ``scenario`` the boat cannot do: commands beyond its engines' thrust (ahead: the bollard thrust;
+    astern: its share), or a start above its top speed. Empty when it fits the boat."""
+    warnings = []
+    top = top_speed_mps(params)
+    if scenario.initial_surge_mps > top * 1.001:
+        warnings.append(f"{scenario.name} starts at {scenario.initial_surge_mps:.3g} m/s, above this boat's top "
+                        f"speed {top:.3g} m/s")
+    if isinstance(scenario, CommandProfile) and scenario.values.size:
+        thrust = scenario.values[:, :2]
+        ahead, astern = params.bollard_thrust_N, params.reverse_thrust_ratio * params.bollard_thrust_N
+        if np.max(thrust) > ahead * 1.001 or np.min(thrust) < -astern * 1.001:
+            warnings.append(f"{scenario.name} commands {np.min(thrust):.4g} to {np.max(thrust):.4g} N per engine; "
+                            f"this boat's engines give {-astern:.4g} to {ahead:.4g} N: they saturate")
+    return warnings
