@@ -142,7 +142,8 @@ def main() -> None:
     print(f"median |mass error| {np.median(np.abs(errors)):.1%} (target 5 %); max {np.max(np.abs(errors)):.1%}")
     print(f"re-simulation RMSE / the true model's re-simulation RMSE: median {np.median(ratios):.3f}, max "
           f"{np.max(ratios):.3f} (target 1.1); baseline's: median {np.median(base_ratios):.3f}")
-    print(f"selected never worse than the baseline: {all(r <= b * 1.001 for r, b in zip(ratios, base_ratios))}")
+    never_worse = all(r <= b * 1.001 for r, b in zip(ratios, base_ratios, strict=True))
+    print(f"selected never worse than the baseline: {never_worse}")
     print(f"identification time per trial: median {np.median(seconds):.1f} s, max {np.max(seconds):.1f} s")
 
 

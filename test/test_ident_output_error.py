@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from independent import rk4_held
 
 from boat_twin.ident import pipeline
 from boat_twin.ident.output_error import (
@@ -18,7 +19,6 @@ from boat_twin.ident.output_error import (
     speed_floor_mps,
     split_segments,
 )
-from independent import rk4_held
 
 DT_S = 0.1
 NOISE_MPS = 0.05

@@ -123,9 +123,10 @@ def _run_manoeuvring(args: argparse.Namespace, out: Path | None) -> int:
                   f"; thresholds {block['misfit_threshold']}): the model lacks a cause in these trials and the "
                   "coefficients are biased" if block["misfit"] else ""))
     for check in block["validation"]:
+        track = "track: no GNSS positions" if check["track_rmse_m"] is None \
+            else f"track RMSE {check['track_rmse_m']:.1f} m"
         line = (f"validation {check['source']}: heading RMSE {check['heading_rmse_deg']:.2f}°, yaw rate RMSE "
-                f"{check['yaw_rate_rmse_degps']:.3f}°/s, " + ("track: no GNSS positions" if check["track_rmse_m"] is None
-                                                              else f"track RMSE {check['track_rmse_m']:.1f} m"))
+                f"{check['yaw_rate_rmse_degps']:.3f}°/s, {track}")
         if "tactical_diameter_m" in check:
             d = check["tactical_diameter_m"]
             line += f", tactical diameter {d['predicted']:.1f} m predicted vs {d['measured']:.1f} m measured"

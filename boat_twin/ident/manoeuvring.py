@@ -499,8 +499,8 @@ def tactical_diameter_m(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray
                         execute_index: int) -> float | None:
     """Transfer when the heading has changed by 180° since the execute (IMO MSC.137(76) tactical diameter), m:
     the displacement normal to the approach heading between the execute and that instant; None if the heading
-    never turns that far or no position is known there. Positions are averaged over ±:data:`TURN_AVERAGING_S` (both instants are stationary
-    points of the transfer)."""
+    never turns that far or no position is known there. Positions are averaged over ±:data:`TURN_AVERAGING_S`
+    (both instants are stationary points of the transfer)."""
     change = np.abs(yaw_rad[execute_index:] - yaw_rad[execute_index])
     beyond = np.flatnonzero(change >= math.pi)
     if beyond.size == 0:

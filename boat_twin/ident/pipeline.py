@@ -20,7 +20,7 @@ import yaml
 from boat_twin.data import dyda2021_table1_si
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_write_text
-from boat_twin.ident.dynamic import DynamicResult, DynamicWindow, check_samples, identify_dynamic
+from boat_twin.ident.dynamic import DynamicWindow, check_samples, identify_dynamic
 from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadyCriteria, detect_steady_segments
 from boat_twin.ident.output_error import SurgeFit, SurgeRecord, identify_surge
 from boat_twin.ident.paper import reproduce
