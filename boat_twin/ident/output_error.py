@@ -2,12 +2,13 @@
 
 Model (Dyda & Chumakova 2021, eq. 1, in the form Fossen 2011 writes surge)::
 
-    m·du/dt = T(t) − Fc(u),   measured: √(u² + s²) (GNSS speed over ground; calm water)
+    m·du/dt = T(t) − Fc(u),   measured: E|(u, 0) + e| (GNSS speed over ground; calm water)
 
 with m the effective surge mass (hull plus added mass), T the surge thrust Σ T_i·cos δ_i held from one sample
-to the next (the commands' zero-order hold), s = σ·√(π/2) the mean speed over ground GNSS noise σ (per axis,
-estimated from the speeds) shows at rest — a speed over ground is never below it on average, and the fit must
-not read that floor as motion —, and the resistance a non-negative combination of increasing terms::
+to the next (the commands' zero-order hold), e the GNSS velocity noise (σ per axis, estimated from the speeds):
+a speed over ground is the norm of a noisy velocity, whose mean is the Rice distribution's (σ·√(π/2) at rest,
+never 0; :func:`rice_mean`) — the fit must not read that floor as motion —, and the resistance a non-negative
+combination of increasing terms::
 
     Fc(u) = sign(u)·[a·|u| + b·u² + Σ_k w_k·I_k(|u|)],   a, b, w_k ≥ 0
 
@@ -42,7 +43,7 @@ from typing import Any
 
 import numba
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize, special, stats
 from scipy.interpolate import BSpline
 
 from boat_twin.errors import InputError
@@ -273,11 +274,22 @@ class SurgeFit:
         }
 
 
-def speed_floor_mps(speed_mps: np.ndarray) -> float:
-    """Mean GNSS speed over ground of a boat at rest, m/s: σ·√(π/2) (Rice distribution of |v + e| at v = 0, each
-    velocity axis with the white noise σ estimated from the speeds themselves)."""
+def speed_noise_mps(speed_mps: np.ndarray) -> float:
+    """White noise σ of each GNSS velocity axis, m/s, estimated from the speeds (second differences); 0 if unknown."""
     sigma = white_noise_stdev(speed_mps)
-    return float(sigma * np.sqrt(np.pi / 2.0)) if np.isfinite(sigma) else 0.0
+    return float(sigma) if np.isfinite(sigma) else 0.0
+
+
+def rice_mean(u_mps: np.ndarray, sigma_mps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Mean GNSS speed over ground |(u, 0) + e| with e ~ N(0, σ²) per axis (the Rice distribution's mean) and its
+    derivative in u: σ·√(π/2)·[(1 + 2z)·I0e(z) + 2z·I1e(z)] with z = u²/(4σ²) (I0e, I1e: exponentially scaled
+    Bessel functions); its z-derivative is I0e + I1e. At rest σ·√(π/2), far from rest |u| + σ²/(2|u|)."""
+    if sigma_mps <= 0.0:
+        return np.abs(u_mps), np.sign(u_mps)
+    z = u_mps**2 / (4.0 * sigma_mps**2)
+    i0, i1 = special.i0e(z), special.i1e(z)
+    scale = sigma_mps * np.sqrt(np.pi / 2.0)
+    return scale * ((1.0 + 2.0 * z) * i0 + 2.0 * z * i1), scale * (i0 + i1) * u_mps / (2.0 * sigma_mps**2)
 
 
 def split_segments(records: list[SurgeRecord], max_gap_s: float = MAX_GAP_S) -> list[Segment]:
@@ -303,7 +315,7 @@ class _Problem:
         self.step = float(self.grid[1])
         self.p = basis.size
         self.evaluations = 0
-        self.floor_mps = [speed_floor_mps(rec.speed_mps) for rec in records]
+        self.noise_mps = [speed_noise_mps(rec.speed_mps) for rec in records]
 
     def unpack(self, x: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
         """(coefficients, mass, initial speeds) from the optimiser's vector."""
@@ -321,8 +333,8 @@ class _Problem:
             rec = self.records[seg.record]
             out = _simulate(rec.t_s[seg.start:seg.stop], rec.thrust_N[seg.start:seg.stop], float(u0[s]), mass,
                             np.ascontiguousarray(coeffs, dtype=float), self.table, self.step, MAX_STEP_S)
-            speed = np.sqrt(out[:, 0] ** 2 + self.floor_mps[seg.record] ** 2)
-            sign = (out[:, 0] / speed)[:, None]
+            speed, slope = rice_mean(out[:, 0], self.noise_mps[seg.record])
+            sign = slope[:, None]
             rows.append(speed - rec.speed_mps[seg.start:seg.stop])
             jac = np.zeros((out.shape[0], n_free + len(self.segments)))
             jac[:, : n_free] = (sign * out[:, 1: 1 + n_free])

@@ -183,12 +183,14 @@ def pool(pieces: list[tuple[Any, Any, Any]]) -> list[tuple[np.ndarray, np.ndarra
 def physical_problems(fit: SurgeFit, points: list[dict[str, float]],
                       pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> list[str]:
     """Why the identified model is not physical (empty: it is): a mass that is not positive, a resistance above
-    the thrust that held a steady speed, or above the largest thrust at a speed the boat sustained for 5 s, or
-    a curve that decreases."""
+    the (positive) thrust that held a steady speed, or above the largest thrust at a speed the boat sustained for
+    5 s, or a curve that decreases."""
     problems = []
     if not (np.isfinite(fit.mass_kg) and fit.mass_kg > 0.0):
         problems.append(f"effective mass {fit.mass_kg:.4g} kg is not positive")
     for p in points:
+        if p["thrust_N"] <= 0.0:  # at rest (or astern): the speed over ground is the GNSS noise floor
+            continue
         force = float(fit.resistance_N(np.array([p["speed_mps"]]))[0])
         if force > (1.0 + OVER_THRUST) * p["thrust_N"] + 3.0 * p.get("thrust_stderr_N", 0.0):
             problems.append(f"Fc({p['speed_mps']:.2f} m/s) = {force:.4g} N is above the {p['thrust_N']:.4g} N "
