@@ -204,8 +204,11 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "identify",
         help=verb_help("identify"),
-        description="Identify the longitudinal model m·dv/dt = F - Fc(v), Fc(v) = sum c_i·v^i "
-        "(Dyda & Chumakova 2021). Internally SI; the built-in table is reported in its own units (kn, kgf).",
+        description="Identify the longitudinal model m·du/dt = T - Fc(u) (Dyda & Chumakova 2021). From trials: an "
+        "output-error fit over every sample (effective mass, Fc non-decreasing with Fc(0) = 0, complexity by "
+        "cross-validated prediction, beside the baseline a·u + b·u|u|), with the paper's steady-point power "
+        "series Fc(v) = sum c_i·v^i as a view. Internally SI; the built-in table is reported in its own units "
+        "(kn, kgf).",
     )
     p.add_argument("trial", nargs="*", type=Path,
                    help=TRIAL_HELP + "; several trials of one boat are pooled into one identification")
@@ -228,7 +231,8 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--order", type=int,
-        help="power-series order N (default: chosen by leave-one-out cross-validation and the Bayesian information "
+        help="power-series order N of the steady points' fit (the table's model; for a trial a view beside the "
+        "output-error model; default: chosen by leave-one-out cross-validation and the Bayesian information "
         "criterion, BIC)"
     )
     p.add_argument(
@@ -238,7 +242,8 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--monotone",
         action="store_true",
-        help="constrain Fc to be non-decreasing from 0 to the top speed and Fc(0) >= 0",
+        help="constrain the power series to be non-decreasing from 0 to the top speed and Fc(0) >= 0 (the "
+        "output-error model of a trial always is)",
     )
     p.add_argument(
         "--through-origin", action="store_true", help="impose Fc(0) = c0 = 0 (no resistance at rest)"
@@ -255,7 +260,8 @@ def register(subparsers: Any) -> None:
         "--boat", type=Path, metavar="BOAT.yaml",
         help="the boat's facts for the twin --out writes (twin.yaml): any vessel field but the resistance, e.g. "
         "length_m, beam_m, draft_m, engine_y_m, bollard_thrust_N (SI; docs/identification.md); facts not given "
-        "are the default boat's carried to the identified mass")
+        "are the default boat's carried to the identified mass; its mass_kg is held when the data do not "
+        "identify the mass")
     p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
     p.add_argument(
         "--out",
