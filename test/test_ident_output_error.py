@@ -18,6 +18,7 @@ from boat_twin.ident.output_error import (
     predict,
     rice_mean,
     speed_noise_mps,
+    spline_basis,
     split_segments,
 )
 
@@ -28,7 +29,7 @@ NOISE_MPS = 0.05
 def small_boat_resistance_N(u: np.ndarray | float) -> np.ndarray:
     """A 20 kg survey boat's Fc: linear + quadratic + a plateau near 1 m/s (N); odd in u."""
     a = np.abs(np.asarray(u, dtype=float))
-    return np.sign(u) * (4.0 * a + 3.0 * (np.tanh((a - 1.0) / 0.2) + np.tanh(5.0)) + 5.0 * a**2)
+    return np.sign(u) * (4.0 * a + 3.0 * (np.tanh((a - 1.0) / 0.35) + np.tanh(1.0 / 0.35)) + 5.0 * a**2)
 
 
 def run_boat(thrust_N: np.ndarray, mass_kg: float, rng: np.random.Generator,
@@ -154,19 +155,17 @@ def test_a_resistance_above_the_thrust_that_held_a_speed_is_not_physical() -> No
 
 
 def test_interval_coverage_over_seeds() -> None:
-    """Mass intervals hold the truth on at least 4 of 5 independent boats (95 % nominal: P(≤ 3 of 5) = 2 %)."""
+    """Mass intervals of the richest candidate (12 I-splines) hold the truth on at least 5 of 6 independent boats
+    (95 % nominal: P(≤ 4 of 6) = 3 %; measured 5 of 6, the sixth 0.7 % off: the basis' approximation of the
+    plateau biases the mass of a clean, precise trial by a few tenths of a percent — docs/identification.md)."""
     held = 0
-    for seed in range(5):
+    for seed in range(6):
         rng = np.random.default_rng(100 + seed)
         mass = float(rng.uniform(15.0, 60.0))
         record, _ = run_boat(short_holds(rng, 300.0), mass, rng)
-        lo, hi = fit_surge([record], ResistanceBasis(SPLINE_KNOTS)).mass_ci95_kg
+        lo, hi = fit_surge([record], spline_basis(record.speed_mps, 12)).mass_ci95_kg
         held += lo <= mass <= hi
-    assert held >= 4
-
-
-SPLINE_KNOTS = (0.0, 0.0, 0.0, 0.8, 1.2, 3.0, 3.0, 3.0)
-"""Five I-splines over 0-3 m/s with knots about the plateau: a basis that can hold the small boat's curve."""
+    assert held >= 5
 
 
 def test_scenarios_are_carried_to_a_30_kg_boat() -> None:

@@ -24,7 +24,7 @@ squares (scipy.optimize.least_squares, trust-region reflective) with the Jacobia
 equations integrated with the state (numba). Transients, steps down, reversing and closed-loop stretches all
 count; no steady points needed.
 
-Complexity: the baseline (a, b only) and I-spline sets of 3, 5 and 8 terms are compared by cross-validated
+Complexity: the baseline (a, b only) and I-spline sets of 3, 5, 8 and 12 terms are compared by cross-validated
 multi-step prediction — leave one recording out when there are three or more, else leave one of four
 consecutive time blocks of every recording out; each held-out stretch is simulated open loop from its measured
 initial speed. The smallest set within 1 % of the best held-out error is taken, and only if it predicts every
@@ -50,7 +50,7 @@ from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.vessel.resistance import TableResistance
 
-SPLINE_SIZES = (3, 5, 8)
+SPLINE_SIZES = (3, 5, 8, 12)
 """I-spline terms tried beside the baseline (complexity chosen by cross-validation)."""
 CV_BLOCKS = 4
 """Consecutive time blocks a recording is split into for cross-validation when there are fewer than three."""
