@@ -26,8 +26,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("demo", help=verb_help("demo"),
                               description="Regenerate the shipped thrust-steps sample, check it matches, read it "
                               "back as a Trial, print speeds per thrust level and sensor rates, plot, identify.")
-    p.add_argument("--sample", type=Path, default=SAMPLE_BAG, help=f"sample bag (default {SAMPLE_BAG})")
-    p.add_argument("--out", type=Path, default=Path("out/demo"), help="report directory (default out/demo)")
+    p.add_argument("--sample", type=Path, default=SAMPLE_BAG, metavar="BAG",
+                   help=f"sample bag (default {SAMPLE_BAG})")
+    p.add_argument("--out", type=Path, default=Path("out/demo"), metavar="DIR",
+                   help="report directory (default out/demo)")
     p.add_argument("--force", action="store_true", help="overwrite the regenerated bag in --out")
     p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")
     p.set_defaults(handler=run)
@@ -110,7 +112,8 @@ def identification_summary(sample: Trial, out: Path) -> str:
     t_s, thrust, speed = sample.t_s[keep], sample.surge_thrust_N[keep], sample.speed_mps[keep]
     result = identify_arrays(t_s, thrust, speed)
     write_trial_report(out / "identify", result, t_s, thrust, speed,
-                       true_resistance_N=TwinConfig().vessel.resistance.force_N)  # the sample's own boat
+                       true_resistance_N=TwinConfig().vessel.resistance.force_N,  # the sample's own boat
+                       title=f"demo: identify {sample.metadata.source}")
     oe = result["output_error"]
     lo, hi = oe["selected"]["mass_ci95_kg"]
     paper = reproduce()
