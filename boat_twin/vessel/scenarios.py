@@ -241,7 +241,8 @@ def random_commands(params: VesselParams, rng: np.random.Generator, duration_s: 
                     min_hold_s: float = 5.0, max_hold_s: float = 25.0) -> CommandProfile:
     """Random piecewise-constant commands: total thrust, differential thrust and steering, each held 5-25 s.
 
-    Total thrust is uniform in [0.2, 1.0] of the bollard thrust per engine, differential up to ±15 %,
+    Total thrust is uniform in [0.2, 1.0] of the bollard thrust per engine, differential up to ±15 % (an engine
+    never commanded beyond its bollard thrust),
     steering uniform within ±0.6 of the steering limit: a rich excitation of surge, sway and yaw.
     """
     times, rows, t = [], [], 0.0
@@ -250,7 +251,8 @@ def random_commands(params: VesselParams, rng: np.random.Generator, duration_s: 
         split = rng.uniform(-0.15, 0.15)
         angle = rng.uniform(-0.6, 0.6) * params.max_steering_rad
         times.append(t)
-        rows.append([base * (1 + split), base * (1 - split), angle, angle])
+        left, right = min(base * (1 + split), params.bollard_thrust_N), min(base * (1 - split), params.bollard_thrust_N)
+        rows.append([left, right, angle, angle])
         t += rng.uniform(min_hold_s, max_hold_s)
     return CommandProfile("random", np.array(times), np.array(rows), duration_s)
 
