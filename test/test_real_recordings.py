@@ -273,7 +273,10 @@ def test_pooled_bags_and_detector_options_through_the_cli(tmp_path, capsys) -> N
     assert {p["recording"] for p in result["steady_points"]} == {0, 1}
     assert len(result["steady_points"]) == 2 * len(LEVELS_N) and len(result["trials"]) == 2
     assert result["steady_criteria"]["thrust_tolerance_N"] == 1.5
-    assert main(["identify", *bags, "--steady-window", "25"]) == 2
+    assert main(["identify", *bags, "--steady-window", "25", "--json"]) == 0  # the model needs no steady point
+    result = json.loads(capsys.readouterr().out)
+    assert result["steady_points"] == [] and any("0 steady point(s) found" in w for w in result["warnings"])
+    assert main(["identify", *bags, "--steady-window", "25", "--order", "1"]) == 2  # the view asked for: refused
     assert "0 steady point(s) found" in capsys.readouterr().err
     assert main(["identify", bags[0], "--steady-window", "-1"]) == 2
     assert "--steady-window must be a positive number" in capsys.readouterr().err
