@@ -568,8 +568,8 @@ def tactical_diameter_m(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray
                         execute_index: int) -> float | None:
     """Transfer when the heading has changed by 180° since the execute (IMO MSC.137(76) tactical diameter), m:
     the displacement normal to the approach heading between the execute and that instant; None if the heading
-    never turns that far. Positions are averaged over ±:data:`TURN_AVERAGING_S` (both instants are stationary
-    points of the transfer)."""
+    never turns that far or no position is known there. Positions are averaged over ±:data:`TURN_AVERAGING_S`
+    (both instants are stationary points of the transfer)."""
     change = np.abs(yaw_rad[execute_index:] - yaw_rad[execute_index])
     beyond = np.flatnonzero(change >= math.pi)
     if beyond.size == 0:
@@ -580,9 +580,12 @@ def tactical_diameter_m(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray
 
     def around(i: int) -> np.ndarray:
         span = slice(max(i - half, 0), i + half + 1)
-        return np.array([np.nanmean(east_m[span]), np.nanmean(north_m[span])])
+        east, north = east_m[span], north_m[span]
+        known = np.isfinite(east) & np.isfinite(north)
+        return np.array([np.mean(east[known]), np.mean(north[known])]) if known.any() else np.full(2, np.nan)
 
-    return float(abs(normal @ (around(execute_index + int(beyond[0])) - around(execute_index))))
+    across = float(abs(normal @ (around(execute_index + int(beyond[0])) - around(execute_index))))
+    return across if math.isfinite(across) else None
 
 
 def gyro_heading(trial: Trial, first: int) -> np.ndarray:
@@ -592,6 +595,12 @@ def gyro_heading(trial: Trial, first: int) -> np.ndarray:
     turned = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * dt)])
     turned -= turned[first]
     return turned + float(np.nanmean(trial.heading_rad[first:] - turned[first:]))
+
+
+def _rms_or_none(squares: np.ndarray) -> float | None:
+    """√(mean of the finite ``squares``), or None when there is none (e.g. a trial without positions)."""
+    finite = squares[np.isfinite(squares)]
+    return float(np.sqrt(np.mean(finite))) if finite.size else None
 
 
 def validate(trial: Trial, config: TwinConfig) -> dict[str, Any]:
@@ -623,7 +632,7 @@ def validate(trial: Trial, config: TwinConfig) -> dict[str, Any]:
         "duration_s": float(trial.t_s[stop - 1] - trial.t_s[first]),
         "yaw_rate_rmse_degps": math.degrees(float(np.sqrt(np.nanmean(rate_error**2)))),
         "heading_rmse_deg": math.degrees(float(np.sqrt(np.nanmean((yaw - model_yaw) ** 2)))),
-        "track_rmse_m": float(np.sqrt(np.nanmean(np.sum(track_error**2, axis=-1)))),
+        "track_rmse_m": _rms_or_none(np.sum(track_error**2, axis=-1)),
     }
     steering = trial.commands[first:stop, 2]
     changed = np.flatnonzero(np.abs(steering - steering[0]) > 1e-6)
