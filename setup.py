@@ -57,6 +57,12 @@ setup(
             "types-PyYAML",
             "MoorPy>=1.0",
         ],
+        # Fleets (boat_twin.fleet: --each batches and --ensemble runs on a Dask cluster; docs/fleet.md). Without it
+        # they run in the calling process.
+        "fleet": [
+            "dask>=2024.1",
+            "distributed>=2024.1",
+        ],
         # Benchmarks only (benchmarks/bench_zigzag_inverse.py: the neural-network inverse map of Pashentsev 2025).
         "bench": [
             "scikit-learn>=1.3",

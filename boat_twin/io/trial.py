@@ -111,6 +111,10 @@ class Trial:
     gnss_bridged: np.ndarray | None = None
     """(n,) True where the GNSS velocity and position were interpolated across a lost sample (a dropout): not
     a measurement, and smoother than one; None: none was."""
+    actual_angle_rad: np.ndarray | None = None
+    """The outboards' actual steering angle (mean of the two), rad, where the recording has it (a rudder-angle
+    indicator; the simulator's actuator state, :func:`~boat_twin.twin.sea_trial.actual_angle_on_grid`): it trails
+    the commanded angle at the steering rate and differs from it by the steering offset. None: not recorded."""
 
     @property
     def speed_mps(self) -> np.ndarray:
