@@ -13,7 +13,14 @@ from pathlib import Path
 from typing import Any
 
 from boat_twin.cli import verb_help
-from boat_twin.cli.options import TRIAL_HELP, add_trial_options, claim_out_dir, trial_from_args, twin_config_from_args
+from boat_twin.cli.options import (
+    TRIAL_HELP,
+    add_trial_options,
+    claim_out_dir,
+    trial_from_args,
+    trial_inputs,
+    twin_config_from_args,
+)
 from boat_twin.diagnose.defaults import WINDOW_S
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_save_figure, atomic_write_text, atomic_write_yaml, to_json
@@ -34,7 +41,7 @@ TABLE_OUTPUTS = (EXTENDED_MODEL_NAME, "diagnosis_table.png")
 """What ``diagnose --table dyda2021 --out DIR`` writes."""
 
 
-def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
+def _run_trial(args: argparse.Namespace, staging: Path | None) -> int:
     from boat_twin.config import save_config
     from boat_twin.diagnose.pipeline import diagnose_trial
     from boat_twin.diagnose.report import (
@@ -50,33 +57,34 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     if not args.json:
         sys.stderr.write("\r" + " " * 72 + "\r")
     result = done.result
-    if out is not None:
+    if staging is not None:
+        out = args.out
         names = ", ".join(v["effect"] for v in result["verdict"]) or "none"
-        save_config(done.extended, out / EXTENDED_MODEL_NAME,
+        save_config(done.extended, staging / EXTENDED_MODEL_NAME,
                     f"boat_twin extended model: diagnose {args.trial} (named: {names})\n"
                     f"load with: boat-twin simulate ... --config {out / EXTENDED_MODEL_NAME}")
         result["extended_model"] = str(out / EXTENDED_MODEL_NAME)
         concerned = concerned_signals(result)
         before, after = done.baseline_prediction, done.extended_prediction
-        atomic_save_figure(out / "diagnosis_signals.png", signal_figure(done.windows, before, after, concerned))
-        atomic_save_figure(out / "diagnosis_residuals.png", residual_figure(done.windows, before, after))
-        atomic_save_figure(out / "diagnosis_evidence.png", evidence_figure(result))
-        atomic_write_text(out / "diagnosis.json", to_json(result) + "\n")
+        atomic_save_figure(staging / "diagnosis_signals.png", signal_figure(done.windows, before, after, concerned))
+        atomic_save_figure(staging / "diagnosis_residuals.png", residual_figure(done.windows, before, after))
+        atomic_save_figure(staging / "diagnosis_evidence.png", evidence_figure(result))
+        atomic_write_text(staging / "diagnosis.json", to_json(result) + "\n")
     print(to_json(result) if args.json else text_report(result))
     return 0
 
 
-def _run_table(args: argparse.Namespace, out: Path | None) -> int:
+def _run_table(args: argparse.Namespace, staging: Path | None) -> int:
     from boat_twin.diagnose.pipeline import diagnose_paper_table
     from boat_twin.diagnose.report import table_figure, table_text
 
     result, diag, resistance = diagnose_paper_table(args.model_order)
     result["extended_model"] = None
-    if out is not None and resistance is not None:
-        atomic_write_yaml(out / EXTENDED_MODEL_NAME, {"vessel": {"resistance": resistance.to_dict()}})
-        result["extended_model"] = str(out / EXTENDED_MODEL_NAME)
-    if out is not None:
-        atomic_save_figure(out / "diagnosis_table.png", table_figure(diag))
+    if staging is not None and resistance is not None:
+        atomic_write_yaml(staging / EXTENDED_MODEL_NAME, {"vessel": {"resistance": resistance.to_dict()}})
+        result["extended_model"] = str(args.out / EXTENDED_MODEL_NAME)
+    if staging is not None:
+        atomic_save_figure(staging / "diagnosis_table.png", table_figure(diag))
     print(to_json(result) if args.json else table_text(result, diag))
     return 0
 
@@ -90,13 +98,13 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("give either a TRIAL or --table, not both")
         if args.table != "dyda2021":
             raise InputError(f"--table {args.table!r}: the built-in table is 'dyda2021'")
-        with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as out:
-            return _run_table(args, out)
+        with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as reports:
+            return _run_table(args, reports.staging if reports else None)
     if args.trial is None:
         raise InputError("give a TRIAL (bag, .mcap, .tlog, .BIN, .csv) or --table dyda2021")
     number("--window", args.window, above=0.0)
-    with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force) as out:
-        return _run_trial(args, out)
+    with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force, trial_inputs(args)) as reports:
+        return _run_trial(args, reports.staging if reports else None)
 
 
 def register(subparsers: Any) -> None:

@@ -19,10 +19,11 @@ from boat_twin.cli.options import (
     add_trial_options,
     claim_out_dir,
     trial_from_args,
+    trial_inputs,
     twin_config_from_args,
 )
 from boat_twin.errors import InputError
-from boat_twin.files import atomic_save_figure, atomic_write_text, refuse_input_as_output, to_json
+from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
 
 TABLE_OUTPUTS = ("identify.json", "report.txt", "model.yaml", "fits.png", "residuals.png")
 """What ``identify --table --out DIR`` writes."""
@@ -67,19 +68,18 @@ def run(args: argparse.Namespace) -> int:
     if args.table is not None and args.trial:
         raise InputError("give a TRIAL or --table, not both")
     if args.table is not None:
-        with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as out:
-            return _run_table(args, out)
+        with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as reports:
+            return _run_table(args, reports.staging if reports else None)
     if not args.trial:
         raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN, .csv) or --table dyda2021")
     if args.manoeuvring:
-        refuse_input_as_output(args.out, *args.trial, *args.validate, args.config, args.model)
-        with claim_out_dir(args.out, MANOEUVRING_OUTPUTS, args.force) as out:
-            return _run_manoeuvring(args, out)
+        with claim_out_dir(args.out, MANOEUVRING_OUTPUTS, args.force, trial_inputs(args)) as reports:
+            return _run_manoeuvring(args, reports.staging if reports else None)
     for name in ("validate", "window", "config", "model"):
         if getattr(args, name):
             raise InputError(f"--{name} needs --manoeuvring")
-    with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force):
-        return _run_trial(args)
+    with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force, trial_inputs(args)) as reports:
+        return _run_trial(args, reports.staging if reports else None)
 
 
 def _run_manoeuvring(args: argparse.Namespace, out: Path | None) -> int:
@@ -145,7 +145,7 @@ def rejected_summary(rejected: list[dict[str, Any]]) -> str:
     return f"rejected segments: {counts} (each with its reason in --json / identify.json)"
 
 
-def _run_trial(args: argparse.Namespace) -> int:
+def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     """Recorded trials, pooled: replay through the online identifier, batch fits, dynamic mass, re-simulation of
     each with the identified model (closing the loop), report (into --out, claimed by the caller)."""
     import numpy as np
@@ -165,16 +165,16 @@ def _run_trial(args: argparse.Namespace) -> int:
     result, resims, vessel = identify_trials(trials, order=args.order, max_order=min(args.max_order, 6),
                                              monotone=args.monotone, window_s=args.steady_window,
                                              thrust_tolerance_N=args.thrust_tolerance, boat=boat)
-    if args.out is not None:
+    if out is not None:
         if vessel is not None:
-            save_config(TwinConfig(vessel=vessel), args.out / "twin.yaml",
+            save_config(TwinConfig(vessel=vessel), out / "twin.yaml",
                         f"boat_twin twin of the boat identified from {', '.join(map(str, args.trial))}\n"
                         f"geometry: {args.boat or 'the default boat carried to the identified mass'}; where each fact "
                         "came from: identify.json 'twin'\n"
                         f"load with: boat-twin simulate ... --config {args.out / 'twin.yaml'}")
         t_s, thrust, speed = (np.concatenate(column) for column in zip(*pool([trial_samples(tr) for tr in trials]),
                                                                        strict=True))
-        write_trial_report(args.out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None)
+        write_trial_report(out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None)
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0

@@ -432,16 +432,16 @@ class MavlinkBoat:
         if self._sock is not None:
             self._sock.close()
             self._sock = None
-        if self._tlog is not None:
-            self._tlog.close()
-            self._tlog = None
-        if self._tlog_claim is not None:
-            try:
-                if complete:
-                    self._tlog_claim.commit(self._tlog_claim.scratch / self._tlog_claim.path.name)
-            finally:
-                self._tlog_claim.release()
-                self._tlog_claim = None
+        tlog, self._tlog = self._tlog, None
+        claim, self._tlog_claim = self._tlog_claim, None
+        try:
+            if tlog is not None:
+                tlog.close()  # flushes: a full disk fails here too
+            if claim is not None and complete:
+                claim.commit(claim.scratch / claim.path.name)
+        finally:
+            if claim is not None:
+                claim.release()  # the scratch and the lock go, whatever failed
 
     def __enter__(self) -> MavlinkBoat:
         return self
