@@ -51,9 +51,14 @@ def _run_trial(args: argparse.Namespace, staging: Path | None) -> int:
         signal_figure,
         text_report,
     )
+    from boat_twin.io.trial import thrust_outliers
 
     trial = trial_from_args(args.trial, args)
-    done = diagnose_trial(trial, twin_config_from_args(args), args.window, None if args.json else _progress)
+    config = twin_config_from_args(args)
+    summary = trial.metadata.summary_line()
+    warnings = [w for w in [thrust_outliers(trial, config.vessel.bollard_thrust_N)] if w]
+    sys.stderr.write("".join(f"{line}\n" for line in [summary, *(f"warning: {w}" for w in warnings)]))
+    done = diagnose_trial(trial, config, args.window, None if args.json else _progress)
     if not args.json:
         sys.stderr.write("\r" + " " * 72 + "\r")
     result = done.result

@@ -85,7 +85,7 @@ def trial_inputs(args: argparse.Namespace) -> list[Path]:
     paths = list(trials) if isinstance(trials, list) else [trials]
     paths += list(getattr(args, "validate", None) or [])
     columns = getattr(args, "columns", None)
-    if columns and "=" not in columns:
+    if columns and str(columns).endswith((".yaml", ".yml")):
         paths.append(Path(columns))
     paths += [getattr(args, name, None) for name in ("calibration", "config", "model", "boat")]
     return [Path(p) for p in paths if p is not None]

@@ -71,7 +71,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _scenario(args: argparse.Namespace, config: TwinConfig) -> Scenario:
     import numpy as np
 
-    from boat_twin.vessel.scenarios import CommandProfile, make_scenario, read_command_csv
+    from boat_twin.vessel.scenarios import MAX_DURATION_S, CommandProfile, make_scenario, read_command_csv
 
     if args.commands and args.scenario:
         raise InputError("give a scenario or --commands, not both")
@@ -87,6 +87,9 @@ def _scenario(args: argparse.Namespace, config: TwinConfig) -> Scenario:
             profile = read_command_csv(args.commands)
         if args.duration is not None:
             return make_scenario_with_duration(profile, args.duration)
+        if not profile.duration_s <= MAX_DURATION_S:
+            raise InputError(f"{args.commands}: its commands run to {profile.duration_s:g} s, beyond "
+                             f"{MAX_DURATION_S:g} s (7 days, the longest simulation); give --duration")
         return profile
     if not args.scenario:
         raise InputError(f"name a scenario ({', '.join(SCENARIO_NAMES)}) or give --commands FILE")
@@ -128,6 +131,11 @@ def run(args: argparse.Namespace) -> int:
     from boat_twin.vessel.params import describe
 
     integer("--seed", args.seed, minimum=0, maximum=SEED_MAX)
+    if args.duration is not None:
+        from boat_twin.validation import number
+        from boat_twin.vessel.scenarios import MAX_DURATION_S
+
+        number("--duration", args.duration, above=0.0, maximum=MAX_DURATION_S)
     if args.out is not None and args.out.suffix.lower() in (".tlog", ".bin", ".csv"):
         raise InputError(f"--out {args.out}: writes a rosbag2 (a directory, or a .mcap file), which readers take "
                          f"for a {args.out.suffix} file by its name; for a MAVLink log use --tlog FILE")

@@ -16,7 +16,7 @@ import numpy as np
 from boat_twin.errors import InputError
 from boat_twin.files import load_yaml
 from boat_twin.io.trial import Trial
-from boat_twin.vessel.params import VesselParams, params_from_dict, similar_boat
+from boat_twin.vessel.params import VesselParams, params_from_dict, similar_boat, vessel_section
 from boat_twin.vessel.resistance import resistance_from_dict
 
 BOAT_FIELDS = tuple(f.name for f in fields(VesselParams) if f.name != "resistance")
@@ -28,9 +28,7 @@ THRUST_LIMITS = ("bollard_thrust_N", "reverse_thrust_ratio", "engine_power_W")
 def load_boat(path: Path) -> dict[str, float]:
     """The facts of a boat file (``--boat``): a mapping of vessel fields (optionally under ``vessel:``), checked
     as the vessel loader checks them (units in the names; docs/model.md)."""
-    data = load_yaml(path)
-    if isinstance(data, dict) and "vessel" in data:
-        data = data["vessel"]
+    data = vessel_section(load_yaml(path), str(path))
     if not isinstance(data, dict):
         raise InputError(f"{path}: expected a mapping of vessel facts (length_m, beam_m, ...)")
     for key in data:

@@ -11,6 +11,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from boat_twin.errors import InputError
+from boat_twin.nodes.parameters import refuse_undeclared
 
 
 def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = None) -> int:
@@ -18,6 +19,11 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
     rclpy.init(args=args)
     try:
         node = factory()
+        try:
+            refuse_undeclared(node)
+        except InputError:
+            node.destroy_node()
+            raise
     except (InputError, ParameterException) as err:
         sys.stderr.write(f"{name}: error: {' '.join(str(err).split())}\n")
         rclpy.try_shutdown()
