@@ -77,7 +77,7 @@ YAML_FILES = {
 
 
 @pytest.fixture()
-def hostile(tmp_path) -> dict[str, str]:
+def hostile(tmp_path, small_bag) -> dict[str, str]:
     files = {}
     for name, text in YAML_FILES.items():
         (tmp_path / f"{name}.yaml").write_text(text)
@@ -100,8 +100,10 @@ def hostile(tmp_path) -> dict[str, str]:
     (bag / "fifobag_0.mcap").write_bytes(b"")
     bad_meta = tmp_path / "badmeta"
     bad_meta.mkdir()
-    (bad_meta / "metadata.yaml").write_text("rosbag2_bagfile_information:\n  version: [8\n  storage: x\n")
-    (bad_meta / "badmeta_0.mcap").write_bytes(b"")
+    (bad_meta / "metadata.yaml").write_text(  # rosbags' YAML error spans several lines
+        "rosbag2_bagfile_information:\n  version: 8\n  storage_identifier: mcap\n  relative_file_paths: [trial.mcap\n"
+        "  duration: {nanoseconds: 1}\n")
+    shutil.copy(small_bag, bad_meta / "trial.mcap")
     return {**files, **{p.stem: str(p) for p in tmp_path.iterdir() if p.suffix != ".yaml" and p.stem not in files},
             "fifo": str(tmp_path / "fifo.yaml"), "huge": str(tmp_path / "huge.yaml"), "tmp": str(tmp_path)}
 
@@ -128,7 +130,7 @@ def hostile(tmp_path) -> dict[str, str]:
     (["convert", "{fifo_tlog}", "--out", "{tmp}/x.mcap"], "fifo.tlog: not a regular file"),
     (["identify", "{fifo_csv}", "--columns", "time=t,x=x,y=y,thrust_left=tl"], "fifo.csv: not a regular file"),
     (["identify", "{fifobag}"], "metadata.yaml: not a regular file"),
-    (["identify", "{badmeta}"], "badmeta"),
+    (["identify", "{badmeta}"], "badmeta/metadata.yaml: while parsing a flow sequence"),
     (["identify", "{widetrial}", "--columns", "time=t,x=x,y=y,thrust_left=tl"], "malformed CSV"),
     (["simulate", "--commands", "{wide}", "--json"], "malformed CSV"),
     (["simulate", "--commands", "{late}", "--json"], "beyond 604800 s"),
@@ -140,8 +142,10 @@ def hostile(tmp_path) -> dict[str, str]:
     (["simulate", "accel-stop", "--duration", "1e300", "--mavlink", "udpout:127.0.0.1:9"], "must be <= 604800"),
     (["simulate", "accel-stop", "--duration", "604801", "--tlog", "{tmp}/x.tlog"], "must be <= 604800"),
     (["simulate", "accel-stop", "--duration", "2", "--out", "{loop}"], "symlink loop"),
-    (["simulate", "accel-stop", "--json", "--config", "{loop}"], "loop"),
-    (["identify", "{loop}"], "loop"),
+    (["simulate", "accel-stop", "--duration", "2", "--out", "{tmp}/x.mcap", "--config", "{loop}"], "symlink loop"),
+    (["simulate", "--commands", "{loop}", "--out", "{tmp}/x.mcap"], "symlink loop"),
+    (["convert", "{loop}", "--out", "{tmp}/x.mcap"], "symlink loop"),
+    (["identify", "--table", "dyda2021", "--out", "{loop}"], "loop"),
 ])
 def test_hostile_input_is_one_line_and_exit_2(hostile, small_bag, capsys, argv, message) -> None:
     names = {**{k.replace(".", "_"): v for k, v in hostile.items()}, "small_bag": str(small_bag),
@@ -294,3 +298,16 @@ def test_sigterm_on_a_blocked_reader_never_hangs_the_tests() -> None:
     finally:
         fifo.unlink()
     assert run.returncode == 2 and "not a regular file" in _one_error_line(run.stderr)
+
+
+def test_diagnose_on_a_velocity_nan_throughout_is_one_line(tmp_path, capsys) -> None:
+    trial = run_sea_trial(TwinConfig(), make_scenario("thrust-steps", TwinConfig().vessel, np.random.default_rng(0),
+                                                      duration_s=160.0), seed=0)
+    messages = []
+    for topic, stamp, msg in trial_messages(trial, truth=False):
+        if topic == "gnss/vel":
+            msg.twist.linear.y = math.nan
+        messages.append((topic, stamp, msg))
+    write_bag(tmp_path / "nan_vel.mcap", messages)
+    assert main(["diagnose", str(tmp_path / "nan_vel.mcap"), "--json"]) == 2
+    assert "nan_vel.mcap: the speed over ground is unknown throughout" in _one_error_line(capsys.readouterr().err)
