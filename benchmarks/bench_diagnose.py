@@ -26,7 +26,7 @@ to compare.
 (c) FROLS reference. A detector built on SysIdentPy's FROLS (forward regression orthogonal least squares,
 Billings' ERR criterion), run on the same trials (``pip install --no-deps 'sysidentpy>=0.9'``; skipped with a
 message when it is not importable). It regresses the *baseline* replay residuals — measured − predicted by
-the unextended model in the same 20 s windows boat_twin uses (:func:`boat_twin.diagnose.replay.predict`) — on
+the unextended model in the same 20 s windows boat_twin uses (:func:`boat_twin.twin.replay.predict`) — on
 a library of candidate terms, one or more per catalogue effect, and names the effects whose terms FROLS
 selects with an error reduction ratio (ERR, the fraction of the residual's sum of squares the term explains)
 above a threshold. Two targets:
@@ -84,9 +84,9 @@ from boat_twin.diagnose import hidden
 from boat_twin.diagnose.effects import EFFECT_NAMES
 from boat_twin.diagnose.hidden import PROBES
 from boat_twin.diagnose.pipeline import WINDOW_S, diagnose_trial
-from boat_twin.diagnose.replay import Windows, cut_windows, predict
 from boat_twin.files import atomic_write_text
 from boat_twin.io.bags import read_trial
+from boat_twin.twin.replay import Windows, cut_windows, predict
 from boat_twin.vessel.params import derive_coefficients
 from boat_twin.vessel.tow import TowConfig, tow_drag_N
 

@@ -29,9 +29,9 @@ from dataclasses import replace
 import numpy as np
 
 from boat_twin.config import TwinConfig
-from boat_twin.diagnose.replay import predict
 from boat_twin.ident.manoeuvring import PARAMETER_KEYS, fit_manoeuvring, prepare, tactical_diameter_m
 from boat_twin.ident.manoeuvring_trials import draw_boat, zigzag_set
+from boat_twin.twin.replay import predict
 from boat_twin.vessel.scenarios import Zigzag, turning_circle
 from boat_twin.vessel.simulate import simulate
 

@@ -1,17 +1,17 @@
-"""Unit conversions used at the edges only (inside, everything is SI)."""
-
-import math
+"""Unit conversions used at the edges only (inside, everything is SI), and the physical constants, each once."""
 
 KNOT_MPS = 1852.0 / 3600.0
 """One international knot in m/s (exact: 1852 m per hour)."""
 
-KGF_N = 9.80665
-"""One kilogram-force in N (standard gravity, exact by definition)."""
-
 STANDARD_GRAVITY_MPS2 = 9.80665
-"""Standard acceleration of gravity g0 in m/s^2 (CGPM 1901)."""
+"""Standard acceleration of gravity g0 in m/s^2 (CGPM 1901): the twin's one gravity."""
 
+KGF_N = STANDARD_GRAVITY_MPS2 * 1.0
+"""One kilogram-force in N: 1 kg under standard gravity (exact by definition)."""
 
-def enu_yaw_to_nautical_deg(yaw_rad: float) -> float:
-    """ENU yaw (counter-clockwise from east, rad) to a nautical heading (clockwise from north, deg, 0..360)."""
-    return math.degrees(math.pi / 2.0 - yaw_rad) % 360.0
+SEAWATER_DENSITY_KGPM3 = 1025.0
+"""Sea water density, kg/m^3: 15 °C, 35 PSU (ITTC 7.5-02-01-03; UNESCO EOS-80 gives 1025.9 at the surface): the
+twin's one water density (hull coefficients, towed cable)."""
+
+AIR_DENSITY_KGPM3 = 1.225
+"""Air density at 15 °C, sea level, kg/m^3 (ISA)."""

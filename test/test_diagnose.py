@@ -21,11 +21,11 @@ from boat_twin.config import TwinConfig, load_config
 from boat_twin.diagnose import hidden
 from boat_twin.diagnose.effects import EFFECTS, catalogue
 from boat_twin.diagnose.pipeline import diagnose_trial
-from boat_twin.diagnose.replay import SIGNALS, cut_windows, predict
 from boat_twin.diagnose.report import text_report
 from boat_twin.diagnose.search import MIN_MISFIT_SHARE, WIND_ALIASES, Candidate, Fit, misfit_share
 from boat_twin.diagnose.table import runs_test_p
 from boat_twin.io.bags import read_trial, write_bag
+from boat_twin.twin.replay import SIGNALS, cut_windows, predict
 from boat_twin.vessel.params import derive_coefficients
 
 TRIAL_S = 300.0

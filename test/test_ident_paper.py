@@ -7,8 +7,8 @@ import pytest
 
 from boat_twin.cli import main
 from boat_twin.data import dyda2021_table1
+from boat_twin.data.dyda2021 import PAPER_FISHER
 from boat_twin.ident.paper import (
-    PAPER_FISHER,
     check_printed_tables,
     fisher_statistic,
     paper_model_values,

@@ -1,28 +1,39 @@
 """The package's layers, lowest first: a module imports only from its own layer or below (function-level imports
-included). The order is the architecture of the README's developer section."""
+included), and the sibling packages of one layer (identification, diagnosis, plots) not from each other. The order
+is the architecture of docs/architecture.md."""
 
 from __future__ import annotations
 
 import ast
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1] / "boat_twin"
 LAYERS = (
-    ("errors", "units", "signal_noise", "files", "validation", "lazy", "data"),  # util: no domain knowledge
+    ("errors", "units", "frames", "signal_noise", "files", "validation", "lazy", "data"),  # util: no domain knowledge
     ("cable",),  # towed body + cable (the vessel's tow load uses it)
     ("vessel",),  # params, resistance, dynamics, environment, scenarios
     ("sensors",),  # observation models: truth -> measurements
     ("config",),  # the twin's configuration: vessel + environment + sensors (+ tow)
     ("io",),  # formats: ROS 2 messages, bags, MAVLink logs -> Trial
     ("twin",),  # the twin run batch (sea trial) or tick by tick (live)
-    ("ident", "diagnose", "plots"),  # analyses of trials
+    ("ident", "diagnose", "plots"),  # analyses of trials: siblings over one core (SIBLINGS)
     ("link",),  # the twin as a live MAVLink boat
     ("nodes", "cli"),  # front ends: ROS 2 nodes, the boat-twin command
 )
 
+SIBLINGS = frozenset({"ident", "diagnose", "plots"})
+"""Packages of one layer that never import each other: identification and diagnosis both build on the twin's
+windowed replay (twin/replay.py) and the paper's tables (data/), not on one another."""
+
+
+def top_of(module: str) -> str:
+    return module.split(".")[1] if module.count(".") else ""
+
 
 def layer_of(module: str) -> int:
-    top = module.split(".")[1] if module.count(".") else ""
+    top = top_of(module)
     for index, names in enumerate(LAYERS):
         if top in names:
             return index
@@ -39,6 +50,16 @@ def imports_of(path: Path) -> set[str]:
     return found
 
 
+def wrong_import(module: str, target: str) -> str | None:
+    """Why ``module`` must not import ``target`` (None: it may)."""
+    if layer_of(target) > layer_of(module):
+        return "runs back up"
+    own, other = top_of(module), top_of(target)
+    if own != other and {own, other} <= SIBLINGS:
+        return "crosses to a sibling"
+    return None
+
+
 def test_every_module_imports_only_its_layer_or_below() -> None:
     wrong = []
     for path in sorted(ROOT.rglob("*.py")):
@@ -46,9 +67,29 @@ def test_every_module_imports_only_its_layer_or_below() -> None:
         module = ".".join(relative.parts)
         if module in ("boat_twin.__init__",):
             continue
-        own = layer_of(module)
-        wrong += [f"{module} -> {target}" for target in imports_of(path) if layer_of(target) > own]
-    assert not wrong, "imports that run back up:\n" + "\n".join(wrong)
+        wrong += [f"{module} -> {target}: {why}" for target in sorted(imports_of(path))
+                  if (why := wrong_import(module, target))]
+    assert not wrong, "imports against the layers:\n" + "\n".join(wrong)
+
+
+@pytest.mark.parametrize(("module", "target"), [
+    ("boat_twin.ident.manoeuvring", "boat_twin.diagnose.search"),
+    ("boat_twin.diagnose.pipeline", "boat_twin.ident.paper"),
+    ("boat_twin.plots", "boat_twin.ident.report"),
+    ("boat_twin.twin.replay", "boat_twin.ident.steady"),
+])
+def test_the_rule_refuses_siblings_both_ways_and_upward_imports(module: str, target: str) -> None:
+    assert wrong_import(module, target) is not None
+
+
+@pytest.mark.parametrize(("module", "target"), [
+    ("boat_twin.ident.manoeuvring", "boat_twin.twin.replay"),
+    ("boat_twin.diagnose.pipeline", "boat_twin.data.dyda2021"),
+    ("boat_twin.ident.report", "boat_twin.ident.paper"),
+    ("boat_twin.cli.diagnose", "boat_twin.ident"),
+])
+def test_the_rule_allows_the_own_package_and_below(module: str, target: str) -> None:
+    assert wrong_import(module, target) is None
 
 
 def test_every_package_names_its_public_api() -> None:

@@ -27,7 +27,6 @@ from boat_twin.link.mavlink_boat import (
 )
 from boat_twin.twin.live import LiveTwin
 from boat_twin.twin.sea_trial import run_sea_trial
-from boat_twin.units import enu_yaw_to_nautical_deg
 from boat_twin.vessel.scenarios import make_scenario
 
 EPOCH_S = 1.7e9
@@ -121,7 +120,7 @@ def test_stream_ids_crc_rates_and_positions_match_the_simulators_truth(gcs) -> N
         assert m.vx / 100 == pytest.approx(tr.vel_north_mps[i], abs=0.006)  # NED: x north, y east
         assert m.vy / 100 == pytest.approx(tr.vel_east_mps[i], abs=0.006)
         j = round(m.time_boot_ms / 100)
-        assert angle_diff_deg(m.hdg / 100, enu_yaw_to_nautical_deg(truth.states[j, 0, 2])) < 0.006
+        assert angle_diff_deg(m.hdg / 100, math.degrees(math.pi / 2.0 - truth.states[j, 0, 2]) % 360.0) < 0.006
     for m in (m for m in got if m.get_type() == "ATTITUDE"):
         j = round(m.time_boot_ms / 100)
         assert angle_diff_deg(math.degrees(m.yaw), 90.0 - math.degrees(truth.states[j, 0, 2])) < 1e-4

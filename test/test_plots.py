@@ -102,7 +102,7 @@ def test_evidence_figure_has_plain_ticks_and_no_empty_panel(judged: bool) -> Non
 def _windows_and_predictions(same: bool):
     from types import SimpleNamespace
 
-    from boat_twin.diagnose.replay import SIGNALS, Prediction
+    from boat_twin.twin.replay import SIGNALS, Prediction
 
     t = np.arange(200.0).reshape(100, 2, order="F")  # two windows of 100 samples
     rng = np.random.default_rng(2)

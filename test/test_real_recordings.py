@@ -19,7 +19,6 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 
 from boat_twin.cli import main
 from boat_twin.cli.identify import rejected_summary
-from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, residual
 from boat_twin.diagnose.report import signal_rmse
 from boat_twin.errors import InputError
 from boat_twin.ident.live import LiveIdentifier
@@ -28,6 +27,7 @@ from boat_twin.ident.pipeline import identify_arrays, identify_recordings
 from boat_twin.io import messages
 from boat_twin.io.bags import read_trial
 from boat_twin.io.mavlink import calibration_from_dict, read_mavlink_trial
+from boat_twin.twin.replay import SIGNALS, Prediction, Windows, residual
 from boat_twin.vessel.resistance import PowerSeriesResistance, resistance_from_dict
 
 MASS_KG = 16.5
@@ -361,7 +361,7 @@ def test_a_heading_a_turn_apart_is_no_error() -> None:
     rmse = signal_rmse(windows, Prediction(predicted, position))
     assert rmse["heading_rad"] == pytest.approx(2.0 * math.pi - 6.27, abs=1e-9)
     wrapped = residual("heading_rad", np.array([math.pi, -math.pi, 0.5]), np.zeros(3))
-    np.testing.assert_allclose(wrapped, [math.pi, math.pi, 0.5])  # (−π, π]
+    np.testing.assert_allclose(wrapped, [-math.pi, -math.pi, 0.5])  # [−π, π)
     assert residual("vel_east_mps", np.array([7.0]), np.array([0.5]))[0] == 6.5
 
 

@@ -15,10 +15,8 @@ from boat_twin.cable.current import CurrentProfile, current_from_spec
 from boat_twin.cable.drag import CableLoading, DragModel, drag_from_spec
 from boat_twin.errors import InputError
 from boat_twin.files import load_yaml
+from boat_twin.units import SEAWATER_DENSITY_KGPM3
 from boat_twin.validation import number
-
-SEAWATER_DENSITY_KGPM3 = 1025.0
-"""Default water density, kg/m³: typical surface seawater (35 PSU, ~15 °C; UNESCO EOS-80 gives 1025.9)."""
 
 _TOP = {"name", "water_density_kgpm3", "tow_speed_mps", "current", "cable", "vehicle", "target_depth_m"}
 _CABLE = {"length_m", "diameter_m", "weight_in_water_Npm", "segment_length_m", "winch_capacity_m", "drag"}

@@ -1,6 +1,6 @@
 """``boat-twin diagnose``: what the model gets wrong on measured data, its cause, the extended model and the gain.
 
-Front end over :mod:`~boat_twin.diagnose.replay` (windowed replay of the commands), :mod:`.effects` (the
+Front end over :mod:`~boat_twin.twin.replay` (windowed replay of the commands), :mod:`.effects` (the
 catalogue), :mod:`.search` (fits, held-out judgement, decision rule, forward selection), :mod:`.structure`
 (what is left) and :mod:`.table` (a steady-state table).
 """

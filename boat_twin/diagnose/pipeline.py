@@ -14,16 +14,16 @@ import numpy as np
 
 from boat_twin.config import TwinConfig
 from boat_twin.data import dyda2021_table1
+from boat_twin.data.dyda2021 import PAPER_COEFFICIENTS, PAPER_ORDERS
 from boat_twin.diagnose.defaults import WINDOW_S
 from boat_twin.diagnose.effects import catalogue
-from boat_twin.diagnose.replay import Prediction, Windows, cut_windows
 from boat_twin.diagnose.report import DiagnosisResult, result_dict
 from boat_twin.diagnose.search import Diagnosis, Selection, forward_select
 from boat_twin.diagnose.structure import residual_structure
 from boat_twin.diagnose.table import TableDiagnosis, diagnose_table, table_result
 from boat_twin.errors import InputError
-from boat_twin.ident.paper import PAPER_COEFFICIENTS, PAPER_ORDERS
 from boat_twin.io.trial import Trial
+from boat_twin.twin.replay import Prediction, Windows, cut_windows
 from boat_twin.units import KGF_N, KNOT_MPS
 from boat_twin.vessel.resistance import TableResistance
 

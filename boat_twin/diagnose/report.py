@@ -7,10 +7,10 @@ from typing import Any, TypedDict
 import numpy as np
 from matplotlib.figure import Figure
 
-from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, residual
 from boat_twin.diagnose.search import BIC_THRESHOLD, MIN_HELDOUT_GAIN, Candidate, Fit, Selection, ci95
 from boat_twin.diagnose.structure import Signature, SignatureResult
 from boat_twin.diagnose.table import TableDiagnosis
+from boat_twin.twin.replay import SIGNALS, Prediction, Windows, residual
 
 UNITS = {"vel_east_mps": "m/s", "vel_north_mps": "m/s", "yaw_rate_radps": "rad/s", "heading_rad": "rad",
          "speed_mps": "m/s", "position_m": "m"}

@@ -2,7 +2,7 @@
 
 Method (docs/diagnosis.md states it with the numbers):
 
-- Residuals are measured − predicted (:mod:`~boat_twin.diagnose.replay`) per signal, divided by the signal's
+- Residuals are measured − predicted (:mod:`~boat_twin.twin.replay`) per signal, divided by the signal's
   white-noise level estimated from the data itself, so signals of different units weigh by their information.
 - A model's parameters are fitted (``scipy.optimize.least_squares``) on all windows. A candidate that passes
   the in-sample conditions of the decision rule (:attr:`Candidate.plausible`) is then judged on held-out
@@ -50,10 +50,10 @@ from scipy.stats import t as student_t
 
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.effects import Effect
-from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows, predict, residual
 from boat_twin.diagnose.structure import MISFIT_FACTOR
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
+from boat_twin.twin.replay import SIGNALS, Prediction, Windows, predict, residual
 
 FOLDS = 5
 """Folds of windows (dealt in turn) for held-out judgement and jackknife uncertainty."""

@@ -20,7 +20,7 @@ from typing import TypedDict
 
 import numpy as np
 
-from boat_twin.diagnose.replay import SIGNALS, Prediction, Windows
+from boat_twin.twin.replay import SIGNALS, Prediction, Windows
 
 REGRESSOR_NAMES = ("cos_heading", "sin_heading", "speed", "yaw_rate", "thrust_sum", "thrust_difference",
                    "steering")

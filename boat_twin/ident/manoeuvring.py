@@ -3,7 +3,7 @@
 The sway/yaw coefficients of :mod:`boat_twin.vessel.dynamics` — sway and yaw inertia m22, m33, the lift damping
 a_v, a_r, the lateral-resistance centre x_c, the cross-flow drag Y_vv, N_rr — and the outboards' steering offset
 are fitted to zigzags and turning circles (any number of trials, at one or several speeds). Each trial is cut
-into windows and replayed through the model by the diagnosis replay (:func:`~boat_twin.diagnose.replay.predict`:
+into windows and replayed through the model by the twin's windowed replay (:func:`~boat_twin.twin.replay.predict`:
 every window starts from the measured state, so a window's error is the model's, not accumulated drift); the
 residuals (measured − predicted GNSS velocity, gyro yaw rate, IMU heading), each divided by its sensor's white
 noise measured from the trial itself (:func:`~boat_twin.signal_noise.white_noise_stdev`), are minimised by
@@ -41,7 +41,10 @@ from scipy.optimize import least_squares
 from scipy.stats import t as student_t
 
 from boat_twin.config import TwinConfig
-from boat_twin.diagnose.replay import (
+from boat_twin.errors import InputError
+from boat_twin.io.trial import Trial
+from boat_twin.signal_noise import white_noise_stdev
+from boat_twin.twin.replay import (
     HEADING_SMOOTHING_S,
     LATERAL_ACCEL,
     SETTLING_S,
@@ -55,9 +58,6 @@ from boat_twin.diagnose.replay import (
     predict_vessels,
     residual,
 )
-from boat_twin.errors import InputError
-from boat_twin.io.trial import Trial
-from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.vessel.params import MANOEUVRING_KEYS, derive_coefficients
 
 WINDOW_S = 20.0
@@ -205,7 +205,7 @@ rotates the whole path), and those errors, not the signals' noise, dominated the
 
 NUISANCE_PRIOR_WIDENING = 2.0
 """The prior standard deviation of a window's initial heading and surge is this many times what the sensors'
-white noise alone leaves after the smoothing of :func:`~boat_twin.diagnose.replay.measured_motion` (the GNSS
+white noise alone leaves after the smoothing of :func:`~boat_twin.twin.replay.measured_motion` (the GNSS
 velocity's and the IMU heading's errors are also correlated, which the white-noise figure leaves out)."""
 
 
@@ -252,9 +252,9 @@ class _Problem:
     window's initial heading and surge profiled out (:data:`INITIAL_STATE_NUISANCES`, :class:`_Projection`).
 
     Every replay of a set of candidate parameters (the Jacobian's steps, the nuisance sensitivities) is one
-    kernel run per trial (:func:`~boat_twin.diagnose.replay.predict_vessels`); the outboards' angle history,
+    kernel run per trial (:func:`~boat_twin.twin.replay.predict_vessels`); the outboards' angle history,
     which only the steering offset changes, is kept by
-    :meth:`~boat_twin.diagnose.replay.Windows.steering_rad`."""
+    :meth:`~boat_twin.twin.replay.Windows.steering_rad`."""
 
     def __init__(self, data: Sequence[TrialData], base: TwinConfig, start: dict[str, float],
                  free: Sequence[str]) -> None:

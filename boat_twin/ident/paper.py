@@ -20,6 +20,7 @@ import numpy as np
 from numpy.polynomial import polynomial
 
 from boat_twin.data import dyda2021_table1
+from boat_twin.data.dyda2021 import PAPER_COEFFICIENTS, PAPER_FISHER, PAPER_ORDERS, TABLE_MODEL_VALUES, TABLE_NUMBERS
 from boat_twin.ident.steady import OrderSelection, fit_power_series, select_order
 
 FISHER_N = 36
@@ -28,145 +29,8 @@ FISHER_N = 36
 FISHER_M = 1
 """m in the paper's formula ("m = 1 – количество факторов")."""
 
-PAPER_ORDERS = (1, 3, 5)
-"""Orders N the paper fits."""
-
-PAPER_COEFFICIENTS: dict[int, tuple[float, ...]] = {
-    1: (0.0, 6.25),
-    3: (0.0, 4.92073680172097, 0.0126527403370123, 0.0),
-    5: (1.07281728370862e-11, 0.955249431789216, 0.324434260668814, 0.0, 0.0, 0.0),
-}
-"""c_0..c_N in kgf/kn^i as printed: N = 1 in the text, N = 3 in Table 3, N = 5 in Table 5."""
-
-PAPER_FISHER: dict[int, float] = {1: 314.76, 3: 228.98, 5: 315.3}
-"""Table 7 as printed."""
-
 FISHER_TOLERANCE = 0.05
 """Agreement with Table 7 is judged to its last printed digit: |ours − printed| ≤ 0.05."""
-
-TABLE_MODEL_VALUES: dict[int, tuple[float, ...]] = {
-    1: (
-        0.0,
-        3.125,
-        6.25,
-        9.375,
-        12.5,
-        15.625,
-        18.75,
-        21.875,
-        25.0,
-        28.125,
-        31.25,
-        34.375,
-        37.5,
-        40.625,
-        43.75,
-        46.875,
-        50.0,
-        53.125,
-        56.25,
-        59.375,
-        62.5,
-        65.625,
-        68.75,
-        71.875,
-        75.0,
-        78.125,
-        81.25,
-        84.375,
-        87.5,
-        90.625,
-        93.75,
-        96.875,
-        100.0,
-        103.125,
-        106.25,
-        109.375,
-        112.5,
-    ),
-    3: (
-        0.0,
-        2.463531586,
-        4.933389542,
-        7.409573868,
-        9.892084565,
-        12.38092163,
-        14.87608507,
-        17.37757488,
-        19.88539105,
-        22.3995336,
-        24.92000252,
-        27.4467978,
-        29.97991946,
-        32.51936749,
-        35.06514189,
-        37.61724266,
-        40.1756698,
-        42.7404233,
-        45.31150318,
-        47.88890943,
-        50.47264205,
-        53.06270104,
-        55.6590864,
-        58.26179813,
-        60.87083623,
-        63.4862007,
-        66.10789154,
-        68.73590875,
-        71.37025233,
-        74.1092228,
-        76.6579186,
-        79.31124129,
-        81.97089035,
-        84.63686579,
-        87.30916759,
-        89.98779576,
-        92.6727503,
-    ),
-    5: (
-        0.0,
-        0.558733286,
-        1.27968371,
-        2.162851272,
-        3.208235973,
-        4.415837812,
-        5.78565679,
-        7.317692906,
-        9.011946161,
-        10.86841655,
-        12.88710409,
-        15.06800876,
-        17.41113056,
-        19.91646951,
-        22.5840256,
-        25.41379882,
-        28.40578918,
-        31.55999668,
-        34.87642132,
-        38.3550631,
-        41.99592201,
-        45.79899807,
-        49.76429126,
-        53.89180159,
-        58.18152906,
-        62.63347367,
-        67.24763541,
-        72.0240143,
-        76.96261032,
-        82.06342348,
-        87.32645378,
-        92.75170122,
-        98.3391658,
-        104.0888475,
-        110.0007464,
-        116.0748624,
-        122.3111955,
-    ),
-}
-"""Model thrust F_mj in kgf at Table 1's speeds as printed in Tables 2 (N = 1), 4 (N = 3) and 6 (N = 5)."""
-
-TABLE_NUMBERS = {1: 2, 3: 4, 5: 6}
-"""Which printed table holds the model values of order N."""
 
 PRINT_TOLERANCE = 1e-6
 """Relative deviation above which a printed model value counts as a misprint (the tables print ~10 digits)."""

@@ -22,11 +22,11 @@ from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 
 from boat_twin.errors import InputError
 from boat_twin.files import OutputClaim
+from boat_twin.frames import quaternion_yaw_rad
 from boat_twin.io.mcap_crc import check_chunk_crcs, fill_chunk_crcs
 from boat_twin.io.messages import TOPIC_ODOM_TRUTH, TOPICS, TS
 from boat_twin.io.sources import check_trial_path
 from boat_twin.io.trial import Stream, Trial, build_trial
-from boat_twin.sensors.um7 import quaternion_yaw_rad
 
 ROLE_TOPICS = {
     "thrust_left": "thrusters/left/thrust",

@@ -19,6 +19,7 @@ import pymap3d
 
 from boat_twin.errors import InputError
 from boat_twin.files import load_yaml
+from boat_twin.frames import enu_yaw_from_ned
 from boat_twin.io.trial import COMMAND_ROLES, Stream, Trial, build_trial
 
 CSV_QUANTITIES = {
@@ -199,12 +200,12 @@ def read_csv_trial(path: Path, columns: str | Path) -> Trial:
         lat, lon, alt = pymap3d.enu2geodetic(data["x"], data["y"], np.zeros(t.size), *origin)
         streams["gnss_fix"] = _stream(t, lat, lon, alt)
         topics["gnss_fix"] = f"columns {mapping['x']}, {mapping['y']} (local ENU)"
-    yaw = np.pi / 2 - np.radians(data["heading"]) if "heading" in mapping else data.get("yaw", nan)
+    yaw = enu_yaw_from_ned(np.radians(data["heading"])) if "heading" in mapping else data.get("yaw", nan)
     if "vel_east" in mapping:
         streams["gnss_vel"] = _stream(t, data["vel_east"], data["vel_north"])
         topics["gnss_vel"] = f"columns {mapping['vel_east']}, {mapping['vel_north']}"
     elif "speed" in mapping:
-        direction = np.pi / 2 - np.radians(data["course"]) if "course" in mapping else yaw
+        direction = enu_yaw_from_ned(np.radians(data["course"])) if "course" in mapping else yaw
         speed = data["speed"]
         streams["gnss_vel"] = _stream(t, speed * np.cos(direction), speed * np.sin(direction))
         topics["gnss_vel"] = f"column {mapping['speed']} along " + (

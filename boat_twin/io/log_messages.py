@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
+from boat_twin.frames import quaternion_xyzw
 from boat_twin.io import messages as msgs
 from boat_twin.io.bags import ROLE_TOPICS
 from boat_twin.io.trial import COMMAND_ROLES
-from boat_twin.sensors.um7 import quaternion_xyzw
 
 _UNKNOWN_COV = np.zeros(9)
 _UNKNOWN_COV.flags.writeable = False

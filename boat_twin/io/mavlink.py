@@ -77,6 +77,7 @@ import numpy as np
 
 from boat_twin.errors import InputError
 from boat_twin.files import load_yaml
+from boat_twin.frames import enu_yaw_from_ned, wrap_pi
 from boat_twin.io.trial import (
     COMMAND_ROLES,
     GAP_TOLERANCE_PERIODS,
@@ -86,11 +87,11 @@ from boat_twin.io.trial import (
     TrialMetadata,
     build_trial,
 )
+from boat_twin.units import STANDARD_GRAVITY_MPS2
 from boat_twin.validation import number
 
 LOG_SUFFIXES = (".tlog", ".bin")
 """File name endings (case-insensitive) read as MAVLink logs: telemetry logs and DataFlash logs."""
-GRAVITY_MPS2 = 9.80665
 """Standard gravity: RAW_IMU's milli-g to m/s², m/s²."""
 REBOOT_BACKSTEP_S = 5.0
 """A boot time going back by more than this is a reboot of the autopilot, s."""
@@ -420,8 +421,6 @@ class _BootClock:
         return np.array(offsets)
 
 
-def _wrap_pi(angle: float) -> float:
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
 @dataclass
@@ -484,7 +483,7 @@ def _read_tlog(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[str, 
     servo_channels = plan.numbered("SERVO")
     rc_channels = plan.numbered("RC")
     axes = plan.axes()
-    mg = GRAVITY_MPS2 * 1e-3
+    mg = STANDARD_GRAVITY_MPS2 * 1e-3
     servo_state = {"last": -1.0, "wraps": 0}
 
     def usec64(usec: int, recv: float, current: bool) -> tuple[float, float]:
@@ -515,7 +514,7 @@ def _read_tlog(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[str, 
         if not (math.isfinite(msg.yaw) and math.isfinite(msg.yawspeed)):
             return
         boot = msg.time_boot_ms * 1e-3
-        rows["ATTITUDE"].add((boot, clock.now(boot, recv), _wrap_pi(math.pi / 2 - msg.yaw), -msg.yawspeed,
+        rows["ATTITUDE"].add((boot, clock.now(boot, recv), wrap_pi(enu_yaw_from_ned(msg.yaw)), -msg.yawspeed,
                               msg.roll, -msg.pitch, msg.rollspeed, -msg.pitchspeed))
 
     def raw_imu(msg: Any, recv: float) -> None:
@@ -667,7 +666,7 @@ def _read_dataflash(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[
 
     def att(m: Any, t: float) -> None:
         if math.isfinite(m.Yaw):
-            rows["ATT"].add((t, 0.0, _wrap_pi(math.pi / 2 - math.radians(m.Yaw)), math.radians(m.Roll),
+            rows["ATT"].add((t, 0.0, wrap_pi(enu_yaw_from_ned(math.radians(m.Yaw))), math.radians(m.Roll),
                              -math.radians(m.Pitch)))
 
     def imu(m: Any, t: float) -> None:

@@ -21,8 +21,9 @@ from typing import Any
 import numpy as np
 from rosbags.typesys import Stores, get_typestore
 
+from boat_twin.frames import quaternion_xyzw
 from boat_twin.sensors.gnss import GnssMeasurements
-from boat_twin.sensors.um7 import ImuMeasurements, quaternion_xyzw
+from boat_twin.sensors.um7 import ImuMeasurements
 from boat_twin.vessel.truth import TruthSeries
 
 TOPIC_THRUST_LEFT = "thrusters/left/thrust"

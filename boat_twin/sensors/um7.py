@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from boat_twin.frames import ned_yaw_from_enu, quaternion_xyzw, wrap_pi
 from boat_twin.sensors import DrawKind, GaussMarkov, decimation_step, positioned_generators
 from boat_twin.units import STANDARD_GRAVITY_MPS2
 from boat_twin.validation import config_from_mapping, number, vector3
@@ -131,31 +132,6 @@ class ImuMeasurements:
 
     def __len__(self) -> int:
         return int(self.stamp_s.size)
-
-
-def quaternion_xyzw(roll_rad: np.ndarray, pitch_rad: np.ndarray, yaw_rad: np.ndarray) -> np.ndarray:
-    """Quaternions (n, 4), w >= 0, of R = Rz(yaw) Ry(pitch) Rx(roll) (REP-103 fixed-axis roll, pitch, yaw)."""
-    cr, sr = np.cos(roll_rad / 2.0), np.sin(roll_rad / 2.0)
-    cp, sp = np.cos(pitch_rad / 2.0), np.sin(pitch_rad / 2.0)
-    cy, sy = np.cos(yaw_rad / 2.0), np.sin(yaw_rad / 2.0)
-    q = np.column_stack([
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-        cr * cp * cy + sr * sp * sy,
-    ])
-    return q * np.where(q[:, 3:] < 0.0, -1.0, 1.0)
-
-
-
-def quaternion_yaw_rad(x: Any, y: Any, z: Any, w: Any) -> Any:
-    """ENU yaw (REP-103) of quaternions given by their components (floats or arrays), rad: the inverse of
-    :func:`quaternion_xyzw`'s yaw, whatever the roll and pitch."""
-    return np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-
-def wrap_pi(angle_rad: np.ndarray) -> np.ndarray:
-    """Angles wrapped to [-pi, pi)."""
-    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
 
 
 @dataclass(frozen=True)
@@ -284,7 +260,7 @@ def imu_samples(config: Um7Config, stamp_s: np.ndarray, expected: ExpectedImu, e
         gyro_radps=gyro,
         accel_mps2=accel,
         mag_tesla=mag,
-        rpy_rad=np.column_stack([-pitch, roll, wrap_pi(yaw - math.pi / 2.0)]),
+        rpy_rad=np.column_stack([-pitch, roll, wrap_pi(-ned_yaw_from_enu(yaw))]),
         temperature_celsius=np.full(n, config.temperature_celsius),
         orientation_covariance_rad2=np.array(
             [config.roll_pitch_stdev_rad, config.roll_pitch_stdev_rad, config.yaw_stdev_rad]) ** 2,

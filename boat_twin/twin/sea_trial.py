@@ -16,10 +16,11 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from boat_twin.config import TwinConfig
+from boat_twin.frames import quaternion_yaw_rad
 from boat_twin.io import messages
 from boat_twin.io.trial import Stream, Trial, build_trial
 from boat_twin.sensors.gnss import GnssMeasurements, GnssModel
-from boat_twin.sensors.um7 import ImuMeasurements, Um7Model, quaternion_yaw_rad
+from boat_twin.sensors.um7 import ImuMeasurements, Um7Model
 from boat_twin.vessel.scenarios import Scenario
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ, SimulationRecord, output_ticks, simulate, simulate_chunks
 from boat_twin.vessel.tow import tow_drag_table

@@ -37,12 +37,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from boat_twin.vessel.params import (
-    AIR_DENSITY_KGPM3,
-    WINDAGE_DRAG_COEFFICIENT,
-    VesselParams,
-    derive_coefficients,
-)
+from boat_twin.units import AIR_DENSITY_KGPM3
+from boat_twin.vessel.params import WINDAGE_DRAG_COEFFICIENT, VesselParams, derive_coefficients
 
 STATE_NAMES = ("east_m", "north_m", "yaw_rad", "u_mps", "v_mps", "r_radps")
 """Order of the state vector's components."""

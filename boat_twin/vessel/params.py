@@ -17,13 +17,10 @@ import numpy as np
 
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_write_yaml, load_yaml
+from boat_twin.units import SEAWATER_DENSITY_KGPM3
 from boat_twin.validation import THRUST_LIMIT_N
 from boat_twin.vessel.resistance import ResistanceModel, dyda2021_resistance, resistance_from_dict
 
-WATER_DENSITY_KGPM3 = 1025.0
-"""Sea water density at 15 °C, 35 PSU, kg/m^3 (ITTC 7.5-02-01-03)."""
-AIR_DENSITY_KGPM3 = 1.225
-"""Air density at 15 °C, sea level, kg/m^3 (ISA)."""
 WINDAGE_DRAG_COEFFICIENT = 0.8
 """Drag coefficient of a small boat's hull and console above water, -: 0.6-1.0 (Blendermann 1994)."""
 
@@ -193,7 +190,7 @@ def reference_turn_thrust_N(params: VesselParams) -> float:
 
 def _inertia(params: VesselParams) -> dict[str, float]:
     """Rigid-body plus added masses: surge by ratio, sway and yaw by strip theory over two demihulls."""
-    rho = WATER_DENSITY_KGPM3
+    rho = SEAWATER_DENSITY_KGPM3
     # 2-D sway added mass of a vertical plate of draft T at a free surface: ρπT²/2 (Newman 1977, §4.13),
     # per demihull, integrated over the length; the yaw added inertia integrates x² over the same strips.
     sway_added_kg = 2.0 * rho * math.pi * params.draft_m**2 / 2.0 * params.length_m
@@ -233,7 +230,7 @@ def derive_coefficients(params: VesselParams) -> ModelCoefficients:
 def _derived_coefficients(params: VesselParams) -> ModelCoefficients:
     """The coefficients from the physical facts and the reference turn alone (see :func:`derive_coefficients`)."""
     inertia = _inertia(params)
-    rho = WATER_DENSITY_KGPM3
+    rho = SEAWATER_DENSITY_KGPM3
     area = 2.0 * params.draft_m * params.length_m
     y_vv = 0.5 * rho * params.crossflow_drag_coefficient * area
     n_rr = 0.5 * rho * params.crossflow_drag_coefficient * 2.0 * params.draft_m * params.length_m**4 / 32.0

@@ -1,4 +1,5 @@
-"""Replay a trial's commands through a model, window by window, and predict what the sensors should have read.
+"""Replay a trial's commands through a model, window by window, and predict what the sensors should have read:
+the twin's service to the analyses (the diagnosis judges its residuals, the turning identification fits them).
 
 An open-loop replay of a whole trial drifts (a 1° heading error turns into tens of metres), so the trial is
 cut into consecutive windows of ``window_s`` seconds. Each window starts from the state the sensors give at
@@ -9,7 +10,7 @@ prediction gets wrong is then the model's fault, not an accumulated drift: a mul
 
 The model is a :class:`~boat_twin.config.TwinConfig`: the vessel, the current, a towed body, and the sensors'
 gyro bias (z) and GNSS latency, so every catalogue effect of the diagnosis is a change of that one config.
-Only commands and sensor streams are used — never ground truth.
+Only commands and sensor streams are used — never ground truth. Imports config, io, sensors and vessel only.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from scipy.signal import savgol_filter
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
+from boat_twin.frames import wrap_pi
 from boat_twin.io.trial import Trial
 from boat_twin.sensors.gnss import expected_fix
 from boat_twin.sensors.um7 import expected_gyro
@@ -37,13 +39,13 @@ LATERAL_ACCEL = "accel_y_mps2"
 """The accelerometer's lateral reading v̇ + u·r, m/s² (FLU body), which :func:`predict` also gives (the turning
 identification, boat_twin.ident.manoeuvring, fits it: it sees the sway transient that sets m22)."""
 ANGLE_SIGNALS = ("heading_rad",)
-"""Signals that are angles: their residuals are wrapped to (−π, π]."""
+"""Signals that are angles: their residuals are wrapped to [−π, π) (:func:`~boat_twin.frames.wrap_pi`)."""
 
 
 def residual(signal: str, measured: np.ndarray, predicted: np.ndarray) -> np.ndarray:
-    """measured − predicted of ``signal``; for an angle, wrapped to (−π, π] (a heading 2π off is no error)."""
+    """measured − predicted of ``signal``; for an angle, wrapped to [−π, π) (a heading 2π off is no error)."""
     diff = np.asarray(measured) - np.asarray(predicted)
-    return np.pi - np.mod(np.pi - diff, 2.0 * np.pi) if signal in ANGLE_SIGNALS else diff
+    return wrap_pi(diff) if signal in ANGLE_SIGNALS else diff
 
 
 HEADING_SMOOTHING_S = 5.0
