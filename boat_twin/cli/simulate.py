@@ -5,6 +5,7 @@ The simulator is imported by the handler, so that ``--help`` answers at once."""
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -131,11 +132,12 @@ def run(args: argparse.Namespace) -> int:
     from boat_twin.vessel.params import describe
 
     integer("--seed", args.seed, minimum=0, maximum=SEED_MAX)
-    if args.duration is not None:
-        from boat_twin.validation import number
+    if args.duration is not None:  # every path: a scenario, --commands, --mavlink, --tlog
         from boat_twin.vessel.scenarios import MAX_DURATION_S
 
-        number("--duration", args.duration, above=0.0, maximum=MAX_DURATION_S)
+        if not (math.isfinite(args.duration) and 0.0 < args.duration <= MAX_DURATION_S):
+            raise InputError(f"--duration must be a positive number of seconds up to {MAX_DURATION_S:g} (7 days), "
+                             f"got {args.duration!r}")
     if args.out is not None and args.out.suffix.lower() in (".tlog", ".bin", ".csv"):
         raise InputError(f"--out {args.out}: writes a rosbag2 (a directory, or a .mcap file), which readers take "
                          f"for a {args.out.suffix} file by its name; for a MAVLink log use --tlog FILE")
