@@ -130,7 +130,7 @@ def hostile(tmp_path, small_bag) -> dict[str, str]:
     (["convert", "{fifo_tlog}", "--out", "{tmp}/x.mcap"], "fifo.tlog: not a regular file"),
     (["identify", "{fifo_csv}", "--columns", "time=t,x=x,y=y,thrust_left=tl"], "fifo.csv: not a regular file"),
     (["identify", "{fifobag}"], "metadata.yaml: not a regular file"),
-    (["identify", "{badmeta}"], "badmeta/metadata.yaml: while parsing a flow sequence"),
+    (["identify", "{badmeta}"], "badmeta/metadata.yaml: malformed YAML at line"),
     (["identify", "{widetrial}", "--columns", "time=t,x=x,y=y,thrust_left=tl"], "malformed CSV"),
     (["simulate", "--commands", "{wide}", "--json"], "malformed CSV"),
     (["simulate", "--commands", "{late}", "--json"], "beyond 604800 s"),
@@ -311,3 +311,12 @@ def test_diagnose_on_a_velocity_nan_throughout_is_one_line(tmp_path, capsys) -> 
     write_bag(tmp_path / "nan_vel.mcap", messages)
     assert main(["diagnose", str(tmp_path / "nan_vel.mcap"), "--json"]) == 2
     assert "nan_vel.mcap: the speed over ground is unknown throughout" in _one_error_line(capsys.readouterr().err)
+
+
+def test_an_alias_bomb_in_a_bags_metadata_is_refused_before_rosbags_parses_it(small_bag, tmp_path, capsys) -> None:
+    bag = tmp_path / "bombed"
+    bag.mkdir()
+    shutil.copy(small_bag, bag / "trial.mcap")
+    (bag / "metadata.yaml").write_text(BOMB)
+    assert main(["identify", str(bag)]) == 2
+    assert "metadata.yaml: malformed YAML" in _one_error_line(capsys.readouterr().err)
