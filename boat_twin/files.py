@@ -508,8 +508,6 @@ def regular_input(path: Path, what: str = "input file") -> Path:
     could block forever or never end."""
     try:
         mode = os.stat(path).st_mode
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
     except OSError as err:
         raise InputError(f"{path}: cannot read ({err.strerror})") from None
     if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):

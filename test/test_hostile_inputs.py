@@ -120,7 +120,7 @@ def hostile(tmp_path, small_bag) -> dict[str, str]:
     (["simulate", "accel-stop", "--json", "--config", "{duplicate}"], "key 'vessel' given twice"),
     (["simulate", "accel-stop", "--json", "--config", "{digits}"], "an integer of 400 digits"),
     (["simulate", "accel-stop", "--json", "--config", "{length}"], "'length_m' must be <= 500 m"),
-    (["simulate", "accel-stop", "--json", "--config", "{engine}"], "'engine_x_m' must be within ±length_m"),
+    (["simulate", "accel-stop", "--json", "--config", "{engine}"], "'engine_x_m' must be within ±500 m"),
     (["simulate", "accel-stop", "--json", "--model", "{beside}"], "'beam_m' beside 'vessel:'"),
     (["simulate", "accel-stop", "--json", "--model", "{environment}"], "'environment' beside 'vessel:'"),
     (["identify", "{small_bag}", "--boat", "{beside}"], "'beam_m' beside 'vessel:'"),

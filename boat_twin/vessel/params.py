@@ -44,10 +44,9 @@ UPPER_LIMITS = {
     "lateral_windage_area_m2": (1e5, "m²", "beyond any ship"),
 }
 """Vessel parameter → (largest value, unit, why): beyond is a unit error (and would overflow the inertia)."""
-HULL_POSITIONS = {"engine_x_m": "length_m", "lateral_centre_x_m": "length_m", "windage_centre_x_m": "length_m",
-                  "engine_y_m": "beam_m"}
-"""Positions on the boat (FLU body frame, m) → the dimension whose magnitude bounds them: on (or just off) the
-hull."""
+HULL_POSITIONS = ("engine_x_m", "lateral_centre_x_m", "windage_centre_x_m", "engine_y_m")
+"""Positions on the boat (FLU body frame, m): within ±500 m, the bound of ``length_m`` (a point on a boat no longer
+than that; checked on its own, since a boat file may give a position before the length it goes with)."""
 MANOEUVRING_KEYS = ("m22_kg", "m33_kgm2", "sway_damping_Nspm2", "yaw_damping_Nms", "sway_quadratic_Ns2pm2",
                     "yaw_quadratic_Nms2")
 """Coefficients (:class:`ModelCoefficients` fields) that ``VesselParams.manoeuvring`` may set from trials."""
@@ -145,10 +144,10 @@ class VesselParams:
             if f.name in UPPER_LIMITS and value > UPPER_LIMITS[f.name][0]:
                 limit, unit, why = UPPER_LIMITS[f.name]
                 raise InputError(f"vessel parameter '{f.name}' must be <= {limit:g} {unit} ({why}), got {value!r}")
-        for name, dimension in HULL_POSITIONS.items():
-            if abs(getattr(self, name)) > getattr(self, dimension):
-                raise InputError(f"vessel parameter '{name}' must be within ±{dimension} "
-                                 f"({getattr(self, dimension):g} m: a point on the boat), got {getattr(self, name)!r}")
+        for name in HULL_POSITIONS:
+            if abs(getattr(self, name)) > UPPER_LIMITS["length_m"][0]:
+                raise InputError(f"vessel parameter '{name}' must be within ±{UPPER_LIMITS['length_m'][0]:g} m (a "
+                                 f"point on a boat no longer than the longest ship), got {getattr(self, name)!r}")
         for name in ("max_steering_rad", "steering_offset_rad"):
             if abs(getattr(self, name)) > math.pi / 2:
                 raise InputError(f"vessel parameter '{name}' must be within ±π/2 rad (an outboard turns at most "
