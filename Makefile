@@ -7,6 +7,10 @@ PY := $(VENV)/bin/python
 BASE_STAMP := $(VENV)/.installed-base
 STAMP := $(VENV)/.installed
 RUFF := $(PY) -m ruff check  # configured in .ruff.toml
+# setuptools warns on every editable install of a flat layout that a folder named like the package in the working
+# directory could shadow it (a box of asterisks); here that folder is the package itself, so the warnings of that
+# one setuptools module are silenced.
+PIP_INSTALL := PYTHONWARNINGS=ignore:::setuptools.command.editable_wheel $(PY) -m pip install -q
 OUT ?= out
 
 .PHONY: setup test lint demo bench sample clean
@@ -18,12 +22,12 @@ setup: $(STAMP)
 $(BASE_STAMP): setup.py setup.cfg package.xml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e .
+	$(PIP_INSTALL) -e .
 	$(VENV)/bin/boat-twin simulate thrust-steps --duration 1 --json > /dev/null
 	touch $(BASE_STAMP)
 
 $(STAMP): $(BASE_STAMP)
-	$(PY) -m pip install -q -e '.[test,ros]'
+	$(PIP_INSTALL) -e '.[test,ros]'
 	touch $(STAMP)
 
 lint: $(STAMP)
@@ -31,10 +35,13 @@ lint: $(STAMP)
 	$(PY) -m mypy boat_twin  # configured in setup.cfg
 
 # -rs: say why anything is skipped. -n auto: one pytest-xdist worker per core; then the node tests alone (a live
-# recorder sharing the cores with other tests lags the simulated clock: test/conftest.py).
+# recorder sharing the cores with other tests lags the simulated clock: test/conftest.py). The long studies marked
+# `slow` run with SLOW=1, which CI sets (.ci/run; also CI=true): a developer's run leaves them out.
+SLOW ?= $(if $(filter true,$(CI)),1,)
+TEST_MARK := not ros_nodes$(if $(SLOW),, and not slow)
 test: lint
-	$(PY) -m pytest -q -rs -n auto -m "not ros_nodes" test
-	$(PY) -m pytest -q -rs -m ros_nodes test
+	$(PY) -m pytest -q -rs -n auto -m "$(TEST_MARK)" test
+	$(PY) -m pytest -q -rs -m "ros_nodes$(if $(SLOW),, and not slow)" test
 
 demo: $(BASE_STAMP)
 	$(VENV)/bin/boat-twin demo --out $(OUT)/demo --force

@@ -73,6 +73,8 @@ setup(
             "identifier = boat_twin.nodes:identifier_main",
             "cable = boat_twin.nodes:cable_main",
             "player = boat_twin.nodes:player_main",
+            "shadow = boat_twin.nodes:shadow_main",
+            "bag_player = boat_twin.nodes:bag_player_main",
         ],
     },
 )

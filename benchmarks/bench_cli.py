@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = Path(sys.executable).parent / "boat-twin"
 BOAT_TWIN = [str(SCRIPT)] if SCRIPT.exists() else [sys.executable, "-m", "boat_twin.cli"]
 HELPS = [["--help"], ["--version"], *([verb, "--help"] for verb in
-                                      ("simulate", "identify", "diagnose", "convert", "cable", "demo")),
+                                      ("simulate", "identify", "diagnose", "follow", "convert", "cable", "demo")),
          *(["cable", sub, "--help"] for sub in ("depth", "length", "convergence", "speed"))]
 CABLE_DEPTH = ["cable", "depth", "--case", str(ROOT / "config/cable/default.yaml")]
 SIMULATE = ["simulate", "thrust-steps", "--duration", "10", "--json"]

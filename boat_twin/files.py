@@ -400,8 +400,10 @@ def atomic_write_yaml(path: Path, data: Any) -> None:
     atomic_write_text(path, yaml.safe_dump(data, sort_keys=False))
 
 
-def atomic_save_figure(path: Path, figure: Any) -> None:
-    """Save a matplotlib figure as PNG to ``path`` atomically."""
+def atomic_save_figure(path: Path, figure: Any, title: str | None = None) -> None:
+    """Save a matplotlib figure as PNG to ``path`` atomically; ``title``: its overall title (the trial it shows)."""
+    if title is not None:
+        figure.suptitle(title)
     with OutputClaim(path, force=True) as claim:
         new = claim.scratch / path.name
         figure.savefig(new, dpi=110, format="png")

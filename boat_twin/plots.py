@@ -1,14 +1,16 @@
-"""PNG plots of a trial (matplotlib figures without pyplot: no display needed)."""
+"""PNG plots of a trial and of a simulated run (matplotlib figures without pyplot: no display needed)."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from boat_twin.files import atomic_save_figure
 from boat_twin.io.trial import Trial
+from boat_twin.vessel.truth import TruthSeries
 
 SMOOTHING_S = 5.0
 """Length of the moving mean drawn over the gyro's yaw rate, s: 50 samples at 10 Hz cut white noise ~7x."""
@@ -71,3 +73,90 @@ def trial_figure(trial: Trial, title: str) -> Figure:
     yaw.legend(loc="upper right", fontsize=8)
     fig.suptitle(title)
     return fig
+
+
+def manoeuvre_figure(truth: TruthSeries, figures: dict[str, Any] | None, execute_t_s: float | None,
+                     title: str) -> Figure:
+    """A simulated run: its x-y track to scale and its heading; for a turning circle or zigzag (``figures``:
+    :func:`~boat_twin.vessel.manoeuvres.manoeuvre_figures`, first execute at ``execute_t_s``) with the IMO figures
+    marked: advance, transfer and tactical diameter on the track and the heading turned since the execute
+    (90° and 180°); the executes, ±ψ and the overshoots on the zigzag's heading deviation."""
+    fig = Figure(figsize=(12, 5), layout="constrained")
+    track, heading = fig.subplots(1, 2)
+    track.plot(truth.east_m, truth.north_m, lw=1.2, color="tab:blue", label="track (centre of gravity)")
+    track.plot(truth.east_m[0], truth.north_m[0], "o", color="tab:green", label="start")
+    track.set(xlabel="east, m", ylabel="north, m", title="track (local ENU, to scale)")
+    track.set_aspect("equal", adjustable="datalim")
+    yaw = np.unwrap(truth.yaw_rad)
+    if figures is None or execute_t_s is None:
+        heading.plot(truth.t_s, np.degrees(yaw), lw=1.2, label="ENU yaw (counter-clockwise from east)")
+        heading.set(xlabel="time, s", ylabel="heading (ENU yaw, unwrapped), deg", title="heading")
+    else:
+        at = {name: float(np.interp(execute_t_s, truth.t_s, values))
+              for name, values in (("east", truth.east_m), ("north", truth.north_m), ("yaw", yaw))}
+        track.plot(at["east"], at["north"], "s", color="k", label=f"execute (t = {execute_t_s:.1f} s)")
+        turned = np.degrees(yaw - at["yaw"])
+        if figures["manoeuvre"] == "turning circle":
+            _mark_turning(track, heading, truth, turned, at, figures)
+        else:
+            _mark_zigzag(heading, truth.t_s, turned, figures)
+    track.legend(loc="best", fontsize=8)
+    heading.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncols=2, fontsize=8)
+    fig.suptitle(title)
+    return fig
+
+
+def _mark_turning(track: Any, heading: Any, truth: TruthSeries, turned_deg: np.ndarray, at: dict[str, float],
+                  figures: dict[str, Any]) -> None:
+    """Advance, transfer (at 90° turned) and tactical diameter (at 180°) on the track; the heading as the angle
+    turned since the execute, with 90° and 180° marked."""
+    sign = 1.0 if figures["side"] == "port" else -1.0
+    psi = np.radians(at["yaw"])
+    ahead = np.array([np.cos(psi), np.sin(psi)])
+    towards = sign * np.array([-np.sin(psi), np.cos(psi)])
+    origin = np.array([at["east"], at["north"]])
+    length = figures["length_m"]
+    if figures["advance_m"] is not None:
+        point = origin + figures["advance_m"] * ahead + figures["transfer_m"] * towards
+        foot = origin + figures["advance_m"] * ahead
+        track.plot(*np.column_stack([origin, foot]), "--", color="tab:red", lw=1,
+                   label=f"advance {figures['advance_m']:.1f} m ({figures['advance_L']:.2f} L; IMO ≤ "
+                         f"{figures['advance_limit_L']:g} L)")
+        track.plot(*np.column_stack([foot, point]), ":", color="tab:red", lw=1,
+                   label=f"transfer {figures['transfer_m']:.1f} m ({figures['transfer_m'] / length:.2f} L)")
+    if figures["tactical_diameter_m"] is not None:  # from the original course to the track at 180° turned
+        first = np.flatnonzero(sign * turned_deg >= 180.0)[0]
+        t180 = float(np.interp(180.0, sign * turned_deg[first - 1:first + 1], truth.t_s[first - 1:first + 1]))
+        point = np.array([np.interp(t180, truth.t_s, truth.east_m), np.interp(t180, truth.t_s, truth.north_m)])
+        foot = origin + float((point - origin) @ ahead) * ahead
+        track.plot(*np.column_stack([foot, point]), "-", marker="|", color="tab:purple", lw=1,
+                   label=f"tactical diameter {figures['tactical_diameter_m']:.1f} m "
+                         f"({figures['tactical_diameter_L']:.2f} L; IMO ≤ {figures['tactical_diameter_limit_L']:g} L)")
+    heading.plot(truth.t_s, sign * turned_deg, lw=1.2, label="heading turned since the execute")
+    heading.axhline(90.0, color="tab:red", ls="--", lw=0.8, label="90°: advance and transfer")
+    heading.axhline(180.0, color="tab:purple", ls="--", lw=0.8, label="180°: tactical diameter")
+    heading.set(xlabel="time, s", ylabel="heading turned, deg", title=f"turning circle to {figures['side']}")
+
+
+def _mark_zigzag(heading: Any, t_s: np.ndarray, deviation_deg: np.ndarray, figures: dict[str, Any]) -> None:
+    """The heading deviation from the original course with ±ψ, the executes and the first two overshoots."""
+    switch = float(figures["manoeuvre"].split("/")[1])
+    heading.plot(t_s, deviation_deg, lw=1.2, label="heading deviation from the original course")
+    for level in (switch, -switch):
+        heading.axhline(level, color="0.6", ls="--", lw=0.8)
+    for k, t in enumerate(figures["execute_t_s"]):
+        heading.axvline(t, color="0.8", lw=0.8, label="executes" if k == 0 else None)
+    first, check = figures["first_overshoot_deg"], figures["time_to_check_yaw_s"]
+    if first is not None and check is not None:
+        t = figures["execute_t_s"][1] + check
+        side = float(np.sign(np.interp(t, t_s, deviation_deg)))
+        heading.plot(t, side * (switch + first), "v" if side > 0 else "^", color="tab:red",
+                     label=_overshoot_label("first", first, figures["first_overshoot_limit_deg"]))
+    second = figures["second_overshoot_deg"]
+    if second is not None:
+        heading.plot([], [], " ", label=_overshoot_label("second", second, figures["second_overshoot_limit_deg"]))
+    heading.set(xlabel="time, s", ylabel="heading deviation, deg", title=figures["manoeuvre"])
+
+
+def _overshoot_label(which: str, value_deg: float, limit_deg: float | None) -> str:
+    return f"{which} overshoot {value_deg:.1f}°" + ("" if limit_deg is None else f" (IMO ≤ {limit_deg:.3g}°)")

@@ -5,56 +5,57 @@
         [cable_case:=/path/case.yaml] [follow_gnss_vel:=true]
         [mavlink_url:=udpout:127.0.0.1:14550] [mavlink_allow_remote:=false]
 
-sim_time:=true: the simulator publishes /clock (running real_time_factor times faster than the wall clock) and
-the identifier and the cable node run on it (use_sim_time), as with Gazebo.
+An argument left empty is not passed: the node keeps its own default (its parameter's description says it), so
+the defaults live in one place, the nodes. sim_time:=true: the simulator publishes /clock (running
+real_time_factor times faster than the wall clock) and the identifier and the cable node run on it
+(use_sim_time), as with Gazebo. The one default the launch sets itself: the cable follows the boat's speed.
 """
 
-import os
-
-from ament_index_python.packages import get_package_share_directory
-from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument
+from launch import LaunchContext, LaunchDescription
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 ARGUMENTS = {
     "namespace": ("", "namespace of every topic"),
-    "seed": ("0", "seed of the sensor noise"),
-    "noise": ("true", "false: exact measurements"),
-    "sim_time": ("false", "true: the simulator publishes /clock and the other nodes use it"),
-    "real_time_factor": ("1.0", "simulated seconds per wall second with sim_time"),
+    "config_file": ("", "twin configuration YAML: vessel, environment, gnss, um7 (empty: the built-in boat, "
+                        "config/boat.yaml)"),
+    "seed": ("", "seed of the sensor noise (empty: the simulator's, 0)"),
+    "noise": ("", "false: exact measurements (empty: the simulator's, true)"),
+    "sim_time": ("", "true: the simulator publishes /clock and the other nodes use it (empty: false)"),
+    "real_time_factor": ("", "simulated seconds per wall second with sim_time (empty: the simulator's, 1.0)"),
     "mavlink_url": ("", "serve the twin to a ground station over MAVLink (empty: off)"),
-    "mavlink_allow_remote": ("false", "allow a MAVLink peer that is not on this machine"),
-    "order": ("5", "order N of the identified resistance Fc(v) (needs N + 2 steady points)"),
-    "memory_s": ("3600.0", "forgetting time constant of the identifier, s"),
+    "mavlink_allow_remote": ("", "true: allow a MAVLink peer that is not on this machine (empty: false)"),
+    "order": ("", "order N of the identified resistance Fc(v), needs N + 2 steady points (empty: the "
+                  "identifier's)"),
+    "memory_s": ("", "forgetting time constant of the identifier, s (empty: the identifier's, 3600)"),
     "model_path": ("", "where ~/save writes the model (empty: $ROS_HOME/boat_twin/identified_model.yaml)"),
+    "cable_case": ("", "towed-cable case YAML for the cable service (empty: config/cable/default.yaml)"),
     "follow_gnss_vel": ("true", "the cable's tow speed follows the boat's gnss/vel"),
 }
+"""Launch argument → (default, description); empty: the node's own default."""
+
+PARAMETERS = {
+    "simulator": {"config_file": "config_file", "seed": "seed", "noise": "noise", "publish_clock": "sim_time",
+                  "real_time_factor": "real_time_factor", "mavlink_url": "mavlink_url",
+                  "mavlink_allow_remote": "mavlink_allow_remote"},
+    "identifier": {"use_sim_time": "sim_time", "order": "order", "memory_s": "memory_s", "model_path": "model_path"},
+    "cable": {"use_sim_time": "sim_time", "case_file": "cable_case", "follow_gnss_vel": "follow_gnss_vel"},
+}
+"""Node (executable) → its parameter → the launch argument that sets it."""
+
+
+def nodes(context: LaunchContext) -> list[Node]:
+    """The nodes, each given the parameters whose launch argument is not empty."""
+    given = {name for name in ARGUMENTS if LaunchConfiguration(name).perform(context) != ""}
+    return [Node(package="boat_twin", executable=executable, name=executable, output="screen",
+                 namespace=LaunchConfiguration("namespace"),
+                 parameters=[{key: LaunchConfiguration(name) for key, name in table.items() if name in given}])
+            for executable, table in PARAMETERS.items()]
 
 
 def generate_launch_description() -> LaunchDescription:
-    """Nodes of the twin in one namespace, the twin configuration from config/boat.yaml by default."""
-    share = get_package_share_directory("boat_twin")
-    arg = LaunchConfiguration
-    common = {"namespace": arg("namespace"), "output": "screen"}
+    """Nodes of the twin in one namespace."""
     declared = [DeclareLaunchArgument(name, default_value=default, description=text)
                 for name, (default, text) in ARGUMENTS.items()]
-    declared += [
-        DeclareLaunchArgument("config_file", default_value=os.path.join(share, "config", "boat.yaml"),
-                              description="twin configuration YAML (vessel, environment, gnss, um7)"),
-        DeclareLaunchArgument("cable_case", default_value=os.path.join(share, "config", "cable", "default.yaml"),
-                              description="towed-cable case YAML for the cable service"),
-    ]
-    return LaunchDescription([
-        *declared,
-        Node(package="boat_twin", executable="simulator", name="simulator", **common,
-             parameters=[{"config_file": arg("config_file"), "seed": arg("seed"), "noise": arg("noise"),
-                          "publish_clock": arg("sim_time"), "real_time_factor": arg("real_time_factor"),
-                          "mavlink_url": arg("mavlink_url"), "mavlink_allow_remote": arg("mavlink_allow_remote")}]),
-        Node(package="boat_twin", executable="identifier", name="identifier", **common,
-             parameters=[{"use_sim_time": arg("sim_time"), "order": arg("order"), "memory_s": arg("memory_s"),
-                          "model_path": arg("model_path")}]),
-        Node(package="boat_twin", executable="cable", name="cable", **common,
-             parameters=[{"use_sim_time": arg("sim_time"), "case_file": arg("cable_case"),
-                          "follow_gnss_vel": arg("follow_gnss_vel")}]),
-    ])
+    return LaunchDescription([*declared, OpaqueFunction(function=nodes)])

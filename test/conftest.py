@@ -1,17 +1,32 @@
-"""Suite-wide test configuration: the `ros_nodes` marker.
+"""Suite-wide test configuration: the `ros_nodes` and `slow` markers, the real logs beside the clone, and a
+MAVLink log the twin writes itself.
 
 Tests of a module that starts ROS 2 nodes (it imports ``test/rosnodes.py``) are marked ``ros_nodes``. `make test`
 runs the rest on every core (pytest-xdist) and these alone afterwards: a live recorder that shares the cores with
 other tests lags the simulated clock and records commands late (test/test_ros_live.py, REAL_TIME_FACTOR).
+
+Real third-party data is never part of the project: it stays in ``../shared/data`` beside the clone
+(``BOAT_TWIN_SHARED_DATA`` names another directory). A test that needs it takes :func:`shared_data` and skips
+with one reason where it is absent; ``BOAT_TWIN_REQUIRE_SHARED_DATA=1`` (set by ``.ci/run`` when
+``../shared/data`` exists) turns that skip into a failure, so CI never passes without the real-log tests.
 """
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED_DATA = Path(os.environ.get("BOAT_TWIN_SHARED_DATA", ROOT.parent / "shared" / "data"))
+"""Real third-party data beside the clone (never copied into it)."""
 
 
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "ros_nodes: starts ROS 2 node processes (run apart from the rest)")
+    config.addinivalue_line("markers", "slow: a long study (minutes on 2 cores); `make test` runs it in CI only "
+                                       "(CI=true, or `make test SLOW=1`)")
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
@@ -19,3 +34,37 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
         module = getattr(item, "module", None)
         if module is not None and "rosnodes" in vars(module):
             item.add_marker(pytest.mark.ros_nodes)
+
+
+def shared_data(relative: str) -> Path:
+    """``../shared/data/relative`` (a file or folder of real third-party data); the test skips where it is absent,
+    or fails when ``BOAT_TWIN_REQUIRE_SHARED_DATA=1``."""
+    path = SHARED_DATA / relative
+    if not path.exists():
+        reason = (f"real data not found: {path} (third-party data stays beside the clone in ../shared/data, "
+                  "or where BOAT_TWIN_SHARED_DATA says)")
+        if os.environ.get("BOAT_TWIN_REQUIRE_SHARED_DATA") == "1":
+            pytest.fail(f"{reason}; BOAT_TWIN_REQUIRE_SHARED_DATA=1 requires it")
+        pytest.skip(reason)
+    return path
+
+
+@pytest.fixture(scope="session")
+def ardusub_logs() -> Path:
+    """The ArduSub sample logs (small.tlog, small.BIN) of clydemcqueen/ardusub_log_tools (MIT licence; see
+    SOURCE.md there): a real autopilot's logs, for the MAVLink import."""
+    return shared_data("ardusub_log_tools")
+
+
+@pytest.fixture(scope="session")
+def own_tlog(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 10 s MAVLink telemetry log written by the twin itself (the MAVLink boat of ``simulate --tlog``), for tests
+    that need a .tlog file and not a real autopilot's."""
+    from boat_twin.config import TwinConfig
+    from boat_twin.link.mavlink_boat import MavlinkBoat
+    from boat_twin.twin.live import LiveTwin
+
+    path = tmp_path_factory.mktemp("own_tlog") / "twin.tlog"
+    with MavlinkBoat(LiveTwin(TwinConfig(), seed=0, epoch_s=1.7e9), None, tlog=path) as link:
+        link.step(500)
+    return path

@@ -112,6 +112,7 @@ VERB_FLAGS: dict[tuple[str, ...], dict[str, st.SearchStrategy[str] | None]] = {
     ("convert",): {"": st.sampled_from(["{stamps.tlog}", "{loop}", "{binary.yaml}", str(TLOG)]),
                    "--calibration": YAMLS, "--out": OUTS, "--force": None},
     ("cable", "depth"): {"--case": YAMLS, "--length": NUMBERS, "--plot": None, "--out": OUTS},
+    ("follow",): {"": TRIALS, "--model": YAMLS, "--config": YAMLS, "--out": OUTS, "--force": None},
     ("demo",): {"--sample": st.sampled_from(["{missing.mcap}", "{rep}/x", "{loop}", "{fifo.mcap}"]),
                 "--out": OUTS},
 }

@@ -1,12 +1,13 @@
 """``boat-twin VERB --help`` answers without loading the libraries, and its texts are written for users."""
 
+import argparse
 import json
 import subprocess
 import sys
 
 import pytest
 
-from boat_twin.cli import VERBS, main
+from boat_twin.cli import VERBS, build_parser, main
 
 HEAVY = ("numpy", "scipy", "matplotlib", "numba", "rosbags", "pymavlink", "pymap3d")
 """Libraries a --help must not import (each costs 0.1 to 1.5 s of CPU: benchmarks/bench_cli.py)."""
@@ -59,3 +60,27 @@ def test_a_verb_still_runs_after_its_lazy_imports(capsys) -> None:
     """The handler imports what the parser did not: a real run (the paper's table, no files) completes."""
     assert main(["identify", "--table", "dyda2021", "--order", "1", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["selected_order"] == 1
+
+
+def _option_actions(parser: argparse.ArgumentParser, where: str):
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from _option_actions(sub, f"{where} {name}")
+        elif action.option_strings and action.nargs != 0:
+            yield where, action
+
+
+def test_every_option_value_is_named_for_what_it_is() -> None:
+    """One style across verbs: a file is FILE, a directory DIR, a bag BAG, seconds S, a count N; a closed set
+    is shown as its choices. None falls back to argparse's upper-cased option name (--config CONFIG)."""
+    unnamed = [f"{where} {action.option_strings[0]}" for verb in VERBS
+               for where, action in _option_actions(build_parser(verb), "boat-twin")
+               if action.metavar is None and action.choices is None]
+    assert not unnamed, unnamed
+    metavars = {(action.option_strings[0], action.metavar) for verb in VERBS
+                for _, action in _option_actions(build_parser(verb), "") if isinstance(action.metavar, str)}
+    for option in ("--config", "--model", "--calibration", "--case"):
+        assert {m for o, m in metavars if o == option} == {"FILE"}, option
+    assert {m for o, m in metavars if o == "--window"} == {"S"}
+    assert {m for o, m in metavars if o == "--out"} <= {"DIR", "BAG"}

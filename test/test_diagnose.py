@@ -65,21 +65,21 @@ def _names(result: dict) -> list[str]:
     return [v["effect"] for v in result["verdict"]]
 
 
+SLOW = pytest.mark.slow
+"""A diagnosis study of a whole trial (10-90 s on a busy 2-core machine): run by CI and `make test SLOW=1`."""
+
+
 @pytest.mark.parametrize(("effect", "kind", "seed"), [
     ("water_current", "zigzag", 21),
-    ("gyro_bias", "thrust-steps", 22),
+    pytest.param("gyro_bias", "thrust-steps", 22, marks=SLOW),
     ("gnss_latency", "random", 23),
-    ("thrust_asymmetry", "zigzag", 24),
-    ("steering_offset", "random", 25),
-    ("mass_error", "thrust-steps", 26),
-    # The size check of a resistance change on a zigzag (one course, one speed band) is seed-sensitive: of seeds
-    # 27/127/227/327 only 127 lands within 0.06 on the simulator with the steering actuator (27 did before it,
-    # 227 and 327 did not either way).
-    ("resistance_shape", "zigzag", 127),
-    ("tow_load", "thrust-steps", 28),
-    ("wind", "random", 29),
-    ("wind", "zigzag", 30),
-    ("manoeuvring", "zigzag", 91),
+    pytest.param("thrust_asymmetry", "zigzag", 24, marks=SLOW),
+    pytest.param("steering_offset", "random", 25, marks=SLOW),
+    pytest.param("mass_error", "thrust-steps", 26, marks=SLOW),
+    pytest.param("tow_load", "thrust-steps", 28, marks=SLOW),
+    pytest.param("wind", "random", 29, marks=SLOW),
+    pytest.param("wind", "zigzag", 30, marks=SLOW),
+    pytest.param("manoeuvring", "zigzag", 91, marks=SLOW),
 ])
 def test_hidden_effect_is_named_with_its_size(tmp_path: Path, effect: str, kind: str, seed: int) -> None:
     config, truth = _true_boat(effect, kind, seed)
@@ -91,13 +91,35 @@ def test_hidden_effect_is_named_with_its_size(tmp_path: Path, effect: str, kind:
         assert found[name] == pytest.approx(truth[name], abs=tol)
         if effect == "manoeuvring":  # the extended model holds the corrected coefficients themselves
             _corrected_coefficients_match(Path(result["extended_model"]), config)
-    elif effect == "thrust_asymmetry":
+    else:  # thrust_asymmetry
         weak = "left_factor" if truth["left_factor"] < 1 else "right_factor"
         assert found[weak] == pytest.approx(truth[weak], abs=0.03)
-    else:  # resistance_shape: the change inside the band
-        low, high = truth["band_mps"]
-        inside = [v for k, v in found.items() if low <= float(k.split("_")[2]) <= high]
-        assert inside and max(inside, key=abs) == pytest.approx(truth["change"], abs=0.06)
+
+
+RESISTANCE_SIZE_ERROR = 0.6
+"""|found − true| / |true| of a resistance change's peak, at most. The hidden change has sharp edges (ramps a
+fifth of its band) where the correction is piecewise linear between 5 knots, so the peak found misses the true
+one by 9-50 % in the accuracy study (docs/diagnosis.md) and by 39, 6, 52 and 44 % on seeds 27/127/227/327 here."""
+
+
+@SLOW
+@pytest.mark.parametrize("seed", [27, 127, 227, 327])
+def test_a_resistance_change_is_named_in_its_place_with_its_size_on_every_seed(tmp_path: Path, seed: int) -> None:
+    """A resistance change on a zigzag (one course, one speed band): named first, its largest change at a knot
+    inside the true band or at the knot next to it, with the true sign, and within the study's size error."""
+    config, truth = _true_boat("resistance_shape", "zigzag", seed)
+    result = _diagnose(tmp_path, config, "zigzag", seed)
+    assert _names(result)[:1] == ["resistance_shape"], (truth, result["verdict"], result["candidates"][:3])
+    found = {float(k.split("_")[2]): v for k, v in result["verdict"][0]["parameters"].items()}
+    knots = sorted(found)
+    peak = max(knots, key=lambda k: abs(found[k]))
+    low, high = truth["band_mps"]
+    below = [k for k in knots if k < low]
+    above = [k for k in knots if k > high]
+    near = {k for k in knots if low <= k <= high} | set(below[-1:]) | set(above[:1])
+    assert peak in near, (peak, truth["band_mps"], found)
+    assert np.sign(found[peak]) == np.sign(truth["change"])
+    assert abs(found[peak] - truth["change"]) <= RESISTANCE_SIZE_ERROR * abs(truth["change"]), (found, truth)
 
 
 def _corrected_coefficients_match(model_path: Path, true_boat: TwinConfig) -> None:
@@ -120,6 +142,7 @@ def _hidden_lift_damping(which: str, seed: int) -> tuple[TwinConfig, dict[str, f
     return EFFECTS["manoeuvring"].apply(TwinConfig(), np.array(list(truth.values()))), truth
 
 
+@SLOW
 @pytest.mark.parametrize(("which", "seed", "trial_s"), [("drawn", 92, TRIAL_S), ("sway", 93, 180.0)])
 def test_manoeuvring_on_random_commands_is_named_with_both_factors_inside_their_intervals(
         tmp_path: Path, which: str, seed: int, trial_s: float) -> None:
@@ -180,6 +203,7 @@ FALSE_ALARM_TRIAL_S = 180.0
 the decision rule less data, the harder case for false alarms."""
 
 
+@SLOW
 def test_false_alarms_stay_at_most_5_percent_over_many_clean_trials(tmp_path: Path) -> None:
     alarms, unexplained = [], []
     for i in range(FALSE_ALARM_SEEDS):
@@ -194,6 +218,7 @@ def test_false_alarms_stay_at_most_5_percent_over_many_clean_trials(tmp_path: Pa
     assert len(unexplained) <= 0.05 * FALSE_ALARM_SEEDS, unexplained
 
 
+@SLOW
 def test_another_boat_far_off_the_model_is_never_an_all_clear(tmp_path: Path) -> None:
     """A 2.5 m, 60 kg survey boat (other vessel parameters) diagnosed against the default 6 m twin: whatever is
     named, the residuals stay far above the noise floor and the report says so."""
@@ -206,6 +231,7 @@ def test_another_boat_far_off_the_model_is_never_an_all_clear(tmp_path: Path) ->
     assert max(sig["misfit"] for sig in result["signature"]) > 2.0
 
 
+@SLOW
 @pytest.mark.parametrize(("kind", "seed"), [("random", 71), ("zigzag", 72)])
 def test_a_gyro_scale_error_outside_the_catalogue_is_unexplained_not_labelled(tmp_path: Path, kind: str,
                                                                               seed: int) -> None:
@@ -233,6 +259,7 @@ def test_a_gyro_scale_error_outside_the_catalogue_is_unexplained_not_labelled(tm
     assert worst["signal"] == "yaw_rate_radps" and worst["misfit"] > 2.0
 
 
+@SLOW
 @pytest.mark.parametrize(("probe", "seed"), [("steering_thrust_loss", 73), ("steering_dead_band", 74)])
 def test_an_actuator_fault_outside_the_catalogue_is_unexplained_not_labelled(tmp_path: Path, probe: str,
                                                                             seed: int) -> None:
@@ -274,6 +301,17 @@ def test_a_cause_removing_a_small_share_of_an_8x_misfit_is_a_candidate_not_a_ver
     assert 0.12 <= share <= 0.25 < MIN_MISFIT_SHARE and not within
 
 
+def test_a_candidate_not_judged_says_which_conditions_it_fails() -> None:
+    effect = catalogue(TwinConfig(), np.linspace(0.5, 9.0, 200))["water_current"]
+    fit = _fit([1.0, 1.0, 1.0, 1.0])
+    weak = Candidate(effect, fit, delta_bic=-4.0, size=0.02, at_bound=False, takes_over=True)
+    assert weak.failed_conditions == ["ΔBIC -4.0, not below -10", "size 0.02 below the floor 0.075 m/s",
+                                      "changes an effect already named"]
+    assert not weak.plausible
+    assert Candidate(effect, fit, delta_bic=-40.0, size=0.2, at_bound=False, takes_over=False).failed_conditions == []
+
+
+@SLOW
 def test_wind_on_a_trial_that_holds_one_heading_is_reported_with_its_alias_not_guessed(tmp_path: Path) -> None:
     """A 6 m/s head wind on thrust steps (no steering: the heading stays put) is a force along the hull, as a
     current or a thrust loss are: the wind and its best alias are reported as ambiguous, neither is named."""
@@ -289,6 +327,7 @@ def test_wind_on_a_trial_that_holds_one_heading_is_reported_with_its_alias_not_g
     assert f"ambiguous   {' or '.join(ambiguous['effects'])}" in text_report(result)
 
 
+@SLOW
 def test_two_effects_at_once_are_both_named(tmp_path: Path) -> None:
     rng = np.random.default_rng(41)
     config, current = hidden.draw_effect("water_current", TwinConfig(), rng)
@@ -297,6 +336,7 @@ def test_two_effects_at_once_are_both_named(tmp_path: Path) -> None:
     assert sorted(_names(result)) == ["gyro_bias", "water_current"]
 
 
+@SLOW
 def test_extended_model_reproduces_the_reported_gain(tmp_path: Path) -> None:
     config, _ = hidden.draw_effect("gyro_bias", TwinConfig(), np.random.default_rng(61))
     result = _diagnose(tmp_path, config, "random", 61)
@@ -331,13 +371,17 @@ def test_runs_test_sees_structure_and_not_noise() -> None:
 @pytest.mark.parametrize(("argv", "message"), [
     (["diagnose"], "give a TRIAL"),
     (["diagnose", "--table", "nope"], "dyda2021"),
-    (["diagnose", "--table", "dyda2021", "--model-order", "2"], "orders 1, 3, 5"),
+    (["diagnose", "--table", "dyda2021", "--model-order", "2"], "--model-order"),
     (["diagnose", "missing.mcap"], "missing.mcap"),
     (["diagnose", "missing.mcap", "--table", "dyda2021"], "either a TRIAL or --table"),
     (["diagnose", "missing.mcap", "--window", "0"], "--window"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv: list[str], message: str, capsys: pytest.CaptureFixture) -> None:
-    assert main(argv) == 2
+    try:
+        code = main(argv)
+    except SystemExit as stop:  # argparse's own usage errors (a value outside the choices)
+        code = stop.code
+    assert code == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
 

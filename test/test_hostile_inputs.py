@@ -123,7 +123,7 @@ def hostile(tmp_path, small_bag) -> dict[str, str]:
     (["simulate", "accel-stop", "--json", "--config", "{engine}"], "'engine_x_m' must be within ±500 m"),
     (["simulate", "accel-stop", "--json", "--model", "{beside}"], "'beam_m' beside 'vessel:'"),
     (["simulate", "accel-stop", "--json", "--model", "{environment}"], "'environment' beside 'vessel:'"),
-    (["identify", "{small_bag}", "--boat", "{beside}"], "'beam_m' beside 'vessel:'"),
+    (["identify", "{small_bag}", "--boat", "{beside}"], "unknown section 'beam_m'"),
     (["identify", "{trial}", "--columns", "{cal_list}"], "calibration: expected a mapping"),
     (["identify", "{fifo_mcap}"], "fifo.mcap: not a regular file"),
     (["identify", "{fifo_tlog}", "--calibration", str(CALIBRATION)], "fifo.tlog: not a regular file"),

@@ -147,7 +147,7 @@ def test_model_yaml_loads_as_vessel_override(identified, tmp_path) -> None:
         np.polynomial.polynomial.polyval(3.0, fit["coefficients"])
     )
     assert params.mass_kg * (1.0 + params.surge_added_mass_ratio) == pytest.approx(result["dynamic"]["mass_kg"])
-    written = write_trial_report(tmp_path / "report", result, t, f, v)
+    written = write_trial_report(tmp_path / "report", result, t, f, v, title="a simulated trial")
     assert all(p.stat().st_size > 0 for p in written)
     speed = [p["speed_mps"] for p in result["steady_points"]]
     thrust = [p["thrust_N"] for p in result["steady_points"]]

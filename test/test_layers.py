@@ -19,6 +19,7 @@ LAYERS = (
     ("io",),  # formats: ROS 2 messages, bags, MAVLink logs -> Trial
     ("twin",),  # the twin run batch (sea trial) or tick by tick (live)
     ("ident", "diagnose", "plots"),  # analyses of trials: siblings over one core (SIBLINGS)
+    ("shadow",),  # the live twin following a boat: uses identification (adaptation) and the diagnosis catalogue
     ("link",),  # the twin as a live MAVLink boat
     ("nodes", "cli"),  # front ends: ROS 2 nodes, the boat-twin command
 )

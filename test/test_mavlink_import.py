@@ -1,4 +1,5 @@
-"""MAVLink log import: real ArduSub logs, a synthetic .tlog of a simulated trial, convert, bad input, fuzzing."""
+"""MAVLink log import: real ArduSub logs (../shared/data, the ``ardusub_logs`` fixture of conftest.py), a synthetic
+.tlog of a simulated trial, convert, bad input, fuzzing."""
 
 import math
 import shutil
@@ -24,8 +25,6 @@ from boat_twin.vessel.scenarios import make_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 CALIBRATION = ROOT / "config" / "mavlink" / "ardupilot_two_outboards.yaml"
-LOGS = ROOT / "test" / "data" / "ardusub_log_tools"
-"""Real ArduSub logs (MIT licence, see SOURCE.md there), shipped so that a plain clone runs these tests."""
 
 UNIX0 = 1_700_000_000.0
 """Unix time of the synthetic log's sim time 0, s."""
@@ -167,8 +166,8 @@ def _independent_tlog_census(path: Path, types: set[str]) -> tuple[int, Counter,
 
 
 # ------------------------------------------------------------------------------------------ real logs
-def test_ardusub_tlog_imports_with_the_right_counts_time_span_and_conventions(calibration) -> None:
-    path = LOGS / "small.tlog"
+def test_ardusub_tlog_imports_with_the_right_counts_time_span_and_conventions(calibration, ardusub_logs) -> None:
+    path = ardusub_logs / "small.tlog"
     trial = read_trial_file(path, calibration=CALIBRATION)
     meta = trial.metadata
     assert isinstance(meta, MavlinkTrialMetadata)
@@ -211,8 +210,8 @@ def test_ardusub_tlog_imports_with_the_right_counts_time_span_and_conventions(ca
     assert "\n" not in line and "35916 tlog messages over 263.4 s" in line
 
 
-def test_ardusub_joystick_and_rc_inputs_map_through_the_calibration() -> None:
-    path = LOGS / "small.tlog"
+def test_ardusub_joystick_and_rc_inputs_map_through_the_calibration(ardusub_logs) -> None:
+    path = ardusub_logs / "small.tlog"
     cal = calibration_from_dict({"commands": {
         "thrust_left": {"source": "MANUAL_CONTROL.z", "table": [[0, 0.0], [1000, 2000.0]]},
         "thrust_right": {"source": "RC10", "table": [[1100, 0.0], [1900, 800.0]]}}}, "joystick")
@@ -237,8 +236,8 @@ def test_ardusub_joystick_and_rc_inputs_map_through_the_calibration() -> None:
     assert seen <= {float(v - 1100) for v in rc} and len(seen) > 2
 
 
-def test_ardusub_bin_imports_and_reports_the_missing_gps() -> None:
-    path = LOGS / "small.BIN"
+def test_ardusub_bin_imports_and_reports_the_missing_gps(ardusub_logs) -> None:
+    path = ardusub_logs / "small.BIN"
     reader = mavutil.mavlink_connection(str(path))
     counts, times = Counter(), {}
     while (msg := reader.recv_match()) is not None:
@@ -353,9 +352,9 @@ def test_convert_writes_a_bag_that_read_trial_reads_back(tlog, calibration, tmp_
     assert '"thrusters/left/thrust"' not in capsys.readouterr().out  # no calibration: no thruster topics
 
 
-def test_convert_of_the_ardusub_bin_keeps_its_attitude(tmp_path, capsys) -> None:
+def test_convert_of_the_ardusub_bin_keeps_its_attitude(tmp_path, capsys, ardusub_logs) -> None:
     bag = tmp_path / "bin.mcap"
-    assert main(["convert", str(LOGS / "small.BIN"), "--out", str(bag), "--json"]) == 0
+    assert main(["convert", str(ardusub_logs / "small.BIN"), "--out", str(bag), "--json"]) == 0
     out = capsys.readouterr().out
     assert '"imu/data": 237' in out and "no GNSS" in out
     assert bag.is_file()
@@ -469,8 +468,8 @@ def test_fuzzed_tlog_imports_or_fails_with_one_clean_line(small_tlog, cut, flips
 
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(cut=st.integers(0, 90_000), flips=_edits)
-def test_fuzzed_dataflash_imports_or_fails_with_one_clean_line(cut, flips) -> None:
-    data = bytearray((LOGS / "small.BIN").read_bytes()[:cut])
+def test_fuzzed_dataflash_imports_or_fails_with_one_clean_line(ardusub_logs, cut, flips) -> None:
+    data = bytearray((ardusub_logs / "small.BIN").read_bytes()[:cut])
     for where, mask in flips:
         if data:
             data[int(where * len(data))] ^= mask

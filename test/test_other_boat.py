@@ -26,6 +26,8 @@ from independent import rk4_held
 
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig, load_config, save_config
+from boat_twin.errors import InputError
+from boat_twin.ident.twin_config import load_boat, read_boat_file
 from boat_twin.io import messages
 from boat_twin.io.bags import read_trial, write_bag
 from boat_twin.io.sources import read_trial_file
@@ -204,11 +206,27 @@ def test_an_independently_integrated_otter_gives_a_twin_that_follows_it(tmp_path
     assert 1.8 < guessed.length_m < 2.4 and guessed.bollard_thrust_N == pytest.approx(max(LEVELS_N))
     assert main(["simulate", "--commands", str(tmp_path / "steps.csv"), "--config",
                  str(tmp_path / "no_boat_file" / "twin.yaml"), "--out", str(tmp_path / "guessed.mcap")]) == 0
-    capsys.readouterr()
-    (tmp_path / "bad_boat.yaml").write_text("length_m: 2.0\nresistance: {model: power_series}\n")
-    assert main(["identify", str(tmp_path / "otter.mcap"), "--boat", str(tmp_path / "bad_boat.yaml")]) == 2
-    assert "'resistance' cannot be given in a boat file (it is what identify measures)" in \
-        capsys.readouterr().err.strip().splitlines()[-1]
+
+
+def test_one_boat_file_serves_simulate_and_identify(tmp_path, capsys) -> None:
+    """A twin config (resistance, environment and all) is a boat file: identify reads its vessel facts, ignores
+    and reports what it measures and the other sections; a field no vessel has is still refused."""
+    config = tmp_path / "otter_twin.yaml"
+    config.write_text(yaml.safe_dump({"vessel": {**OTTER, "resistance": {
+        "model": "power_series", "coefficients": [0.0, LINEAR_DAMPING], "max_speed_mps": TOP_SPEED_MPS}},
+        "environment": {"current_east_mps": 0.2}}))
+    write_commands(tmp_path / "steps.csv")
+    assert main(["simulate", "--commands", str(tmp_path / "steps.csv"), "--config", str(config), "--duration",
+                 "5", "--json"]) == 0
+    boat = read_boat_file(config)
+    assert boat.facts == load_boat(config) == {k: float(v) for k, v in OTTER.items()}
+    assert boat.ignored == ("vessel.resistance", "environment")
+    (tmp_path / "typo.yaml").write_text("vessel: {length_m: 2.0, lenght_m: 2.0}\n")
+    with pytest.raises(InputError, match="typo.yaml: unknown vessel field 'lenght_m'"):
+        load_boat(tmp_path / "typo.yaml")
+    (tmp_path / "section.yaml").write_text("vessel: {length_m: 2.0}\nsensors: {}\n")
+    with pytest.raises(InputError, match="section.yaml: unknown section 'sensors'"):
+        load_boat(tmp_path / "section.yaml")
 
 
 PWM_TABLE = [[1100, -13.6 * KGF_N / 2], [1500, 0.0], [1900, BOLLARD_N]]

@@ -179,9 +179,9 @@ def test_a_flipped_bit_inside_a_chunk_is_an_error_never_data(tmp_path, where) ->
         read_trial(path)
 
 
-def test_convert_refuses_to_write_over_its_log(tmp_path, capsys) -> None:
-    log = tmp_path / "small.tlog"
-    log.write_bytes((Path(__file__).parent / "data" / "ardusub_log_tools" / "small.tlog").read_bytes())
+def test_convert_refuses_to_write_over_its_log(tmp_path, own_tlog, capsys) -> None:
+    log = tmp_path / "twin.tlog"
+    log.write_bytes(own_tlog.read_bytes())
     before = log.read_bytes()
     assert main(["convert", str(log), "--out", str(log), "--force"]) == 2
     assert "also an input" in capsys.readouterr().err and log.read_bytes() == before

@@ -5,6 +5,7 @@ import importlib
 import importlib.util
 import re
 import sys
+import types
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -82,13 +83,15 @@ def test_only_the_nodes_import_rclpy() -> None:
         assert "rclpy" not in names, path
 
 
+def _launch_table(name: str) -> dict:
+    """The literal ``name = {...}`` of twin.launch.py (read without ROS 2's launch packages)."""
+    tree = ast.parse((ROOT / "launch" / "twin.launch.py").read_text())
+    (value,) = [n.value for n in tree.body if isinstance(n, ast.Assign) and getattr(n.targets[0], "id", "") == name]
+    return ast.literal_eval(value)
+
+
 def test_launch_file_parses_and_names_installed_executables() -> None:
-    scripts = _console_scripts()
-    for launch in (ROOT / "launch").glob("*.launch.py"):
-        tree = ast.parse(launch.read_text())
-        executables = {n.value.value for n in ast.walk(tree) if isinstance(n, ast.keyword)
-                       and n.arg == "executable" and isinstance(n.value, ast.Constant)}
-        assert executables and executables <= set(scripts), launch
+    assert set(_launch_table("PARAMETERS")) <= set(_console_scripts())
 
 
 @pytest.mark.skipif(importlib.util.find_spec("launch_ros") is None,
@@ -101,13 +104,46 @@ def test_launch_description_builds() -> None:
 
 
 def test_launch_parameters_are_declared_by_their_nodes() -> None:
-    """Every parameter twin.launch.py passes to a node is one the node declares (a typo would be ignored)."""
-    tree = ast.parse((ROOT / "launch" / "twin.launch.py").read_text())
-    for call in (n for n in ast.walk(tree) if isinstance(n, ast.Call) and getattr(n.func, "id", "") == "Node"):
-        keywords = {k.arg: k.value for k in call.keywords}
-        if "parameters" not in keywords:
-            continue
-        passed = {key.value for d in ast.walk(keywords["parameters"]) if isinstance(d, ast.Dict) for key in d.keys}
-        source = (ROOT / "boat_twin" / "nodes" / f"{keywords['executable'].value}.py").read_text()
+    """Every parameter twin.launch.py passes to a node is one the node declares (a typo would be ignored), set by
+    a declared launch argument."""
+    arguments = _launch_table("ARGUMENTS")
+    for executable, table in _launch_table("PARAMETERS").items():
+        source = (ROOT / "boat_twin" / "nodes" / f"{executable}.py").read_text()
         declared = set(re.findall(r'parameters\.\w+\(\s*self,\s*"([a-z_]+)"', source)) | {"use_sim_time"}
-        assert passed and passed <= declared, (keywords["executable"].value, passed - declared)
+        assert table and set(table) <= declared, (executable, set(table) - declared)
+        assert set(table.values()) <= set(arguments), (executable, set(table.values()) - set(arguments))
+
+
+def test_launch_passes_only_the_arguments_given_so_the_nodes_keep_their_defaults(monkeypatch) -> None:
+    """An empty launch argument is not passed (the node's own default holds); one given is, as a substitution
+    that launch_ros types. ROS 2's launch packages are stood in for by recorders: only the selection is tested."""
+
+    class Recorded:
+        def __init__(self, *args, **kwargs) -> None:
+            self.args, self.kwargs = args, kwargs
+
+    class Configuration(Recorded):
+        def perform(self, context: dict) -> str:
+            return context.get(self.args[0], "")
+
+    stubs = {"launch": {"LaunchContext": dict, "LaunchDescription": Recorded},
+             "launch.actions": {"DeclareLaunchArgument": Recorded, "OpaqueFunction": Recorded},
+             "launch.substitutions": {"LaunchConfiguration": Configuration}, "launch_ros.actions": {"Node": Recorded}}
+    for name, attributes in stubs.items():
+        module = types.ModuleType(name)
+        vars(module).update(attributes)
+        monkeypatch.setitem(sys.modules, name, module)
+    spec = importlib.util.spec_from_file_location("twin_launch_stubbed", ROOT / "launch" / "twin.launch.py")
+    launch = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(launch)
+    defaults = {name: default for name, (default, _) in launch.ARGUMENTS.items()}
+    nodes = {n.kwargs["executable"]: n.kwargs["parameters"][0] for n in launch.nodes(defaults)}
+    assert {k: {p: v.args[0] for p, v in d.items()} for k, d in nodes.items()} == {
+        "simulator": {}, "identifier": {}, "cable": {"follow_gnss_vel": "follow_gnss_vel"}}
+    nodes = {n.kwargs["executable"]: n.kwargs["parameters"][0]
+             for n in launch.nodes({**defaults, "seed": "7", "sim_time": "true"})}
+    assert set(nodes["simulator"]) == {"seed", "publish_clock"} and set(nodes["identifier"]) == {"use_sim_time"}
+    description = launch.generate_launch_description()
+    declared = [e.args[0] for e in description.args[0] if isinstance(e, Recorded) and e.args and isinstance(
+        e.args[0], str)]
+    assert declared == list(launch.ARGUMENTS)

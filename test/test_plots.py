@@ -9,7 +9,7 @@ from matplotlib.colors import to_rgba
 
 from boat_twin.diagnose.report import evidence_figure
 from boat_twin.ident.report import resistance_figure, unvisited_bands
-from boat_twin.plots import trial_figure
+from boat_twin.plots import manoeuvre_figure, trial_figure
 
 
 @dataclass
@@ -95,6 +95,7 @@ def test_evidence_figure_has_plain_ticks_and_no_empty_panel(judged: bool) -> Non
     ax_bic, ax_gain = fig.axes
     ticks = [t.get_text() for t in ax_bic.get_xticklabels() if t.get_text()]
     assert ticks and not any("^" in t or "$" in t for t in ticks), ticks
+    assert "linear within ±10, logarithmic beyond" in ax_bic.get_xlabel() and ax_gain.get_xlabel()
     message = [t.get_text() for t in ax_gain.texts]
     assert bool(message) is not judged  # the panel explains itself when no bar can be drawn
 
@@ -125,3 +126,45 @@ def test_diagnosis_figures_never_draw_a_line_hidden_under_another(same: bool) ->
         assert per_axis == (1 if same else 2)
         if not same:  # the baseline underneath is wider than the extended model on top
             assert models[0].get_linewidth() > models[1].get_linewidth()
+
+
+@pytest.mark.parametrize("scenario", ["turning-circle", "zigzag-10-10"])
+def test_a_simulated_manoeuvre_is_drawn_to_scale_with_its_imo_figures(scenario: str, tmp_path) -> None:
+    from boat_twin.cli import main
+    from boat_twin.vessel.manoeuvres import execute_time_s, manoeuvre_figures
+    from boat_twin.vessel.params import VesselParams
+    from boat_twin.vessel.scenarios import make_scenario
+    from boat_twin.vessel.simulate import simulate
+
+    params = VesselParams()
+    run = make_scenario(scenario, params, np.random.default_rng(0))
+    truth = simulate(params, run).truth()
+    figures = manoeuvre_figures(run, truth, params.length_m)
+    fig = manoeuvre_figure(truth, figures, execute_time_s(run), f"simulate {scenario}")
+    fig.canvas.draw()
+    track, heading = fig.axes[:2]
+    assert track.get_aspect() == 1.0 and fig.get_suptitle() == f"simulate {scenario}"
+    labels = " ".join(t.get_text() for ax in (track, heading) for t in ax.get_legend().get_texts())
+    if scenario == "turning-circle":
+        for text in ("advance", "transfer", "tactical diameter", f"{figures['tactical_diameter_L']:.2f} L"):
+            assert text in labels, labels
+        turned = heading.get_lines()[0].get_ydata()
+        assert turned[-1] > 360.0 and np.all(np.diff(turned) >= -1e-9)  # the angle turned, never wrapped
+    else:
+        assert f"first overshoot {figures['first_overshoot_deg']:.1f}°" in labels and "IMO ≤" in labels
+    png = tmp_path / "run.png"
+    assert main(["simulate", scenario, "--no-noise", "--duration", "40", "--plot", str(png)]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert main(["simulate", scenario, "--duration", "40", "--plot", str(png)]) == 2  # exists: --force needed
+    assert main(["simulate", scenario, "--duration", "40", "--plot", str(tmp_path / "run.pdf")]) == 2
+
+
+def test_a_saved_figure_carries_its_trial_as_title(tmp_path) -> None:
+    from matplotlib.figure import Figure
+
+    from boat_twin.files import atomic_save_figure
+
+    fig = Figure()
+    fig.subplots()
+    atomic_save_figure(tmp_path / "a.png", fig, "diagnose trial.mcap")
+    assert fig.get_suptitle() == "diagnose trial.mcap" and (tmp_path / "a.png").stat().st_size > 0

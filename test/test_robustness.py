@@ -30,7 +30,6 @@ from boat_twin.vessel import make_scenario
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "config" / "cable" / "default.yaml"
 CALIBRATION = ROOT / "config" / "mavlink" / "ardupilot_two_outboards.yaml"
-TLOG = ROOT / "test" / "data" / "ardusub_log_tools" / "small.tlog"
 BOAT_TWIN = str(Path(sys.executable).parent / "boat-twin") if (Path(sys.executable).parent / "boat-twin").exists() \
     else (shutil.which("boat-twin") or "boat-twin")
 """The console script, as a user runs it."""
@@ -124,9 +123,9 @@ def test_leftovers_of_a_killed_writer_are_restored_or_removed_and_named(tmp_path
     assert sorted(p.name for p in tmp_path.iterdir()) == [".trial.mcap.partial-999999", "trial"]
 
 
-def test_a_tlog_is_written_next_to_its_name_and_a_failed_run_keeps_the_old_one(tmp_path) -> None:
+def test_a_tlog_is_written_next_to_its_name_and_a_failed_run_keeps_the_old_one(tmp_path, own_tlog) -> None:
     tlog = tmp_path / "drive.tlog"
-    tlog.write_bytes(TLOG.read_bytes())  # yesterday's log
+    tlog.write_bytes(own_tlog.read_bytes())  # yesterday's log
     old = tlog.read_bytes()
 
     def drive(fail: bool) -> None:
@@ -211,7 +210,7 @@ def bad_files(tmp_path) -> dict[str, Path]:
 @pytest.mark.parametrize(("argv", "message"), [
     (["simulate", "accel-stop", "--config", "{binary}", "--json"], "binary.yaml: not a UTF-8 text file"),
     (["simulate", "accel-stop", "--model", "{binary}", "--json"], "binary.yaml: not a UTF-8 text file"),
-    (["identify", str(TLOG), "--calibration", "{binary}"], "binary.yaml: not a UTF-8 text file"),
+    (["identify", "{tlog}", "--calibration", "{binary}"], "binary.yaml: not a UTF-8 text file"),
     (["cable", "depth", "--case", "{binary}"], "binary.yaml: not a UTF-8 text file"),
     (["simulate", "accel-stop", "--seed", "-1", "--json"], "--seed: must be an integer from 0"),
     (["diagnose", "{bag}", "--window", "nan"], "--window: expected a finite number, got nan"),
@@ -227,8 +226,8 @@ def bad_files(tmp_path) -> dict[str, Path]:
     (["cable", "depth", "--case", "{drag}"], "cable.drag.model: unknown drag model [1, 2]"),
     (["cable", "length", "--case", str(CASE), "--depth", "1e9"], "does not reach the surface from 1e+09 m"),
 ])
-def test_absurd_inputs_are_one_line_and_exit_2(bad_files, small_bag, capsys, argv, message) -> None:
-    names = {**{k: str(v) for k, v in bad_files.items()}, "bag": str(small_bag)}
+def test_absurd_inputs_are_one_line_and_exit_2(bad_files, small_bag, own_tlog, capsys, argv, message) -> None:
+    names = {**{k: str(v) for k, v in bad_files.items()}, "bag": str(small_bag), "tlog": str(own_tlog)}
     assert _run([a.format(**names) for a in argv]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err

@@ -22,6 +22,8 @@ VERBS: dict[str, tuple[str, str]] = {
     "identify": ("boat_twin.cli.identify",
                  "identify the thrust-speed model (resistance curve, effective mass) from a trial or a table"),
     "diagnose": ("boat_twin.cli.diagnose", "find what the model gets wrong on a trial (or a steady-state table)"),
+    "follow": ("boat_twin.cli.follow",
+               "replay a trial through the live twin: innovations, online adaptation, rolling diagnosis"),
     "convert": ("boat_twin.cli.convert",
                 "convert a MAVLink log (.tlog, .BIN) into a rosbag2 with the package's topics"),
     "cable": ("boat_twin.cli.cable",

@@ -128,7 +128,7 @@ def _speed(args: argparse.Namespace) -> int:
 def _common(parser: argparse.ArgumentParser, outputs: bool = True) -> None:
     """The options every sub-verb takes; ``outputs=False`` (``speed``: no plot, and the tow speed is the answer,
     not an input): without --tow-speed, --plot, --out and --force."""
-    parser.add_argument("--case", type=Path, required=True, help="case YAML file (see config/cable/)")
+    parser.add_argument("--case", type=Path, required=True, metavar="FILE", help="case YAML file (see config/cable/)")
     if outputs:
         parser.add_argument("--tow-speed", type=float, metavar="MPS", help="tow speed, m/s (default: the case's)")
     parser.add_argument("--segment-length", type=float, metavar="M",
@@ -136,7 +136,7 @@ def _common(parser: argparse.ArgumentParser, outputs: bool = True) -> None:
     parser.add_argument("--json", action="store_true", help="machine-readable result on stdout")
     if outputs:
         parser.add_argument("--plot", action="store_true", help="write a PNG into --out")
-        parser.add_argument("--out", type=Path, default=DEFAULT_OUT,
+        parser.add_argument("--out", type=Path, default=DEFAULT_OUT, metavar="DIR",
                             help=f"output directory (default {DEFAULT_OUT})")
         parser.add_argument("--force", action="store_true", help="overwrite an existing PNG")
 
@@ -167,7 +167,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     _common(p)
     p.add_argument("--segments", type=float, nargs="+", metavar="M",
                    help="link lengths l, m, decreasing (default: the paper's Fig. 5: 5 2.5 1.25 0.625)")
-    p.add_argument("--tolerance", type=float, default=1e-3,
+    p.add_argument("--tolerance", type=float, default=1e-3, metavar="FRACTION",
                    help="relative depth accuracy for the l estimate (default 0.001 = 0.1%%)")
     p.set_defaults(handler=_convergence)
     p = verbs.add_parser("speed", help="tow speed that holds the vehicle at a depth on a given length",

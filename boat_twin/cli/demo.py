@@ -28,8 +28,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("demo", help=verb_help("demo"),
                               description="Regenerate the shipped thrust-steps sample, check it matches, read it "
                               "back as a Trial, print speeds per thrust level and sensor rates, plot, identify.")
-    p.add_argument("--sample", type=Path, default=SAMPLE_BAG, help=f"sample bag (default {SAMPLE_BAG})")
-    p.add_argument("--out", type=Path, default=Path("out/demo"), help="report directory (default out/demo)")
+    p.add_argument("--sample", type=Path, default=SAMPLE_BAG, metavar="BAG",
+                   help=f"sample bag (default {SAMPLE_BAG})")
+    p.add_argument("--out", type=Path, default=Path("out/demo"), metavar="DIR",
+                   help="report directory (default out/demo)")
     p.add_argument("--force", action="store_true",
                    help=f"overwrite an earlier demo's outputs in --out ({', '.join(OUTPUTS)})")
     p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")
@@ -123,7 +125,8 @@ def identification_summary(sample: Trial, out: Path, staging: Path | None = None
     t_s, thrust, speed = sample.t_s[keep], sample.surge_thrust_N[keep], sample.speed_mps[keep]
     result = identify_arrays(t_s, thrust, speed)
     write_trial_report((staging or out) / "identify", result, t_s, thrust, speed,
-                       true_resistance_N=TwinConfig().vessel.resistance.force_N)  # the sample's own boat
+                       true_resistance_N=TwinConfig().vessel.resistance.force_N,  # the sample's own boat
+                       title=f"demo: identify {sample.metadata.source}")
     fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
     dyn = result["dynamic"]
     paper = reproduce()

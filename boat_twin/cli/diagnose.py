@@ -71,9 +71,11 @@ def _run_trial(args: argparse.Namespace, staging: Path | None) -> int:
         result["extended_model"] = str(out / EXTENDED_MODEL_NAME)
         concerned = concerned_signals(result)
         before, after = done.baseline_prediction, done.extended_prediction
-        atomic_save_figure(staging / "diagnosis_signals.png", signal_figure(done.windows, before, after, concerned))
-        atomic_save_figure(staging / "diagnosis_residuals.png", residual_figure(done.windows, before, after))
-        atomic_save_figure(staging / "diagnosis_evidence.png", evidence_figure(result))
+        title = f"diagnose {args.trial}"
+        atomic_save_figure(staging / "diagnosis_signals.png", signal_figure(done.windows, before, after, concerned),
+                           title)
+        atomic_save_figure(staging / "diagnosis_residuals.png", residual_figure(done.windows, before, after), title)
+        atomic_save_figure(staging / "diagnosis_evidence.png", evidence_figure(result), title)
         atomic_write_text(staging / "diagnosis.json", to_json(result) + "\n")
     print(to_json(result) if args.json else text_report(result))
     return 0
@@ -89,7 +91,8 @@ def _run_table(args: argparse.Namespace, staging: Path | None) -> int:
         atomic_write_yaml(staging / EXTENDED_MODEL_NAME, {"vessel": {"resistance": resistance.to_dict()}})
         result["extended_model"] = str(args.out / EXTENDED_MODEL_NAME)
     if staging is not None:
-        atomic_save_figure(staging / "diagnosis_table.png", table_figure(diag))
+        atomic_save_figure(staging / "diagnosis_table.png", table_figure(diag),
+                           f"diagnose --table dyda2021 (the paper's N = {args.model_order} fit)")
     print(to_json(result) if args.json else table_text(result, diag))
     return 0
 
@@ -101,8 +104,6 @@ def run(args: argparse.Namespace) -> int:
     if args.table is not None:
         if args.trial is not None:
             raise InputError("give either a TRIAL or --table, not both")
-        if args.table != "dyda2021":
-            raise InputError(f"--table {args.table!r}: the built-in table is 'dyda2021'")
         with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as reports:
             return _run_table(args, reports.staging if reports else None)
     if args.trial is None:
@@ -120,15 +121,18 @@ def register(subparsers: Any) -> None:
         "table), name the cause from a catalogue of effects, and write the extended model with the gain.")
     p.add_argument("trial", nargs="?", type=Path, help=TRIAL_HELP)
     add_trial_options(p)
-    p.add_argument("--table", help="diagnose a built-in steady-state table instead: dyda2021")
-    p.add_argument("--model-order", type=int, default=1, help="with --table: the paper's fit to start from (1, 3, 5)")
-    p.add_argument("--config", type=Path,
+    p.add_argument("--table", choices=["dyda2021"],
+                   help="diagnose a built-in steady-state table instead: dyda2021 = Dyda & Chumakova (2021) Table 1")
+    p.add_argument("--model-order", type=int, choices=[1, 3, 5], default=1,
+                   help="with --table: the paper's fit to start from (default 1)")
+    p.add_argument("--config", type=Path, metavar="FILE",
                    help="twin configuration YAML of the model to diagnose (default: the built-in boat)")
-    p.add_argument("--model", type=Path, help="identified model YAML overriding the vessel (resistance, mass)")
-    p.add_argument("--window", type=float, default=WINDOW_S,
+    p.add_argument("--model", type=Path, metavar="FILE",
+                   help="identified model YAML overriding the vessel (resistance, mass)")
+    p.add_argument("--window", type=float, default=WINDOW_S, metavar="S",
                    help=f"replay window, s: the model restarts from the measured state every window "
                    f"(default {WINDOW_S:g})")
-    p.add_argument("--out", type=Path, help="directory for the extended model YAML, JSON and PNG plots")
+    p.add_argument("--out", type=Path, metavar="DIR", help="directory for the extended model YAML, JSON and PNG plots")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs in --out")
     p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
     p.set_defaults(handler=run)

@@ -48,8 +48,8 @@ def _run_table(args: argparse.Namespace, out: Path | None) -> int:
             f"Dyda & Chumakova (2021) Table 1 read as kn/kgf, least squares N = {si_fit.order}, SI units",
         )
         fits_fig, resid_fig = table_figures(result)
-        atomic_save_figure(out / "fits.png", fits_fig)
-        atomic_save_figure(out / "residuals.png", resid_fig)
+        atomic_save_figure(out / "fits.png", fits_fig, "identify --table dyda2021")
+        atomic_save_figure(out / "residuals.png", resid_fig, "identify --table dyda2021")
     sys.stdout.write(to_json(result) + "\n" if args.json else report)
     return 0
 
@@ -153,9 +153,13 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     from boat_twin.config import TwinConfig, save_config
     from boat_twin.ident.pipeline import identify_trials, pool, trial_samples
     from boat_twin.ident.report import resimulation_line, write_trial_report
-    from boat_twin.ident.twin_config import load_boat
+    from boat_twin.ident.twin_config import read_boat_file
 
-    boat = load_boat(args.boat) if args.boat is not None else None
+    boat_file = read_boat_file(args.boat) if args.boat is not None else None
+    if boat_file is not None and boat_file.ignored:
+        sys.stderr.write(f"{args.boat}: ignoring {', '.join(boat_file.ignored)} (identify measures the resistance and "
+                         "the effective mass, and reads only the vessel's facts)\n")
+    boat = None if boat_file is None else boat_file.facts
     trials = []
     for path in args.trial:
         sys.stderr.write(f"reading {path} ...\n")
@@ -174,16 +178,18 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
                         f"load with: boat-twin simulate ... --config {args.out / 'twin.yaml'}")
         t_s, thrust, speed = (np.concatenate(column) for column in zip(*pool([trial_samples(tr) for tr in trials]),
                                                                        strict=True))
-        write_trial_report(out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None)
+        write_trial_report(out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None,
+                           title=f"identify {', '.join(map(str, args.trial))}")
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0
     fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
     dyn = result.get("dynamic", {})
     names = ", ".join(map(str, args.trial))
+    rejected = len(result.get("rejected_segments", []))
     lines = [
-        f"trial{'s' if len(trials) > 1 else ''} {names}: {len(result['steady_points'])} steady points, "
-        f"{len(result.get('rejected_segments', []))} segments rejected",
+        f"trial{'s' if len(trials) > 1 else ''} {names}: {_count(len(result['steady_points']), 'steady point')}, "
+        f"{_count(rejected, 'segment')} rejected",
         f"steady-state detector: window {result['steady_criteria']['window_s']:.3g} s, thrust tolerance "
         f"{result['steady_criteria']['thrust_tolerance_N']:.3g} N",
         f"selected order N = {result['selected_order']} ({result.get('selection_reason', '')})",
@@ -207,6 +213,11 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     return 0
 
 
+def _count(n: int, noun: str) -> str:
+    """``n`` and ``noun``, plural unless one ("1 segment", "2 segments")."""
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
 def register(subparsers: Any) -> None:
     """Add the ``identify`` verb."""
     p = subparsers.add_parser(
@@ -225,22 +236,24 @@ def register(subparsers: Any) -> None:
                    help="with --manoeuvring: a trial not fitted, replayed with the fit to report its error")
     p.add_argument("--window", type=float, metavar="S",
                    help="with --manoeuvring: replay window, s (default 20; a trial needs 6 windows)")
-    p.add_argument("--config", type=Path, help="with --manoeuvring: twin configuration YAML (the prior and the held "
-                   "surge; default the built-in boat)")
-    p.add_argument("--model", type=Path, help="with --manoeuvring: identified surge model YAML (identify TRIAL "
-                   "--out) over the config's vessel")
+    p.add_argument("--config", type=Path, metavar="FILE",
+                   help="with --manoeuvring: twin configuration YAML (the prior and the held surge; default the "
+                   "built-in boat)")
+    p.add_argument("--model", type=Path, metavar="FILE",
+                   help="with --manoeuvring: identified surge model YAML (identify TRIAL --out) over the config's "
+                   "vessel")
     p.add_argument(
         "--table",
         choices=["dyda2021"],
         help="built-in steady-state table: dyda2021 = Dyda & Chumakova (2021) Table 1, v in kn, F in kgf",
     )
     p.add_argument(
-        "--order", type=int,
+        "--order", type=int, metavar="N",
         help="power-series order N (default: chosen by leave-one-out cross-validation and the Bayesian information "
         "criterion, BIC)"
     )
     p.add_argument(
-        "--max-order", type=int, default=8,
+        "--max-order", type=int, default=8, metavar="N",
         help="highest order N tried by the selection (default 8; a recorded trial tries at most 6)",
     )
     p.add_argument(
@@ -260,10 +273,11 @@ def register(subparsers: Any) -> None:
         help="thrust counts as constant within this of a segment's start, N (default: derived from the commands: "
         "half their smallest step, or 4 sigma of their jitter)")
     p.add_argument(
-        "--boat", type=Path, metavar="BOAT.yaml",
-        help="the boat's facts for the twin --out writes (twin.yaml): any vessel field but the resistance, e.g. "
-        "length_m, beam_m, draft_m, engine_y_m, bollard_thrust_N (SI; docs/identification.md); facts not given "
-        "are the default boat's carried to the identified mass")
+        "--boat", type=Path, metavar="FILE",
+        help="the boat's facts for the twin --out writes (twin.yaml): vessel fields, e.g. length_m, beam_m, "
+        "draft_m, engine_y_m, bollard_thrust_N (SI; docs/identification.md), or a twin config as simulate --config "
+        "takes (its resistance, effective mass and other sections are ignored: identify measures them); facts not "
+        "given are the default boat's carried to the identified mass")
     p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
     p.add_argument(
         "--out",

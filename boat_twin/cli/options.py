@@ -47,7 +47,8 @@ def add_trial_options(parser: argparse.ArgumentParser, *, bags: bool = True) -> 
         f"for a MAVLink log, the message of gnss_fix or gnss_vel: {mavlink}" if bags
         else f"the message gnss_fix or gnss_vel comes from (e.g. gnss_vel=GPS_RAW_INT): {mavlink}")
     if bags:
-        parser.add_argument("--namespace", default="", help="namespace the bag's topics were recorded under")
+        parser.add_argument("--namespace", default="", metavar="NS",
+                            help="namespace the bag's topics were recorded under")
     parser.add_argument(
         "--calibration", type=Path, metavar="FILE",
         help="MAVLink logs: YAML map from logged PWM (SERVO/RC channels) or MANUAL_CONTROL axes to thrust (N) and "

@@ -44,11 +44,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--current", type=float, nargs=2, metavar=("EAST", "NORTH"),
                    help="water current over ground, m/s (its east and north components)")
     p.add_argument("--duration", type=float, metavar="S", help="trial length, s (default: the scenario's own)")
-    p.add_argument("--seed", type=int, default=0,
+    p.add_argument("--seed", type=int, default=0, metavar="N",
                    help="random seed, 0 to 2^63-1: the same seed gives the same bag (default 0)")
     p.add_argument("--no-noise", action="store_true", help="exact measurements (no noise, dropouts or bias)")
     p.add_argument("--out", type=Path, metavar="BAG", help="output bag: a directory, or a file ending in .mcap")
     p.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap", help="rosbag2 storage (default mcap)")
+    p.add_argument("--plot", type=Path, metavar="PNG",
+                   help="write the run's x-y track (to scale) and heading as a PNG; a turning circle or zigzag with "
+                   "its IMO figures marked (advance, transfer, tactical diameter; executes, overshoots)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output")
     p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")
     p.add_argument("--mavlink", metavar="URL",
@@ -128,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``simulate``."""
     from boat_twin.twin.sea_trial import compact_trial_messages, run_compact_trial
     from boat_twin.validation import integer
-    from boat_twin.vessel.manoeuvres import manoeuvre_figures
+    from boat_twin.vessel.manoeuvres import execute_time_s, manoeuvre_figures
     from boat_twin.vessel.params import describe
 
     integer("--seed", args.seed, minimum=0, maximum=SEED_MAX)
@@ -143,15 +146,20 @@ def run(args: argparse.Namespace) -> int:
                          f"for a {args.out.suffix} file by its name; for a MAVLink log use --tlog FILE")
     refuse_input_as_output(args.out, args.commands, args.config, args.model, args.tlog)
     refuse_input_as_output(args.tlog, args.commands, args.config, args.model)
-    for output, kind in ((args.out, "bag"), (args.tlog, "tlog")):
+    refuse_input_as_output(args.plot, args.commands, args.config, args.model, args.out, args.tlog)
+    if args.plot is not None and args.plot.suffix.lower() != ".png":
+        raise InputError(f"--plot {args.plot}: writes a PNG; give a file name ending in .png")
+    if args.plot is not None and (args.mavlink is not None or args.tlog is not None):
+        raise InputError("--plot applies to a batch simulation, not to --mavlink / --tlog")
+    for output, kind in ((args.out, "bag"), (args.tlog, "tlog"), (args.plot, "file")):
         if output is not None:
             prepare_output(output, args.force, kind)  # refused before the simulation, checked again when written
     config = twin_config_from_args(args)
     if args.mavlink is not None or args.tlog is not None:
         return _run_mavlink(args, config)
     scenario = _scenario(args, config)
-    if args.out is None and not args.json:
-        raise InputError("nothing to do: give --out BAG (and/or --json)")
+    if args.out is None and args.plot is None and not args.json:
+        raise InputError("nothing to do: give --out BAG (and/or --plot PNG, --json)")
     trial = run_compact_trial(config, scenario, args.seed, noise=not args.no_noise)
     result = {"scenario": scenario.name, "seed": args.seed, **summarize(trial.truth),
               "vessel": describe(config.vessel)}
@@ -163,6 +171,13 @@ def run(args: argparse.Namespace) -> int:
 
         result["bag"] = str(args.out)
         result["messages"] = write_bag(args.out, compact_trial_messages(trial), args.storage, args.force)
+    if args.plot is not None:
+        from boat_twin.files import atomic_save_figure
+        from boat_twin.plots import manoeuvre_figure
+
+        title = f"simulate {scenario.name}, seed {args.seed}" + ("" if args.config is None else f", {args.config}")
+        atomic_save_figure(args.plot, manoeuvre_figure(trial.truth, figures, execute_time_s(scenario), title))
+        result["plot"] = str(args.plot)
     if args.json:
         print(to_json(result))
     else:
@@ -174,6 +189,8 @@ def run(args: argparse.Namespace) -> int:
                 if isinstance(value, float) and key.endswith(("_L", "_deg", "_s")) and "limit" not in key))
         if args.out is not None:
             print(f"wrote {result['messages']} messages to {args.out}")
+        if args.plot is not None:
+            print(f"wrote {args.plot}")
     return 0
 
 

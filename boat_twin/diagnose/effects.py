@@ -27,7 +27,8 @@ extended model carries the corrected coefficients themselves (N·m·s, N·s²/m�
 Adding a diagnosis effect
 -------------------------
 Write its ``apply`` (config, parameters → extended config), its ``draw`` (how a trial hides it at a given
-size) and one :class:`EffectSpec` entry in :data:`EFFECTS`; nothing else. Its position in :data:`EFFECTS` is
+size) and one :class:`EffectSpec` entry in :data:`EFFECTS` (with ``wind_alias=True`` if, on a trial that
+holds one heading, it is a constant body-frame force as a wind is); nothing else. Its position in :data:`EFFECTS` is
 its place in the report, the accuracy study (``benchmarks/bench_diagnose.py``) picks it up, and the fit, the
 decision rule (:mod:`~boat_twin.diagnose.search`) and the hidden trials (:mod:`~boat_twin.diagnose.hidden`)
 read everything from the entry. Add a case to ``test/test_diagnose.py``'s parametrized hidden-effect test.
@@ -122,6 +123,9 @@ class EffectSpec:
     """How a trial hides it: (base, size, sign, generator, visited speeds) → (true config, truth by name)."""
     per_knot: bool = False
     """One parameter per knot of :func:`resistance_knots_mps` (the speeds the trial visited)."""
+    wind_alias: bool = False
+    """A constant force in the body frame on a trial that holds one heading, as a wind is there: the search
+    reports it and the wind as ambiguous instead of naming either (:data:`~boat_twin.diagnose.search.WIND_ALIASES`)."""
 
     def for_trial(self, base: TwinConfig, speed_mps: np.ndarray) -> Effect:
         """The effect set up for a trial of the base config ``base`` that visited ``speed_mps`` (m/s)."""
@@ -332,7 +336,7 @@ EFFECTS: Mapping[str, EffectSpec] = MappingProxyType({spec.name: spec for spec i
         parameters=(Parameter("east_mps", "m/s", scale=0.05, lower=-3.0, upper=3.0),
                     Parameter("north_mps", "m/s", scale=0.05, lower=-3.0, upper=3.0)),
         apply=_current, magnitude=lambda p, null: float(np.hypot(p[0], p[1])), size_unit="m/s (current speed)",
-        threshold=0.15, min_size=0.075, draw=_draw_current),
+        threshold=0.15, min_size=0.075, draw=_draw_current, wind_alias=True),
     EffectSpec(
         name="gyro_bias",
         parameters=(Parameter("bias_radps", "rad/s", scale=0.001, lower=-0.2, upper=0.2),),
@@ -350,12 +354,14 @@ EFFECTS: Mapping[str, EffectSpec] = MappingProxyType({spec.name: spec for spec i
                     Parameter("right_factor", "-", scale=0.03, lower=0.2, upper=2.0,
                               null=lambda c: c.vessel.thrust_factor_right)),
         apply=_asymmetry, magnitude=lambda p, null: float(np.max(np.abs(p - 1.0))),
-        size_unit="- (largest |factor − 1|)", threshold=0.08, min_size=0.04, draw=_draw_asymmetry),
+        size_unit="- (largest |factor − 1|)", threshold=0.08, min_size=0.04, draw=_draw_asymmetry,
+        wind_alias=True),
     EffectSpec(
         name="steering_offset",
         parameters=(Parameter("offset_rad", "rad", scale=0.005, lower=-0.3, upper=0.3),),
         apply=_steering, magnitude=lambda p, null: abs(float(p[0])), size_unit="rad",
-        threshold=math.radians(1.5), min_size=0.013, draw=_draw_steering),  # min_size: 0.75°, rounded
+        threshold=math.radians(1.5), min_size=0.013, draw=_draw_steering,  # min_size: 0.75°, rounded
+        wind_alias=True),
     EffectSpec(
         name="mass_error",
         parameters=(Parameter("mass_factor", "-", scale=0.05, lower=0.3, upper=3.0, null=1.0),),
@@ -367,7 +373,7 @@ EFFECTS: Mapping[str, EffectSpec] = MappingProxyType({spec.name: spec for spec i
                               lower=RESISTANCE_CHANGE_RANGE[0], upper=RESISTANCE_CHANGE_RANGE[1]),),
         apply=_resistance, magnitude=lambda p, null: float(np.max(np.abs(p))),
         size_unit="- (largest |change| over a speed band)", threshold=0.10, min_size=0.05, draw=_draw_resistance,
-        per_knot=True),
+        per_knot=True, wind_alias=True),
     EffectSpec(
         name="tow_load",
         parameters=(Parameter("drag_scale", "- ((size ratio)² of the packaged body and cable)", scale=0.1,

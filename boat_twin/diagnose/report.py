@@ -36,6 +36,8 @@ class CandidateResult(TypedDict):
     takes_over: bool
     outranked: bool
     """A better-fitting candidate of its round fails only the size floor (a cause too small to name)."""
+    not_judged: list[str]
+    """Why it was not judged on held-out time: the in-sample conditions it fails, in words (empty: judged)."""
     claims: list[str]
     """The signals carrying its held-out gain."""
     misfit_share: float | None
@@ -113,7 +115,7 @@ def _candidate_dict(candidate: Candidate, round_index: int) -> CandidateResult:
             # null: it failed the in-sample conditions, so it was not judged on held-out time
             "heldout_gain": candidate.heldout_gain if np.isfinite(candidate.heldout_gain) else None,
             "named": candidate.named, "on_bound": candidate.at_bound, "takes_over": candidate.takes_over,
-            "outranked": candidate.outranked,
+            "outranked": candidate.outranked, "not_judged": candidate.failed_conditions,
             # the signals carrying its held-out gain and the share of their excess over the noise it removes
             "claims": list(candidate.claims), "misfit_share": candidate.share if np.isfinite(candidate.share) else None}
 
@@ -190,7 +192,9 @@ def text_report(result: DiagnosisResult) -> str:
     first = [c for c in result["candidates"] if c["round"] == 1]
     lines.append("candidates (round 1)  ΔBIC      held-out gain")
     for c in sorted(first, key=lambda c: c["delta_bic"]):
-        gain = "not judged" if c["heldout_gain"] is None else f"{c['heldout_gain']:+8.1%}"
+        why = "; ".join(c["not_judged"])
+        gain = f"{c['heldout_gain']:+8.1%}" if c["heldout_gain"] is not None else (
+            f"not judged: {why}" if why else "not judged")
         lines.append(f"  {c['effect']:18s} {c['delta_bic']:10.1f}  {gain}")
     if result["unexplained"]:
         for sig in result["signature"]:
@@ -269,6 +273,7 @@ def evidence_figure(result: DiagnosisResult) -> Figure:
     ax_bic.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
     ax_bic.set_title(f"ΔBIC against the baseline: lower is better\n(dashed: {BIC_THRESHOLD:g}, needed to name; "
                      "red: named)", fontsize=9)
+    ax_bic.set_xlabel("ΔBIC (symmetric log: linear within ±10, logarithmic beyond)", fontsize=8)
     gains = [np.nan if c["heldout_gain"] is None else 100 * c["heldout_gain"] for c in first]
     ax_gain.barh(names, gains, color=colors)
     ax_gain.axvline(100 * MIN_HELDOUT_GAIN, color="k", ls="--", lw=0.8)
@@ -280,6 +285,7 @@ def evidence_figure(result: DiagnosisResult) -> Figure:
         ax_gain.text(0.5, 0.5, "no candidate judged on held-out data:\nnone passed the in-sample conditions\n"
                      "(ΔBIC below the threshold and a plausible size)", transform=ax_gain.transAxes, ha="center",
                      va="center", fontsize=9, bbox={"facecolor": "white", "edgecolor": "0.7"})
+    ax_gain.set_xlabel("held-out gain, %", fontsize=8)
     ax_gain.tick_params(labelleft=False)
     return fig
 

@@ -49,7 +49,7 @@ from scipy.optimize import least_squares
 from scipy.stats import t as student_t
 
 from boat_twin.config import TwinConfig
-from boat_twin.diagnose.effects import Effect
+from boat_twin.diagnose.effects import EFFECTS, Effect
 from boat_twin.diagnose.structure import MISFIT_FACTOR
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
@@ -81,8 +81,10 @@ reduction."""
 ONE_HEADING_SPREAD_RAD = 0.2
 """A trial whose measured heading has a circular standard deviation below this (rad, 11°) holds one heading:
 a wind cannot be told from the constant body-frame forces of :data:`WIND_ALIASES` there."""
-WIND_ALIASES = ("water_current", "thrust_asymmetry", "steering_offset", "resistance_shape")
-"""Effects a wind is confounded with on a trial that holds one heading."""
+WIND_ALIASES = tuple(name for name, spec in EFFECTS.items() if spec.wind_alias)
+"""Effects a wind is confounded with on a trial that holds one heading (:attr:`EffectSpec.wind_alias
+<boat_twin.diagnose.effects.EffectSpec.wind_alias>`): water_current, thrust_asymmetry, steering_offset,
+resistance_shape."""
 MAX_EVALUATIONS = 40
 """Model evaluations per least-squares fit (each a replay of every window)."""
 
@@ -321,10 +323,25 @@ class Candidate:
     cause too small to name, and this one would stand in for it (:func:`below_floor`)."""
 
     @property
+    def failed_conditions(self) -> list[str]:
+        """The in-sample conditions of the decision rule it fails, in words (empty: it is judged held out)."""
+        spec = self.effect.spec
+        failed = [f"ΔBIC {self.delta_bic:.1f}, not below {BIC_THRESHOLD:g}"] if self.delta_bic >= BIC_THRESHOLD else []
+        if self.size < spec.min_size:
+            unit = spec.size_unit.split(" ")[0]
+            failed.append(f"size {self.size:.3g} below the floor {spec.min_size:g}{'' if unit == '-' else ' ' + unit}")
+        if self.at_bound:
+            failed.append("a parameter on a bound of its physical range")
+        if self.takes_over:
+            failed.append("changes an effect already named")
+        if self.outranked:
+            failed.append("a cause too small to name fits better")
+        return failed
+
+    @property
     def plausible(self) -> bool:
         """The in-sample conditions of the decision rule, checked before the held-out judgement."""
-        return (self.delta_bic < BIC_THRESHOLD and self.size >= self.effect.spec.min_size and not self.at_bound
-                and not self.takes_over and not self.outranked)
+        return not self.failed_conditions
 
     @property
     def carries_share(self) -> bool:
@@ -370,8 +387,8 @@ def _wind_ambiguity(named: list[Candidate], best: Candidate) -> list[Candidate]:
     """The best candidate and its other side (the wind against its best-ranked alias, or the reverse) when both
     would be named; empty when the best is neither."""
     if best.effect.name == "wind":
-        others = [c for c in named if c.effect.name in WIND_ALIASES]
-    elif best.effect.name in WIND_ALIASES:
+        others = [c for c in named if c.effect.spec.wind_alias]
+    elif best.effect.spec.wind_alias:
         others = [c for c in named if c.effect.name == "wind"]
     else:
         return []

@@ -1,6 +1,7 @@
 """Identification of the longitudinal model m·dv/dt = F − Fc(v) (Dyda & Chumakova 2021): steady points and
 power-series fits, mass from transients, the online (RLS) identifier shared by the ROS node and bag replay, the
-paper's table, the pipelines that run them on a trial, and the identified boat as a whole twin."""
+paper's table, the pipelines that run them on a trial, and the identified boat as a whole twin; and the turning
+(sway/yaw) coefficients from zigzags and turning circles (:func:`fit_manoeuvring`)."""
 
 from __future__ import annotations
 
@@ -11,12 +12,14 @@ _EXPORTS = {
     "FitResult": "boat_twin.ident.steady",
     "IdentifyResult": "boat_twin.ident.pipeline",
     "LiveIdentifier": "boat_twin.ident.live",
+    "ManoeuvringFit": "boat_twin.ident.manoeuvring",
     "OnlineThrustSpeedIdentifier": "boat_twin.ident.online",
     "Resimulation": "boat_twin.ident.resimulate",
     "SteadyCriteria": "boat_twin.ident.online",
     "TrialIdentifyResult": "boat_twin.ident.pipeline",
     "derive_criteria": "boat_twin.ident.settling",
     "detect_steady_segments": "boat_twin.ident.online",
+    "fit_manoeuvring": "boat_twin.ident.manoeuvring",
     "fit_power_series": "boat_twin.ident.steady",
     "identify_arrays": "boat_twin.ident.pipeline",
     "identify_dynamic": "boat_twin.ident.dynamic",
@@ -26,9 +29,11 @@ _EXPORTS = {
     "identify_trials": "boat_twin.ident.pipeline",
     "identified_vessel": "boat_twin.ident.twin_config",
     "load_boat": "boat_twin.ident.twin_config",
+    "read_boat_file": "boat_twin.ident.twin_config",
     "model_dict": "boat_twin.ident.pipeline",
     "resimulate": "boat_twin.ident.resimulate",
     "select_order": "boat_twin.ident.steady",
+    "tactical_diameter_m": "boat_twin.ident.manoeuvring",
     "trial_samples": "boat_twin.ident.pipeline",
     "write_model_yaml": "boat_twin.ident.pipeline",
     "ZigzagRecord": "boat_twin.ident.zigzag_features",

@@ -26,15 +26,18 @@ def write_trial_report(
     speed_mps: np.ndarray,
     resimulation: Resimulation | None = None,
     true_resistance_N: Callable[[np.ndarray], np.ndarray] | None = None,
+    *,
+    title: str | None = None,
 ) -> list[Path]:
     """Write identify.json, model.yaml, trial.png, resistance.png (and resimulation.png: measured vs
-    re-simulated speed, when ``resimulation`` is given) for an :func:`identify_arrays` result.
-    ``true_resistance_N`` (speed m/s → N): the true curve, drawn when known (a simulated trial)."""
+    re-simulated speed, when ``resimulation`` is given) for an :func:`identify_arrays` result, each figure titled
+    ``title`` (the trial it shows). ``true_resistance_N`` (speed m/s → N): the true curve, drawn when known (a
+    simulated trial)."""
     out = ensure_out_dir(out_dir)
     written = [out / "identify.json", out / "model.yaml", out / "trial.png", out / "resistance.png"]
     if resimulation is not None:
         written.append(out / "resimulation.png")
-        atomic_save_figure(written[-1], resimulation_figure(resimulation))
+        atomic_save_figure(written[-1], resimulation_figure(resimulation), title)
     atomic_write_text(written[0], to_json(result) + "\n")
     write_model_yaml(written[1], result["model"], f"boat-twin identify: order {result['selected_order']}, SI")
     fig = Figure(figsize=(9, 6))
@@ -49,8 +52,8 @@ def write_trial_report(
     ax_f.plot(t_s, thrust_N, color="tab:blue")
     ax_f.set_ylabel("total thrust, N")
     ax_f.set_xlabel("time, s")
-    atomic_save_figure(written[2], fig)
-    atomic_save_figure(written[3], resistance_figure(result, true_resistance_N))
+    atomic_save_figure(written[2], fig, title)
+    atomic_save_figure(written[3], resistance_figure(result, true_resistance_N), title)
     return written
 
 

@@ -7,37 +7,67 @@ and ``diagnose --config`` load; identify re-simulates the trials with the same v
 
 from __future__ import annotations
 
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from boat_twin.config import SECTIONS
 from boat_twin.errors import InputError
 from boat_twin.files import load_yaml
 from boat_twin.io.trial import Trial
-from boat_twin.vessel.params import VesselParams, params_from_dict, similar_boat, vessel_section
+from boat_twin.vessel.params import VesselParams, params_from_dict, similar_boat
 from boat_twin.vessel.resistance import resistance_from_dict
 
 BOAT_FIELDS = tuple(f.name for f in fields(VesselParams) if f.name != "resistance")
-"""What a boat file may state: any vessel fact but the resistance (that is what identify measures)."""
+"""The vessel facts identify takes from a boat file: any but the resistance (that is what identify measures)."""
 THRUST_LIMITS = ("bollard_thrust_N", "reverse_thrust_ratio", "engine_power_W")
 """Facts raised to what the trials commanded when the boat file does not state them."""
 
 
+IDENTIFIED = ("resistance", "effective_mass_kg")
+"""Vessel fields identify measures: a boat file may state them (a twin config serves as one), they are ignored."""
+
+
+@dataclass(frozen=True)
+class BoatFile:
+    """The facts a boat file (``--boat``) gives identify, and what it states that identify does not read."""
+
+    facts: dict[str, float]
+    """Vessel field → value, SI (units in the names; docs/model.md)."""
+    ignored: tuple[str, ...]
+    """What identify measures (``vessel.resistance``, ``vessel.effective_mass_kg``) and the twin config's other
+    sections (``environment``, ``gnss``, ...), as the file names them."""
+
+
 def load_boat(path: Path) -> dict[str, float]:
-    """The facts of a boat file (``--boat``): a mapping of vessel fields (optionally under ``vessel:``), checked
-    as the vessel loader checks them (units in the names; docs/model.md)."""
-    data = vessel_section(load_yaml(path), str(path))
+    """The vessel facts of a boat file (:func:`read_boat_file`), SI."""
+    return read_boat_file(path).facts
+
+
+def read_boat_file(path: Path) -> BoatFile:
+    """A boat file: a mapping of vessel fields, or a twin configuration (``simulate --config``'s file: the
+    ``vessel:`` section is read), checked as the vessel loader checks them. The resistance and effective mass
+    are ignored (identify measures them), as are the config's other sections; both are reported in
+    :attr:`BoatFile.ignored`."""
+    data = load_yaml(path)
+    ignored: list[str] = []
+    if isinstance(data, dict) and "vessel" in data:
+        for section in data:
+            if section not in SECTIONS:
+                raise InputError(f"{path}: unknown section '{section}'; sections: {', '.join(SECTIONS)}")
+        ignored += [section for section in data if section != "vessel"]
+        data = data["vessel"]
     if not isinstance(data, dict):
         raise InputError(f"{path}: expected a mapping of vessel facts (length_m, beam_m, ...)")
     for key in data:
-        if key not in BOAT_FIELDS:
-            why = "it is what identify measures" if key in ("resistance", "effective_mass_kg") else "unknown field"
-            raise InputError(f"{path}: '{key}' cannot be given in a boat file ({why}); fields: "
-                             + ", ".join(BOAT_FIELDS))
-    params_from_dict(data, str(path))  # numbers, signs and the reference turn's limits
-    return {key: float(value) for key, value in data.items()}
+        if key not in BOAT_FIELDS and key not in IDENTIFIED:
+            raise InputError(f"{path}: unknown vessel field '{key}'; fields: " + ", ".join(BOAT_FIELDS))
+    ignored = [f"vessel.{key}" for key in data if key in IDENTIFIED] + ignored
+    facts = {key: value for key, value in data.items() if key not in IDENTIFIED}
+    params_from_dict(facts, str(path))  # numbers, signs and the reference turn's limits
+    return BoatFile({key: float(value) for key, value in facts.items()}, tuple(ignored))
 
 
 def thrust_seen(trials: list[Trial]) -> dict[str, float]:

@@ -1,8 +1,28 @@
-"""Formats only: ROS 2 messages (rosbags typestore), rosbag2 / MCAP bags, MAVLink logs, and the Trial every
-analysis reads. Its modules are the API (imported on use, so that importing the package stays cheap):
-``messages`` (topics, builders, CDR), ``bags`` (write_bag, read_trial), ``trial`` (Trial, build_trial),
-``mavlink`` (MAVLink logs), ``csv_trial`` (a CSV table by a column mapping), ``roles`` (the streams' role
-names), ``sources`` (read_trial_file: any trial file), ``log_messages`` (a MAVLink log as the package's
-messages)."""
+"""Formats only: ROS 2 messages (rosbags typestore), rosbag2 / MCAP bags, MAVLink logs, CSV tables, and the Trial
+every analysis reads. Modules: ``messages`` (topics, builders, CDR), ``bags`` (write_bag, read_trial), ``trial``
+(Trial, build_trial), ``mavlink`` (MAVLink logs), ``csv_trial`` (a CSV table by a column mapping), ``roles``
+(the streams' role names), ``sources`` (read_trial_file: any trial file), ``log_messages`` (a MAVLink log as the
+package's messages)."""
 
-__all__ = ["bags", "csv_trial", "log_messages", "mavlink", "messages", "roles", "sources", "trial"]
+from __future__ import annotations
+
+from boat_twin.lazy import lazy_exports
+
+_EXPORTS = {
+    "Trial": "boat_twin.io.trial",
+    "TrialMetadata": "boat_twin.io.trial",
+    "build_trial": "boat_twin.io.trial",
+    "load_calibration": "boat_twin.io.mavlink",
+    "read_csv_trial": "boat_twin.io.csv_trial",
+    "read_mavlink_trial": "boat_twin.io.mavlink",
+    "read_trial": "boat_twin.io.bags",
+    "read_trial_file": "boat_twin.io.sources",
+    "write_bag": "boat_twin.io.bags",
+}
+"""Public name → its module, imported on first use (importing the package stays cheap: `--help` reads
+:mod:`boat_twin.io.roles` alone)."""
+
+__all__ = sorted(_EXPORTS)
+
+
+__getattr__ = lazy_exports(__name__, _EXPORTS)

@@ -1,5 +1,16 @@
 """The twin as a live MAVLink boat for ground stations (a front end over the twin, like the ROS nodes)."""
 
-from boat_twin.link.mavlink_boat import MavlinkBoat, parse_stream_rates
+from __future__ import annotations
 
-__all__ = ["MavlinkBoat", "parse_stream_rates"]
+from boat_twin.lazy import lazy_exports
+
+_EXPORTS = {
+    "MavlinkBoat": "boat_twin.link.mavlink_boat",
+    "parse_stream_rates": "boat_twin.link.mavlink_boat",
+}
+"""Public name → its module, imported on first use."""
+
+__all__ = sorted(_EXPORTS)
+
+
+__getattr__ = lazy_exports(__name__, _EXPORTS)

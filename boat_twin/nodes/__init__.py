@@ -35,3 +35,13 @@ def cable_main() -> int:
 def player_main() -> int:
     """``ros2 run boat_twin player``."""
     return _run("player")
+
+
+def shadow_main() -> int:
+    """``ros2 run boat_twin shadow``."""
+    return _run("shadow")
+
+
+def bag_player_main() -> int:
+    """``ros2 run boat_twin bag_player``."""
+    return _run("bag_player")

@@ -95,7 +95,8 @@ class IdentifierNode(Node):
             self.get_logger().info(f"segment at {segment.thrust_N:.0f} N not steady: {segment.reason}")
             return
         found, needed = len(self.ident.core.steady_points), self.ident.order + 2
-        self.get_logger().info(f"steady point {found} (of {needed} needed): {segment.speed_mps:.2f} m/s "
+        progress = f"of the {needed} needed" if found <= needed else f"{needed} needed: the fit is refined"
+        self.get_logger().info(f"steady point {found} ({progress}): {segment.speed_mps:.2f} m/s "
                                f"at {segment.thrust_N:.0f} N")
         if found == needed:
             labels, values = self.ident.coefficients()

@@ -39,6 +39,7 @@ import numpy as np
 
 from boat_twin.units import AIR_DENSITY_KGPM3
 from boat_twin.vessel.params import WINDAGE_DRAG_COEFFICIENT, VesselParams, derive_coefficients
+from boat_twin.vessel.steering import steering_history, steering_target
 
 STATE_NAMES = ("east_m", "north_m", "yaw_rad", "u_mps", "v_mps", "r_radps")
 """Order of the state vector's components."""
@@ -136,13 +137,15 @@ def _delivered_thrust(command: float, u: float, k: np.ndarray) -> float:
 
 @numba.njit(cache=True)
 def _steering_target(command: float, k: np.ndarray) -> float:
-    """Where the outboard is driven: the commanded angle plus the offset, within ±δ_max, rad."""
+    """Where the outboard is driven: the commanded angle plus the offset, within ±δ_max, rad (the kernel's copy
+    of :func:`~boat_twin.vessel.steering.steering_target`; test_steering.py checks they agree)."""
     return min(max(command + k[_K_STEER_OFFSET], -k[_K_MAX_STEER]), k[_K_MAX_STEER])
 
 
 @numba.njit(cache=True)
 def _steering_after(angle: float, target: float, k: np.ndarray, tau: float) -> float:
-    """The steering angle ``tau`` seconds on, swinging from ``angle`` towards ``target`` at the rate limit."""
+    """The steering angle ``tau`` seconds on, swinging from ``angle`` towards ``target`` at the rate limit (the
+    kernel's copy of :func:`~boat_twin.vessel.steering.steering_after`)."""
     rate = k[_K_STEER_RATE]
     if rate <= 0.0:
         return target
@@ -411,25 +414,18 @@ class Dynamics:
             raise ValueError(f"{n_boats} boats stepped with the coefficients of {self.coefficients.shape[0]}")
 
     def steering_targets(self, commands: np.ndarray) -> np.ndarray:
-        """(N, 2) angles the outboards are driven to under ``commands`` (N, 4): command + offset, within ±δ_max."""
-        offset = self.coefficients[:, _K_STEER_OFFSET, None]
-        limit = self.coefficients[:, _K_MAX_STEER, None]
-        return np.clip(commands[:, 2:4] + offset, -limit, limit)
+        """(N, 2) angles the outboards are driven to under ``commands`` (N, 4): command + offset, within ±δ_max
+        (:func:`~boat_twin.vessel.steering.steering_target` with each boat's coefficients)."""
+        return steering_target(commands[:, 2:4], self.coefficients[:, _K_STEER_OFFSET, None],
+                               self.coefficients[:, _K_MAX_STEER, None])
 
     def steering_history(self, dt_s: float, commands: np.ndarray) -> np.ndarray:
         """(n, 2) the outboards' real angles at each of ``n`` samples ``dt_s`` apart of a recorded command series
         (n, 4) held from sample to sample, rad: the rate-limited swing towards each target, starting at the first
         known one; NaN where the commands are unknown (the next known command starts afresh at its target)."""
         p = self.params
-        targets = np.clip(commands[:, 2:4] + p.steering_offset_rad, -p.max_steering_rad, p.max_steering_rad)
-        rate = self.params.steering_rate_radps
-        reach = rate * dt_s if rate > 0.0 else np.inf
-        out = np.empty_like(targets)
-        angle = np.full(2, np.nan)
-        for i, target in enumerate(targets):
-            out[i] = angle = np.where(np.isnan(angle), target, angle)
-            angle = angle + np.clip(target - angle, -reach, reach)
-        return out
+        targets = steering_target(commands[:, 2:4], p.steering_offset_rad, p.max_steering_rad)
+        return steering_history(targets, p.steering_rate_radps, dt_s)
 
     def step(self, states: np.ndarray, commands: np.ndarray, environments: np.ndarray, dt_s: float,
              steering_rad: np.ndarray) -> None:

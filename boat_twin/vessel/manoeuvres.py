@@ -241,14 +241,24 @@ def zigzag_figures(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray, yaw
     )
 
 
+def execute_time_s(scenario: Scenario) -> float | None:
+    """When a turning circle or zigzag gives its (first) steering order, s; None for any other scenario."""
+    if isinstance(scenario, Zigzag):
+        return scenario.approach_s
+    if isinstance(scenario, TurningCircle):
+        return scenario.execute_s
+    return None
+
+
 def manoeuvre_figures(scenario: Scenario, truth: TruthSeries, length_m: float) -> dict[str, Any] | None:
     """The IMO figures of a simulated turning circle or zigzag (by the scenario that steered it), as plain data;
     None for any other scenario."""
     speed = np.hypot(truth.surge_mps, truth.sway_mps)
     track = (truth.t_s, truth.east_m, truth.north_m, truth.yaw_rad, speed)
-    if isinstance(scenario, Zigzag):
-        return zigzag_figures(*track, scenario.approach_s, scenario.steering_rad, scenario.heading_change_rad,
+    execute = execute_time_s(scenario)
+    if isinstance(scenario, Zigzag) and execute is not None:
+        return zigzag_figures(*track, execute, scenario.steering_rad, scenario.heading_change_rad,
                               length_m).as_dict()
-    if isinstance(scenario, TurningCircle):
-        return turning_figures(*track, scenario.execute_s, length_m).as_dict()
+    if isinstance(scenario, TurningCircle) and execute is not None:
+        return turning_figures(*track, execute, length_m).as_dict()
     return None

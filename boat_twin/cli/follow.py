@@ -1,0 +1,91 @@
+"""``boat-twin follow``: a recorded trial replayed through the live twin as if it came live, faster than real time:
+the innovations against the sensors' noise, the model's adaptation and the rolling diagnosis over time.
+
+Front end over :func:`boat_twin.shadow.follow.follow_trial` (the core the ``shadow`` node runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from boat_twin.cli import verb_help
+from boat_twin.cli.options import (
+    TRIAL_HELP,
+    add_trial_options,
+    claim_out_dir,
+    trial_from_args,
+    trial_inputs,
+    twin_config_from_args,
+)
+from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
+
+OUTPUTS = ("follow.json", "follow_innovations.png", "follow_model.png", "follow_causes.png", "twin.yaml")
+"""What ``follow TRIAL --out DIR`` writes."""
+
+
+def _progress(message: str) -> None:
+    sys.stderr.write(f"\r{message:60s}")
+    sys.stderr.flush()
+
+
+def _text(result: dict[str, Any]) -> str:
+    lines = ["t_s      speed innov./noise   mass_kg   resistance ×   causes"]
+    for e in result["timeline"]:
+        ratio = "-" if e["speed_innovation_ratio"] is None else f"{e['speed_innovation_ratio']:.2f}"
+        lines.append(f"{e['t_s']:7.0f}  {ratio:>18s}  {e['mass_kg']:8.0f}  {e['resistance_factor']:12.3f}   "
+                     f"{', '.join(e['causes']) or '-'}{' (unexplained)' if e['unexplained'] else ''}")
+    surge = result["final"]["model"]["surge"]
+    lines.append(f"final model: mass {surge['mass_kg']:.0f} kg [{surge['mass_ci95_kg'][0]:.0f}, "
+                 f"{surge['mass_ci95_kg'][1]:.0f}], resistance ×{surge['resistance_factor']:.3f} "
+                 f"[{surge['resistance_factor_ci95'][0]:.3f}, {surge['resistance_factor_ci95'][1]:.3f}]")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Follow the trial; print the timeline (text or JSON); plots, JSON and the adapted twin.yaml into --out."""
+    with claim_out_dir(args.out, OUTPUTS, args.force, trial_inputs(args)) as reports:
+        out = reports.staging if reports else None  # the whole set is swapped in when complete
+        from boat_twin.config import save_config
+        from boat_twin.shadow.follow import follow_trial
+        from boat_twin.shadow.plots import cause_figure, innovation_figure, model_figure
+
+        trial = trial_from_args(args.trial, args)
+        config = twin_config_from_args(args)
+        done = follow_trial(trial, config, progress=None if args.json else _progress)
+        if not args.json:
+            sys.stderr.write("\r" + " " * 62 + "\r")
+        result = done.to_dict()
+        if out is not None:
+            atomic_write_text(out / "follow.json", to_json(result) + "\n")
+            atomic_save_figure(out / "follow_innovations.png", innovation_figure(done))
+            atomic_save_figure(out / "follow_model.png", model_figure(done, config.vessel.mass_kg))
+            atomic_save_figure(out / "follow_causes.png", cause_figure(done))
+            save_config(done.twin, out / "twin.yaml", f"boat_twin live twin adapted by: boat-twin follow {args.trial}")
+        print(to_json(result) if args.json else _text(result))
+    return 0
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``follow`` verb."""
+    p = subparsers.add_parser(
+        "follow", help=verb_help("follow"),
+        description="Replay a recorded trial through the live twin as if it came live (faster than real time): "
+        "the twin keeps in step with the boat, predicts each sensor sample, adapts its surge model (mass, "
+        "resistance) when that predicts held-out data better, and runs the diagnosis on the recent window. "
+        "Prints a timeline per simulated minute: t_s (s), speed_innovation_ratio (RMS of the speed innovations "
+        "over the last minute / their stated noise, -), mass_kg, resistance_factor (-), causes.")
+    p.add_argument("trial", type=Path, help=TRIAL_HELP)
+    add_trial_options(p)
+    p.add_argument("--config", type=Path, metavar="FILE",
+                   help="twin configuration YAML to start from (default: the built-in boat)")
+    p.add_argument("--model", type=Path, metavar="FILE",
+                   help="identified model YAML overriding the vessel (resistance, mass)")
+    p.add_argument("--out", type=Path, metavar="DIR",
+                   help="directory for follow.json, the adapted twin.yaml and PNG plots (innovations against the "
+                   "noise band, the model converging with its 95 %% intervals, the cause timeline)")
+    p.add_argument("--force", action="store_true", help="overwrite existing outputs in --out")
+    p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
+    p.set_defaults(handler=run)

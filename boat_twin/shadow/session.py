@@ -1,0 +1,288 @@
+"""The live twin of one boat: the synchronised twin, its online adaptation and the rolling diagnosis, fed one
+sample at a time. The one core that the ``shadow`` node, ``boat-twin follow`` and the tests drive."""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+from collections import deque
+from collections.abc import Callable
+from concurrent.futures import Future, ProcessPoolExecutor
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from boat_twin.config import TwinConfig, save_config
+from boat_twin.diagnose.defaults import WINDOW_S as REPLAY_WINDOW_S
+from boat_twin.errors import InputError
+from boat_twin.shadow.adapt import SurgeAdapter, SurgeModel
+from boat_twin.shadow.rolling import (
+    IDLE_PERIOD_S,
+    MISFIT_RATIO,
+    PERIOD_S,
+    WINDOW_S,
+    DiagnosisJob,
+    Outcome,
+    RecentStreams,
+    RollingDiagnosis,
+    RollingResult,
+)
+from boat_twin.shadow.sync import Innovation, ShadowTwin, SyncSettings
+from boat_twin.twin.replay import cut_windows, predict
+from boat_twin.vessel.environment import Environment
+from boat_twin.vessel.params import derive_coefficients
+
+RATIO_WINDOW_S = 60.0
+"""The speed-innovation ratio is the RMS over this last stretch of stream time, s."""
+ENVIRONMENT_CAUSES = ("water_current", "wind")
+"""Causes the twin takes into its predictions when named (the sea around the boat, not the boat)."""
+
+
+@dataclass(frozen=True)
+class ShadowSettings:
+    """Everything a live twin is set up with besides its model (SI)."""
+
+    sync: SyncSettings = field(default_factory=SyncSettings)
+    adapt: bool = True
+    """Re-identify the surge model online."""
+    horizon_s: float = 600.0
+    """Moving horizon of the adaptation, s."""
+    holdout_s: float = 130.0
+    """Its held-out tail, s: at least 6 replay windows of 20 s (the diagnosis' replay)."""
+    adapt_period_s: float = 30.0
+    """Time between adaptation attempts, s."""
+    diagnose: bool = True
+    """Run the rolling diagnosis."""
+    diagnose_in_background: bool = False
+    """Run it in a worker process (a live node: the samples keep coming meanwhile, and a thread would fight the
+    executor for the GIL); False: in line, so a replay is deterministic."""
+    diagnosis_window_s: float = WINDOW_S
+    diagnosis_period_s: float = PERIOD_S
+    diagnosis_idle_period_s: float = IDLE_PERIOD_S
+    misfit_ratio: float = MISFIT_RATIO
+
+
+class Shadow:
+    """Feeds a :class:`ShadowTwin`; adapts its model and diagnoses it on the accepted samples.
+
+    ``log`` receives every line worth logging (synchronisation, gaps, clock jumps, bad samples, model swaps,
+    diagnoses). ``on_innovation`` (optional) sees every innovation as it is made.
+    """
+
+    def __init__(self, config: TwinConfig, settings: ShadowSettings | None = None,
+                 log: Callable[[str], None] | None = None) -> None:
+        self.base = config
+        self.settings = settings or ShadowSettings()
+        self.log = log or (lambda _line: None)
+        self._worker: ProcessPoolExecutor | None = None
+        self.on_innovation: Callable[[Innovation], None] | None = None
+        """Sees every innovation as it is made (a plot's trace, a node's publisher)."""
+        self._build()
+
+    def _build(self) -> None:
+        s, config = self.settings, self.base
+        self.adapter = SurgeAdapter(config.vessel, horizon_s=s.horizon_s, holdout_s=s.holdout_s,
+                                    period_s=s.adapt_period_s, log=self.log)
+        self.recent = RecentStreams(max(s.diagnosis_window_s, s.holdout_s) + 10.0)
+        self.rolling = RollingDiagnosis(self.recent, window_s=s.diagnosis_window_s, period_s=s.diagnosis_period_s,
+                                        idle_period_s=s.diagnosis_idle_period_s, misfit_ratio=s.misfit_ratio,
+                                        log=self.log)
+        self.twin = ShadowTwin(config, s.sync, self.log, self._accepted)
+        self._speed: deque[tuple[float, float, float]] = deque()
+        self._restarts = 0
+        self._m22_kg: float | None = None
+        self._pending: tuple[DiagnosisJob, Future[Outcome]] | None = None
+
+    # --- intake ------------------------------------------------------------------------------------------
+    def add(self, kind: str, stamp_s: float, values: tuple[float, ...]) -> None:
+        """One sample as it arrives (see :meth:`ShadowTwin.add`)."""
+        self.twin.add(kind, stamp_s, values)
+        if self.twin.counts["restarts"] != self._restarts:  # the stream restarted: its buffers go too
+            self._restarts = self.twin.counts["restarts"]
+            self.adapter.reset()
+            self.recent.clear()
+            self.rolling.restart()
+            self._speed.clear()
+
+    def flush(self) -> None:
+        """Process what is still queued (end of a recording)."""
+        self.twin.flush()
+
+    def close(self) -> None:
+        """Stop the background diagnosis worker process (a node shutting down)."""
+        if self._worker is not None:
+            self._worker.shutdown(wait=False, cancel_futures=True)
+
+    def reset(self) -> None:
+        """Start afresh from the configured model (the ``reset`` service)."""
+        self._build()
+        self.log("reset to the configured model")
+
+    def _accepted(self, kind: str, t_s: float, values: tuple[float, ...]) -> None:
+        """Every sample the twin accepted, in stamp order."""
+        self._collect_innovations()
+        self.recent.add(kind, t_s, values)
+        if kind != "gnss_vel" or not self.twin.synchronised:
+            return
+        if self.settings.adapt:
+            env = self.twin.config.environment
+            state = self.twin.state
+            assert state is not None
+            yaw = float(state[2])
+            surge = ((values[0] - env.current_east_mps) * math.cos(yaw)
+                     + (values[1] - env.current_north_mps) * math.sin(yaw))
+            self.adapter.add(t_s, self.surge_force_N(surge), surge)
+            if self.adapter.due(t_s) and self.adapter.update(self._held_out_score(t_s)):
+                self.twin.set_config(replace(self.twin.config, vessel=self.adapter.vessel()))
+                self._m22_kg = None
+        self._poll_diagnosis()
+        if self.settings.diagnose and self._pending is None and self.rolling.due(t_s, self.speed_ratio()):
+            self._diagnose(t_s)
+
+    def _held_out_score(self, t_s: float) -> Callable[[SurgeModel], float]:
+        """How well a surge model predicts the last ``holdout_s``: the mean squared GNSS velocity error of the
+        whole twin with that model, replayed open loop in windows from the measurements (NaN if the held-out
+        stretch cannot be cut into enough windows)."""
+        try:
+            windows = cut_windows(self.recent.trial(t_s - self.settings.holdout_s, t_s), REPLAY_WINDOW_S)
+        except InputError:
+            return lambda _model: math.nan
+        config = self.twin.config
+
+        def score(model: SurgeModel) -> float:
+            prediction = predict(windows, replace(config, vessel=model.vessel(self.adapter.base)))
+            errors = [windows.measured[s] - prediction.signals[s] for s in ("vel_east_mps", "vel_north_mps")]
+            return float(np.nanmean(np.square(errors)))
+
+        return score
+
+    def surge_force_N(self, surge_mps: float) -> float:
+        """The surge force besides resistance now, N: the held thrust commands delivered (the engines' envelope
+        at ``surge_mps``) along the hull at the outboards' real angles, plus the sway-yaw coupling m₂₂·v·r of
+        the twin's state (NaN before both thrusts are known)."""
+        vessel = self.twin.config.vessel
+        if self._m22_kg is None:
+            self._m22_kg = derive_coefficients(vessel).m22_kg
+        state = self.twin.state
+        assert state is not None
+        angles = self.twin.steering_rad
+        ahead = vessel.bollard_thrust_N
+        if abs(surge_mps) > 1e-9:
+            ahead = min(ahead, vessel.propulsive_efficiency * vessel.engine_power_W / abs(surge_mps))
+        astern = -vessel.reverse_thrust_ratio * vessel.bollard_thrust_N
+        force = self._m22_kg * float(state[4] * state[5])
+        for thrust, angle, factor in zip(self.twin.commands[:2], angles, (vessel.thrust_factor_left,
+                                                                           vessel.thrust_factor_right), strict=True):
+            force += factor * min(max(float(thrust), astern), ahead) * math.cos(float(angle))
+        return force
+
+    def _diagnose(self, t_s: float) -> None:
+        job = self.rolling.start(t_s, replace(self.base, vessel=self.adapter.vessel()))
+        if self.settings.diagnose_in_background:
+            if self._worker is None:
+                self._worker = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
+            self._pending = (job, self._worker.submit(job.compute))
+        else:
+            self._take(self.rolling.finish(job, job.compute()))
+
+    def poll(self) -> None:
+        """Take a background diagnosis that has finished (also done on every velocity sample; a node calls this
+        on a timer, for when the samples stop)."""
+        self._poll_diagnosis()
+
+    def _poll_diagnosis(self) -> None:
+        if self._pending is not None and self._pending[1].done():
+            job, future = self._pending
+            self._pending = None
+            try:
+                outcome = future.result()
+            except Exception as err:  # noqa: BLE001 - a worker that died (killed, out of memory) is one log line
+                outcome = f"the diagnosis worker failed: {type(err).__name__}: {err}"
+            self._take(self.rolling.finish(job, outcome))
+
+    def _take(self, result: RollingResult) -> None:
+        """The twin predicts with the current or wind a diagnosis named (or without, once none is named)."""
+        if result.error:
+            return
+        environment = self.base.environment
+        for cause in result.causes:
+            if cause.name in ENVIRONMENT_CAUSES:
+                environment = _with_cause(environment, cause.name, cause.parameters)
+        if environment != self.twin.config.environment:
+            self.twin.set_config(replace(self.twin.config, environment=environment))
+
+    def _collect_innovations(self) -> None:
+        innovations = self.twin.innovations
+        while innovations:
+            item = innovations.popleft()
+            if self.on_innovation is not None:
+                self.on_innovation(item)
+            if item.channel == "speed_mps":
+                self._speed.append((item.t_s, item.value**2, item.stdev**2))
+        while self._speed and self._speed[0][0] < self.twin.t_s - RATIO_WINDOW_S:
+            self._speed.popleft()
+
+    # --- what the front ends publish -----------------------------------------------------------------------
+    def speed_ratio(self) -> float:
+        """RMS of the speed innovations over the last :data:`RATIO_WINDOW_S` over their stated spread (the
+        sensor's noise with the twin's own uncertainty); NaN without innovations."""
+        if not self._speed:
+            return math.nan
+        n = len(self._speed)
+        return math.sqrt(sum(s[1] for s in self._speed) / n) / math.sqrt(sum(s[2] for s in self._speed) / n)
+
+    def causes(self) -> list[str]:
+        """Names of the causes the latest rolling diagnosis holds."""
+        latest = self.rolling.latest
+        return [c.name for c in latest.causes] if latest is not None else []
+
+    def status(self) -> dict[str, Any]:
+        """The twin now, JSON-ready: the ``follow`` timeline's entry and the node's diagnostics."""
+        latest = self.rolling.latest
+        return {
+            "t_s": self.twin.t_s,
+            "synchronised": self.twin.synchronised,
+            "speed_innovation_ratio": _finite(self.speed_ratio()),
+            "mass_kg": float(self.adapter.current.mass_kg),
+            "resistance_factor": float(self.adapter.current.resistance_factor),
+            "causes": self.causes(),
+            "unexplained": bool(latest.unexplained) if latest is not None else False,
+        }
+
+    def model(self) -> dict[str, Any]:
+        """The adapted model, JSON-ready: the surge model with intervals, the latest fit, the environment the
+        twin predicts with, the latest diagnosis and the sample counters."""
+        candidate = self.adapter.candidate
+        return {
+            "surge": self.adapter.current.to_dict(),
+            "latest_fit": candidate.to_dict() if candidate is not None else None,
+            "swaps": self.adapter.swaps,
+            "environment": {k: float(v) for k, v in vars(self.twin.config.environment).items()},
+            "diagnosis": self.rolling.latest.to_dict() if self.rolling.latest is not None else None,
+            "diagnosis_runs": self.rolling.runs,
+            "samples": dict(self.twin.counts),
+        }
+
+    def twin_config(self) -> TwinConfig:
+        """The twin as it predicts now (adapted vessel, environment with the named current or wind)."""
+        return self.twin.config
+
+    def save(self, path: Path) -> None:
+        """Write the current twin as a twin.yaml (atomically), a comment line saying where it came from."""
+        save_config(self.twin_config(), path, f"boat_twin live twin at t = {self.twin.t_s:.1f} s: "
+                    f"{self.adapter.swaps} model swap(s)")
+
+
+def _with_cause(environment: Environment, name: str, parameters: dict[str, float]) -> Environment:
+    """``environment`` with a named water current (added) or wind (set), the catalogue's parameters in m/s."""
+    east, north = parameters["east_mps"], parameters["north_mps"]
+    if name == "wind":  # the catalogue's wind is the air over ground itself
+        return replace(environment, wind_east_mps=east, wind_north_mps=north)
+    return replace(environment, current_east_mps=environment.current_east_mps + east,
+                   current_north_mps=environment.current_north_mps + north)
+
+
+def _finite(value: float) -> float | None:
+    return value if math.isfinite(value) else None

@@ -1,0 +1,230 @@
+"""The live twin (boat_twin.shadow): in step with a boat's samples whatever their order, innovations at the sensors'
+noise with the right model, online adaptation that never adopts a worse model, bad input logged, the follow
+contract. On the twin's own trials and on an independent integrator's boat."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pymap3d
+import pytest
+from independent import rk4_held
+
+from boat_twin.cli import main
+from boat_twin.config import TwinConfig, load_config
+from boat_twin.diagnose.hidden import scenario
+from boat_twin.io.trial import Trial
+from boat_twin.shadow.adapt import SurgeAdapter, SurgeModel
+from boat_twin.shadow.follow import follow_trial, trial_samples
+from boat_twin.shadow.session import Shadow, ShadowSettings
+from boat_twin.shadow.sync import ShadowTwin
+from boat_twin.twin.sea_trial import measured_trial, run_sea_trial
+from boat_twin.vessel.resistance import CorrectedResistance
+
+NO_DIAGNOSIS = ShadowSettings(diagnose=False)
+
+
+def _trial(config: TwinConfig, kind: str, duration_s: float, seed: int) -> Trial:
+    """A simulated trial of the boat ``config`` read as a recording (no bag)."""
+    run = run_sea_trial(config, scenario(kind, TwinConfig().vessel, np.random.default_rng(seed), duration_s), seed)
+    return measured_trial(run.record, 0, config, np.random.default_rng(seed + 100))
+
+
+def _boat(mass_factor: float, resistance_factor: float) -> TwinConfig:
+    base = TwinConfig()
+    v = base.vessel
+    top = v.resistance.max_speed_mps
+    return replace(base, vessel=replace(v, mass_kg=v.mass_kg * mass_factor, resistance=CorrectedResistance(
+        v.resistance, (0.0, top), (resistance_factor, resistance_factor))))
+
+
+@pytest.fixture(scope="module")
+def clean_trial() -> Trial:
+    return _trial(TwinConfig(), "random", 240.0, 5)
+
+
+def _speed_ratio(innovations: np.ndarray, after_s: float) -> float:
+    t, value, stdev = innovations.T
+    late = t > after_s
+    return float(np.sqrt(np.mean(value[late] ** 2) / np.mean(stdev[late] ** 2)))
+
+
+def test_right_model_leaves_the_speed_innovations_at_the_sensor_noise(clean_trial: Trial) -> None:
+    result = follow_trial(clean_trial, TwinConfig(), ShadowSettings(diagnose=False, adapt=False))
+    assert 0.85 < _speed_ratio(result.speed_innovations, 10.0) < 1.15
+    entries = result.timeline
+    assert [round(e["t_s"] / 60) for e in entries] == [1, 2, 3]  # one per whole minute
+    assert all(set(e) >= {"t_s", "speed_innovation_ratio", "mass_kg", "causes"} for e in entries)
+
+
+def test_wrong_model_shows_in_the_innovations(clean_trial: Trial) -> None:
+    heavy = follow_trial(clean_trial, _boat(0.7, 1.3), ShadowSettings(diagnose=False, adapt=False))
+    assert _speed_ratio(heavy.speed_innovations, 10.0) > 3.0
+
+
+def _final_state(samples: list[tuple[str, float, tuple[float, ...]]]) -> tuple[ShadowTwin, list[str]]:
+    log: list[str] = []
+    twin = ShadowTwin(TwinConfig(), log=log.append)
+    for sample in samples:
+        twin.add(*sample)
+    twin.flush()
+    return twin, log
+
+
+def test_out_of_order_and_duplicated_samples_give_the_same_twin(clean_trial: Trial) -> None:
+    samples = list(trial_samples(clean_trial))[:6000]
+    reference, _ = _final_state(samples)
+    rng = np.random.default_rng(1)
+    jitter = rng.uniform(0.0, 0.25, len(samples))  # arrival order: stamp + up to 0.25 s of delivery delay
+    shuffled = [samples[i] for i in np.argsort([s[1] + j for s, j in zip(samples, jitter, strict=True)])]
+    doubled = [s for s in shuffled for _ in range(2 if rng.random() < 0.1 else 1)]
+    twin, log = _final_state(doubled)
+    assert twin.counts["duplicate"] == len(doubled) - len(samples)
+    assert twin.counts["late"] == 0
+    np.testing.assert_allclose(twin.state, reference.state, rtol=1e-12, atol=1e-12)
+    assert sum("duplicate" in line for line in log) <= 7  # logged once per stream, then counted
+
+
+def test_missing_samples_late_ones_and_nan_are_dropped_and_logged(clean_trial: Trial) -> None:
+    samples = list(trial_samples(clean_trial))[:6000]
+    rng = np.random.default_rng(2)
+    kept = [s for s in samples if s[0].startswith("thrust") or s[0].startswith("angle") or rng.random() > 0.2]
+    kept.insert(3000, ("gnss_vel", kept[3000][1] - 1.0, (1.0, 0.0)))  # a second late: behind the twin
+    kept.insert(2000, ("imu", kept[2000][1] + 0.05, (0.0, math.nan, 0.0, 0.0)))
+    kept.insert(2100, ("gnss_fix", math.nan, (43.0, 131.0, 0.0)))
+    twin, log = _final_state(kept)
+    assert twin.counts["late"] == 1 and twin.counts["non_finite"] == 2
+    assert any("late sample" in line for line in log) and sum("non-finite" in line for line in log) == 2
+    assert twin.synchronised and twin.counts["resets"] == 1  # 20 % lost at random is no gap
+
+
+def test_a_gap_resynchronises_and_a_clock_jump_back_starts_afresh(clean_trial: Trial) -> None:
+    samples = list(trial_samples(clean_trial))
+    first = [s for s in samples if s[1] < 60.0]
+    after_gap = [s for s in samples if 70.0 <= s[1] < 120.0]
+    restarted = [s for s in samples if s[1] < 60.0]  # the player started again from the beginning
+    twin, log = _final_state(first + after_gap + restarted)
+    assert any("no sensor sample for 10." in line for line in log)
+    assert any("clock jumped back" in line for line in log)
+    assert twin.counts["restarts"] == 1 and twin.counts["resets"] == 3
+    assert twin.synchronised
+
+
+def test_the_twin_adapts_to_a_heavier_draggier_boat() -> None:
+    trial = _trial(_boat(1.25, 1.2), "random", 600.0, 7)
+    result = follow_trial(trial, TwinConfig(), NO_DIAGNOSIS)
+    surge = result.final["model"]["surge"]
+    assert surge["mass_kg"] == pytest.approx(1.25 * 1300.0, rel=0.06)
+    assert surge["resistance_factor"] == pytest.approx(1.2, rel=0.03)
+    assert result.timeline[0]["speed_innovation_ratio"] > 3.0
+    assert all(e["speed_innovation_ratio"] < 1.5 for e in result.timeline[-3:])
+    assert any(line.startswith("adopted surge model") for line in result.log)
+
+
+def test_the_right_model_is_never_replaced_by_a_worse_one() -> None:
+    """Started at the truth, the twin may adopt a fit only if it predicts held-out data better: whatever it adopts
+    predicts a fresh trial of the same boat as well as the truth (within 2 %)."""
+    truth = _boat(1.1, 0.9)
+    follow = follow_trial(_trial(truth, "random", 600.0, 11), truth, NO_DIAGNOSIS)
+    fresh = _trial(truth, "zigzag", 300.0, 12)
+    adopted = replace(truth, vessel=follow.twin.vessel)
+    ratios = [_speed_ratio(follow_trial(fresh, c, ShadowSettings(adapt=False, diagnose=False)).speed_innovations,
+                           10.0) for c in (truth, adopted)]
+    assert ratios[1] <= 1.02 * ratios[0]
+
+
+def test_adoption_and_reversal_follow_the_held_out_score() -> None:
+    base = TwinConfig().vessel
+    adapter = SurgeAdapter(base, horizon_s=600.0, holdout_s=100.0)
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 400.0, 0.1)
+    force = np.repeat(rng.uniform(100.0, 500.0, t.size // 200 + 1), 200)[:t.size]
+    surge = np.zeros(t.size)
+    m11 = 1500.0 * (1 + base.surge_added_mass_ratio)
+    for i in range(1, t.size):  # a boat of 1500 kg and 1.2× the resistance
+        surge[i] = surge[i - 1] + 0.1 * (force[i - 1] - 1.2 * float(base.resistance.force_N(surge[i - 1]))) / m11
+    for sample in zip(t, force, surge + rng.normal(0.0, 0.05, t.size), strict=True):
+        adapter.add(*sample)
+    truth = SurgeModel(1500.0, 1.2)
+
+    def distance(model: SurgeModel) -> float:  # a score that knows the truth
+        return (model.mass_kg / truth.mass_kg - 1) ** 2 + (model.resistance_factor - 1.2) ** 2
+
+    assert not adapter.update(lambda m: 10.0 - distance(m))  # a score that prefers the wrong model: no swap
+    assert adapter.current == SurgeModel(base.mass_kg, 1.0)
+    assert adapter.update(distance) and adapter.swaps == 1
+    assert adapter.current.mass_kg == pytest.approx(1500.0, rel=0.05)
+    assert adapter.current.mass_ci95_kg[0] < adapter.current.mass_kg < adapter.current.mass_ci95_kg[1]
+    assert adapter.update(lambda m: 1.0 + distance(m) if m.windows else 0.5)  # now the old model scores better
+    assert adapter.current == SurgeModel(base.mass_kg, 1.0) and not adapter.previous
+
+
+def _independent_trial(seed: int) -> list[tuple[str, float, tuple[float, ...]]]:
+    """A boat the package did not make: straight east, m·du/dt = T − a·u − b·u|u| (1,800 kg, a = 150 N·s/m,
+    b = 15 N·s²/m²), integrated by the tests' own RK4; GNSS and IMU noise as the default sensors state."""
+    rng = np.random.default_rng(seed)
+    levels = rng.uniform(60.0, 450.0, 30)
+    holds = rng.uniform(15.0, 35.0, 30)
+    t_cmd = np.cumsum(np.r_[0.0, holds[:-1]])
+    dt = 0.1
+    t = np.arange(0.0, t_cmd[-1] + holds[-1], dt)
+    thrust = levels[np.searchsorted(t_cmd, t, side="right") - 1]
+
+    def deriv(state: np.ndarray, f: float) -> np.ndarray:
+        u = state[1]
+        return np.array([u, (f - 150.0 * u - 15.0 * u * abs(u)) / 1800.0])
+
+    states = rk4_held(deriv, np.zeros(2), thrust, dt / 5, 5)
+    config = TwinConfig()
+    g = config.gnss
+    lat, lon, _ = pymap3d.enu2geodetic(states[:, 0] + rng.normal(0, g.horizontal_stdev_m, t.size),
+                                       rng.normal(0, g.horizontal_stdev_m, t.size), 0.0, 43.0, 131.0, 0.0)
+    out: list[tuple[str, float, tuple[float, ...]]] = []
+    for i, ti in enumerate(t):
+        if i == 0 or thrust[i] != thrust[i - 1] or i % 10 == 0:
+            out += [("thrust_left", ti, (thrust[i] / 2,)), ("thrust_right", ti, (thrust[i] / 2,)),
+                    ("angle_left", ti, (0.0,)), ("angle_right", ti, (0.0,))]
+        # a fix stamped t describes t − latency, as the twin's sensor model states
+        u_late = np.interp(ti - g.latency_s, t, states[:, 1])
+        out.append(("gnss_fix", ti, (float(lat[i]), float(lon[i]), 0.0)))
+        out.append(("gnss_vel", ti, (u_late + rng.normal(0, g.velocity_stdev_mps), rng.normal(0, 0.05))))
+        out.append(("imu", ti, (rng.normal(0, config.um7.yaw_stdev_rad), rng.normal(0, config.um7.gyro_stdev_radps),
+                                0.0, 0.0)))
+    return out
+
+
+def test_adaptation_on_an_independent_boat_brings_the_innovations_down() -> None:
+    samples = _independent_trial(4)
+    shadow = Shadow(TwinConfig(), NO_DIAGNOSIS)
+    ratios = []
+    for i, sample in enumerate(samples):
+        shadow.add(*sample)
+        if i % 3000 == 2999:
+            ratios.append(shadow.speed_ratio())
+    assert shadow.adapter.swaps >= 1
+    assert ratios[0] > 2.0 and ratios[-1] < 0.6 * ratios[0]
+    assert shadow.adapter.current.mass_kg == pytest.approx(1800.0 / 1.05, rel=0.2)  # m11 = 1800 kg
+
+
+def test_follow_cli_json_and_outputs(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from boat_twin.io.bags import write_bag
+    from boat_twin.twin.sea_trial import trial_messages
+
+    config = TwinConfig()
+    bag = tmp_path / "trial.mcap"
+    run = run_sea_trial(config, scenario("zigzag", config.vessel, np.random.default_rng(1), 150.0), 1)
+    write_bag(bag, trial_messages(run, truth=False))
+    out = tmp_path / "out"
+    assert main(["follow", str(bag), "--json", "--out", str(out)]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert len(result["timeline"]) == 2 and result["final"]["model"]["surge"]["mass_kg"] > 0
+    assert {p.name for p in out.iterdir()} >= {"follow.json", "twin.yaml", "follow_innovations.png",
+                                                "follow_model.png", "follow_causes.png"}
+    assert load_config(out / "twin.yaml").vessel.mass_kg > 0
+    assert main(["follow", str(bag), "--out", str(out)]) == 2  # no overwrite without --force
+    assert main(["follow", str(tmp_path / "missing.mcap")]) == 2
+    assert "no such bag" in capsys.readouterr().err
