@@ -36,7 +36,6 @@ from boat_twin.vessel import make_scenario
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "config" / "cable" / "default.yaml"
 CALIBRATION = ROOT / "config" / "mavlink" / "ardupilot_two_outboards.yaml"
-TLOG = ROOT / "test" / "data" / "ardusub_log_tools" / "small.tlog"
 BOAT_TWIN = str(Path(sys.executable).parent / "boat-twin") if (Path(sys.executable).parent / "boat-twin").exists() \
     else (shutil.which("boat-twin") or "boat-twin")
 CSV_HEADER = "t,thrust_left_N,thrust_right_N,angle_left_rad,angle_right_rad\n"
@@ -65,7 +64,7 @@ YAML = {
 """Hostile YAML (and two well-formed files) given to every YAML flag."""
 
 
-def _world(base: Path, bag: Path) -> None:
+def _world(base: Path, bag: Path, tlog_path: Path) -> None:
     """The inputs of one example (all but the FIFOs compared byte for byte afterwards)."""
     for name, text in YAML.items():
         (base / name).write_text(text)
@@ -78,7 +77,8 @@ def _world(base: Path, bag: Path) -> None:
     data[len(data) // 3] ^= 0x10  # a flipped bit inside a chunk
     (base / "flipped.mcap").write_bytes(bytes(data))
     (base / "truncated.mcap").write_bytes(bytes(data[: len(data) // 2]))
-    tlog = bytearray(TLOG.read_bytes()[:200_000])
+    shutil.copy(tlog_path, base / "own.tlog")
+    tlog = bytearray(tlog_path.read_bytes()[:200_000])
     struct.pack_into(">Q", tlog, 0, (1 << 64) - 1)
     (base / "stamps.tlog").write_bytes(bytes(tlog))
     (base / "absurd.csv").write_text(CSV_HEADER + "0,1e300,0,0,0\n1,0,0,0,0\n")
@@ -109,7 +109,7 @@ VERB_FLAGS: dict[tuple[str, ...], dict[str, st.SearchStrategy[str] | None]] = {
     ("diagnose",): {"": TRIALS, "--model": YAMLS, "--config": YAMLS, "--out": OUTS, "--force": None,
                     "--window": st.sampled_from(["nan", "1e9", "0.01"])},
     ("diagnose", "--table", "dyda2021"): {"--out": OUTS, "--force": None, "--model-order": st.sampled_from(["1", "2"])},
-    ("convert",): {"": st.sampled_from(["{stamps.tlog}", "{loop}", "{binary.yaml}", str(TLOG)]),
+    ("convert",): {"": st.sampled_from(["{stamps.tlog}", "{loop}", "{binary.yaml}", "{own.tlog}"]),
                    "--calibration": YAMLS, "--out": OUTS, "--force": None},
     ("cable", "depth"): {"--case": YAMLS, "--length": NUMBERS, "--plot": None, "--out": OUTS},
     ("follow",): {"": TRIALS, "--model": YAMLS, "--config": YAMLS, "--out": OUTS, "--force": None},
@@ -181,10 +181,10 @@ def _check_after(base: Path, before: dict[str, bytes], code: int, argv: list[str
 @settings(max_examples=150, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(argv=command_lines())
-def test_generated_hostile_command_lines(argv, bag, old_reports, capsys) -> None:
+def test_generated_hostile_command_lines(argv, bag, old_reports, own_tlog, capsys) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         base = Path(tmp)
-        _world(base, bag)
+        _world(base, bag, own_tlog)
         shutil.copytree(old_reports, base / "rep")
         shutil.copy(bag, base / "own.mcap")
         names = {p.name: str(p) for p in base.iterdir()}

@@ -33,7 +33,6 @@ from boat_twin.vessel import make_scenario
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "config" / "cable" / "default.yaml"
 CALIBRATION = ROOT / "config" / "mavlink" / "ardupilot_two_outboards.yaml"
-TLOG = ROOT / "test" / "data" / "ardusub_log_tools" / "small.tlog"
 BOAT_TWIN = str(Path(sys.executable).parent / "boat-twin") if (Path(sys.executable).parent / "boat-twin").exists() \
     else (shutil.which("boat-twin") or "boat-twin")
 CSV_HEADER = "t,thrust_left_N,thrust_right_N,angle_left_rad,angle_right_rad\n"
@@ -111,7 +110,7 @@ def hostile(tmp_path, small_bag) -> dict[str, str]:
 @pytest.mark.parametrize(("argv", "message"), [
     (["simulate", "accel-stop", "--json", "--config", "{bomb}"], "alias bomb"),
     (["simulate", "accel-stop", "--json", "--model", "{bomb}"], "alias bomb"),
-    (["identify", str(TLOG), "--calibration", "{bomb}"], "alias bomb"),
+    (["identify", "{tlog}", "--calibration", "{bomb}"], "alias bomb"),
     (["cable", "depth", "--case", "{bomb}"], "alias bomb"),
     (["simulate", "accel-stop", "--json", "--config", "{deep}"], "nested deeper than"),
     (["simulate", "accel-stop", "--json", "--config", "{huge}"], "larger than 4 MiB"),
@@ -147,8 +146,8 @@ def hostile(tmp_path, small_bag) -> dict[str, str]:
     (["convert", "{loop}", "--out", "{tmp}/x.mcap"], "symlink loop"),
     (["identify", "--table", "dyda2021", "--out", "{loop}"], "loop"),
 ])
-def test_hostile_input_is_one_line_and_exit_2(hostile, small_bag, capsys, argv, message) -> None:
-    names = {**{k.replace(".", "_"): v for k, v in hostile.items()}, "small_bag": str(small_bag),
+def test_hostile_input_is_one_line_and_exit_2(hostile, small_bag, own_tlog, capsys, argv, message) -> None:
+    names = {**{k.replace(".", "_"): v for k, v in hostile.items()}, "small_bag": str(small_bag), "tlog": str(own_tlog),
              "fifo_mcap": hostile["tmp"] + "/fifo.mcap", "fifo_tlog": hostile["tmp"] + "/fifo.tlog",
              "fifo_csv": hostile["tmp"] + "/fifo.csv", "trial": hostile["tmp"] + "/trial.csv"}
     done: list[int] = []
@@ -199,9 +198,9 @@ def test_an_mcap_record_claiming_a_tebibyte_is_named_by_the_crc_pass(small_bag, 
 # --------------------------------------------------------------------------- .tlog receive stamps
 
 
-def test_tlog_receive_stamps_all_unset_are_named(tmp_path) -> None:
+def test_tlog_receive_stamps_all_unset_are_named(tmp_path, own_tlog) -> None:
     """Every receive stamp 2^64 - 1 µs (unset): the summary says so instead of reading them as a clock."""
-    data, out, i = TLOG.read_bytes(), bytearray(), 0
+    data, out, i = own_tlog.read_bytes(), bytearray(), 0
     while i + 10 < len(data):
         magic, length = data[i + 8], data[i + 9]
         size = 12 + length + (13 if data[i + 10] & 1 else 0) if magic == 0xFD else 8 + length
@@ -211,7 +210,7 @@ def test_tlog_receive_stamps_all_unset_are_named(tmp_path) -> None:
     unset.write_bytes(bytes(out))
     summary = read_mavlink_trial(unset, CALIBRATION).metadata.summary_line()
     assert "receive stamp(s) are no Unix time" in summary and "boot time only" in summary, summary
-    assert "no Unix time" not in read_mavlink_trial(TLOG, CALIBRATION).metadata.summary_line()
+    assert "no Unix time" not in read_mavlink_trial(own_tlog, CALIBRATION).metadata.summary_line()
 
 
 # --------------------------------------------------------------------------- live: MAVLink flood, identifier

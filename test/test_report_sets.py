@@ -18,7 +18,6 @@ from boat_twin.cli.identify import TABLE_OUTPUTS, TRIAL_OUTPUTS
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "bags" / "thrust_steps_sample"
-TLOG = ROOT / "test" / "data" / "ardusub_log_tools" / "small.tlog"
 BOAT_TWIN = str(Path(sys.executable).parent / "boat-twin") if (Path(sys.executable).parent / "boat-twin").exists() \
     else (shutil.which("boat-twin") or "boat-twin")
 """The console script, as a user runs it."""
@@ -136,12 +135,13 @@ def test_sigterm_once_the_reports_are_complete_exits_143_or_0(tmp_path) -> None:
     (["diagnose", "{trial}", "--config", "{rep}/twin.yaml"], "twin.yaml"),
     (["demo", "--sample", "{rep}/thrust_steps"], "thrust_steps"),
 ])
-def test_an_input_inside_out_is_refused_before_any_work(tmp_path, old_reports, capsys, argv, inside) -> None:
+def test_an_input_inside_out_is_refused_before_any_work(tmp_path, old_reports, own_tlog, capsys, argv,
+                                                       inside) -> None:
     rep = _copy(old_reports, tmp_path)
     shutil.copytree(SAMPLE, rep / "thrust_steps")
     (rep / "trial.mcap").write_bytes(b"")
     before = _tree(rep)
-    names = {"trial": str(SAMPLE), "rep": str(rep), "tlog": str(TLOG)}
+    names = {"trial": str(SAMPLE), "rep": str(rep), "tlog": str(own_tlog)}
     assert main([a.format(**names) for a in argv] + ["--out", str(rep), "--force"]) == 2
     line = _one_error_line(capsys.readouterr().err)
     assert "is also an input of this command" in line and inside in line, line
@@ -169,16 +169,17 @@ def _limited(limit_bytes: int) -> None:
     (["simulate", "accel-stop", "--duration", "60", "--out", "new.mcap"], 40_000),
     (["simulate", "accel-stop", "--duration", "60", "--storage", "sqlite3", "--out", "new"], 40_000),
     (["simulate", "accel-stop", "--duration", "60", "--tlog", "new.tlog"], 20_000),
-    (["convert", str(TLOG), "--out", "new.mcap"], 2_000),
+    (["convert", "{tlog}", "--out", "new.mcap"], 2_000),
     (["identify", "--table", "dyda2021", "--out", "rep", "--force"], 20_000),
     (["diagnose", "--table", "dyda2021", "--out", "rep", "--force"], 20_000),
     (["cable", "depth", "--case", str(ROOT / "config" / "cable" / "default.yaml"), "--plot", "--out", "plots"], 20_000),
 ])
-def test_a_file_size_limit_is_one_line_and_leaves_nothing(tmp_path, old_reports, argv, limit) -> None:
+def test_a_file_size_limit_is_one_line_and_leaves_nothing(tmp_path, old_reports, own_tlog, argv, limit) -> None:
     """RLIMIT_FSIZE (as a full disk): exit 2, one line naming what could not be written, the old reports kept,
     no scratch or lock left behind."""
     rep = _copy(old_reports, tmp_path)
     old = _tree(rep)
+    argv = [a.replace("{tlog}", str(own_tlog)) for a in argv]
     run = subprocess.run([BOAT_TWIN, *argv], cwd=tmp_path, capture_output=True, text=True, timeout=120,
                          preexec_fn=lambda: _limited(limit))
     assert run.returncode == 2, (run.returncode, run.stderr)
