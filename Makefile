@@ -1,6 +1,6 @@
 # boat_twin: every target sets up its own virtual environment. `make demo` installs the package alone (what the
-# demo needs); every other target adds the test tools and ROS 2 Jazzy's core (PyPI wheels, the `ros` extra of
-# setup.py: ros-jazzy-rclpy, ros-jazzy-rmw-fastrtps-cpp and the message packages).
+# demo needs); every other target adds the test tools, ROS 2 Jazzy's core (PyPI wheels, the `ros` extra of
+# setup.py: ros-jazzy-rclpy, ros-jazzy-rmw-fastrtps-cpp and the message packages) and Dask (the `fleet` extra).
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
@@ -27,7 +27,7 @@ $(BASE_STAMP): setup.py setup.cfg package.xml
 	touch $(BASE_STAMP)
 
 $(STAMP): $(BASE_STAMP)
-	$(PIP_INSTALL) -e '.[test,ros]'
+	$(PIP_INSTALL) -e '.[test,ros,fleet]'
 	touch $(STAMP)
 
 lint: $(STAMP)

@@ -18,6 +18,7 @@ setup(
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
         (f"share/{PACKAGE}/config/cable", glob("config/cable/*.yaml")),
         (f"share/{PACKAGE}/config/mavlink", glob("config/mavlink/*.yaml")),
+        (f"share/{PACKAGE}/config/ros", glob("config/ros/*.yaml")),
     ],
     python_requires=">=3.10",
     install_requires=[
@@ -55,6 +56,12 @@ setup(
             "mypy>=1.8",
             "types-PyYAML",
             "MoorPy>=1.0",
+        ],
+        # Fleets (boat_twin.fleet: --each batches and --ensemble runs on a Dask cluster; docs/fleet.md). Without it
+        # they run in the calling process.
+        "fleet": [
+            "dask>=2024.1",
+            "distributed>=2024.1",
         ],
         # Benchmarks only (benchmarks/bench_zigzag_inverse.py: the neural-network inverse map of Pashentsev 2025).
         "bench": [

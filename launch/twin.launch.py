@@ -1,7 +1,8 @@
 """Launch the boat twin: the simulator, the thrust-speed identifier and the towed-cable service.
 
     ros2 launch boat_twin twin.launch.py [namespace:=boat1] [seed:=0] [noise:=true] [config_file:=/path/boat.yaml]
-        [sim_time:=true real_time_factor:=10.0] [order:=5] [memory_s:=3600.0] [model_path:=/path/model.yaml]
+        [sim_time:=true real_time_factor:=10.0] [command_timeout_s:=1.0] [frame_prefix:=boat1/]
+        [publish_truth_tf:=false] [hardware_id:=boat1] [order:=5] [memory_s:=3600.0] [model_path:=/path/model.yaml]
         [cable_case:=/path/case.yaml] [follow_gnss_vel:=true]
         [mavlink_url:=udpout:127.0.0.1:14550] [mavlink_allow_remote:=false]
 
@@ -24,6 +25,11 @@ ARGUMENTS = {
     "noise": ("", "false: exact measurements (empty: the simulator's, true)"),
     "sim_time": ("", "true: the simulator publishes /clock and the other nodes use it (empty: false)"),
     "real_time_factor": ("", "simulated seconds per wall second with sim_time (empty: the simulator's, 1.0)"),
+    "command_timeout_s": ("", "thrust to zero this long after the last thruster command, s (empty: the "
+                              "simulator's, 1.0)"),
+    "frame_prefix": ("", "prepended to every frame id, e.g. boat1/ (empty: none)"),
+    "publish_truth_tf": ("", "false: no true map -> base_link on tf, a localization stack owns it (empty: true)"),
+    "hardware_id": ("", "hardware_id of the nodes' /diagnostics (empty: the namespace)"),
     "mavlink_url": ("", "serve the twin to a ground station over MAVLink (empty: off)"),
     "mavlink_allow_remote": ("", "true: allow a MAVLink peer that is not on this machine (empty: false)"),
     "order": ("", "order N of the identified resistance Fc(v), needs N + 2 steady points (empty: the "
@@ -38,9 +44,12 @@ ARGUMENTS = {
 PARAMETERS = {
     "simulator": {"config_file": "config_file", "seed": "seed", "noise": "noise", "publish_clock": "sim_time",
                   "real_time_factor": "real_time_factor", "mavlink_url": "mavlink_url",
-                  "mavlink_allow_remote": "mavlink_allow_remote"},
-    "identifier": {"use_sim_time": "sim_time", "order": "order", "memory_s": "memory_s", "model_path": "model_path"},
-    "cable": {"use_sim_time": "sim_time", "case_file": "cable_case", "follow_gnss_vel": "follow_gnss_vel"},
+                  "mavlink_allow_remote": "mavlink_allow_remote", "command_timeout_s": "command_timeout_s",
+                  "frame_prefix": "frame_prefix", "publish_truth_tf": "publish_truth_tf", "hardware_id": "hardware_id"},
+    "identifier": {"use_sim_time": "sim_time", "order": "order", "memory_s": "memory_s", "model_path": "model_path",
+                   "hardware_id": "hardware_id"},
+    "cable": {"use_sim_time": "sim_time", "case_file": "cable_case", "follow_gnss_vel": "follow_gnss_vel",
+              "frame_prefix": "frame_prefix", "hardware_id": "hardware_id"},
 }
 """Node (executable) → its parameter → the launch argument that sets it."""
 

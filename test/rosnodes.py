@@ -50,10 +50,14 @@ def executable(name: str) -> str:
 
 
 class NodeProcess:
-    """A node started as its console script with ``--ros-args``; stdout and stderr kept in files."""
+    """A node started as its console script with ``--ros-args`` (``remaps``: ``-r`` pairs such as
+    ``{"__ns": "/boat1"}``); stdout and stderr kept in files."""
 
-    def __init__(self, name: str, params: dict[str, Any] | None = None, log_dir: Path | None = None) -> None:
+    def __init__(self, name: str, params: dict[str, Any] | None = None, log_dir: Path | None = None,
+                 remaps: dict[str, str] | None = None) -> None:
         args = [executable(name), "--ros-args"]
+        for key, value in (remaps or {}).items():
+            args += ["-r", f"{key}:={value}"]
         for key, value in (params or {}).items():
             text = str(value).lower() if isinstance(value, bool) else str(value)
             args += ["-p", f"{key}:={text}"]
@@ -85,12 +89,12 @@ class NodeProcess:
 
 
 @contextmanager
-def nodes(*specs: tuple[str, dict[str, Any]], log_dir: Path | None = None) -> Iterator[list[NodeProcess]]:
-    """Start each ``(executable, parameters)``; stop them all however the test ends."""
+def nodes(*specs: tuple[Any, ...], log_dir: Path | None = None) -> Iterator[list[NodeProcess]]:
+    """Start each ``(executable, parameters[, remaps])``; stop them all however the test ends."""
     started: list[NodeProcess] = []
     try:
-        for name, params in specs:
-            started.append(NodeProcess(name, params, log_dir))
+        for name, params, *remaps in specs:
+            started.append(NodeProcess(name, params, log_dir, *remaps))
         yield started
     finally:
         for proc in started:

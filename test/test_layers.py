@@ -11,7 +11,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1] / "boat_twin"
 LAYERS = (
-    ("errors", "units", "frames", "signal_noise", "files", "validation", "lazy", "data"),  # util: no domain knowledge
+    ("errors", "units", "frames", "signal_noise", "files", "validation", "lazy", "data",
+    "threads"),  # util: no domain knowledge
     ("cable",),  # towed body + cable (the vessel's tow load uses it)
     ("vessel",),  # params, resistance, dynamics, environment, scenarios
     ("sensors",),  # observation models: truth -> measurements
@@ -21,6 +22,7 @@ LAYERS = (
     ("ident", "diagnose", "plots"),  # analyses of trials: siblings over one core (SIBLINGS)
     ("shadow",),  # the live twin following a boat: uses identification (adaptation) and the diagnosis catalogue
     ("link",),  # the twin as a live MAVLink boat
+    ("fleet",),  # many trials and large ensembles as tasks on Dask (or one after another)
     ("nodes", "cli"),  # front ends: ROS 2 nodes, the boat-twin command
 )
 

@@ -7,6 +7,7 @@ import json
 
 import pytest
 import rosnodes
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Path as PathMsg
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
@@ -25,7 +26,7 @@ LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 def cable(tmp_path_factory):
     """One cable node (integer parameters given where doubles go) and a probe, for the whole module."""
     log_dir = tmp_path_factory.mktemp("cable")
-    params = {"case_file": str(CASE), "update_period_s": 0.2, "cable.length_m": 120}
+    params = {"case_file": str(CASE), "update_period_s": 0.2, "cable.length_m": 120, "frame_prefix": "boat1/"}
     with rosnodes.nodes(("cable", params), log_dir=log_dir) as (proc,), rosnodes.probe() as probe:
         yield proc, probe
 
@@ -65,9 +66,27 @@ def test_topics_carry_shape_depth_and_tension(cable) -> None:
     probe.node.create_subscription(Float64, "cable/top_tension", lambda m: got.__setitem__("tension", m), LATCHED)
     assert probe.spin_until(lambda: len(got) == 3, rosnodes.START_TIMEOUT_S)
     path = got["path"]
-    assert path.header.frame_id == "tow_point"
+    assert path.header.frame_id == "boat1/tow_point"  # frame_prefix + frame_id
     assert path.poses[-1].pose.position.z == pytest.approx(-got["depth"].data)
     assert got["depth"].data > 0.0 and got["tension"].data > 0.0
+
+
+def test_diagnostics_name_the_node_and_say_the_answer(cable) -> None:
+    _proc, probe = cable
+    got: list = []
+    probe.node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: got.extend(
+        s for s in m.status if s.name == "cable: towed cable" and s.level == DiagnosticStatus.OK), 10)
+    assert probe.spin_until(lambda: bool(got), 10.0)
+    values = {kv.key: json.loads(kv.value) for kv in got[-1].values}
+    assert got[-1].hardware_id == "boat_twin" and values["vehicle_depth_m"] > 0.0, values
+
+
+def test_use_sim_time_is_refused_at_run_time_with_the_reason(cable) -> None:
+    _proc, probe = cable
+    refused = set_parameter(probe, "use_sim_time", ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=True))
+    assert not refused.successful and "use_sim_time is read at start-up only" in refused.reason
+    same = set_parameter(probe, "use_sim_time", ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=False))
+    assert same.successful, same.reason  # setting the value it has is no change
 
 
 def test_bad_parameter_is_refused_with_the_reason_and_integers_are_accepted(cable) -> None:

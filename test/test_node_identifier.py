@@ -104,7 +104,8 @@ def test_identifier_node_publishes_coefficients_and_diagnostics_and_serves_save_
         np.testing.assert_allclose(out.data, expected, rtol=1e-9, atol=1e-9)
         assert all(math.isfinite(x) for x in out.data)
         status = diagnostics[-1].status[0]
-        assert status.name == "boat_twin: thrust-speed identification"
+        assert status.name == "identifier: thrust-speed identification"  # diagnostic_updater: "<node>: <task>"
+        assert status.hardware_id == "boat_twin"  # the root namespace's default
         assert status.level == DiagnosticStatus.OK and status.message == "identified"
         values = {kv.key: json.loads(kv.value) for kv in status.values}
         assert values["steady_points"] == len(LEVELS_N) - 1 and values["rejected_segments"] == 0

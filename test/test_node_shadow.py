@@ -59,7 +59,7 @@ def test_bag_player_to_shadow_names_a_hidden_current_and_follows_it(tmp_path: Pa
         assert player.wait(1.0) == 0, player.stderr
     assert "played to its end" in player.stderr
     assert "synchronised at" in shadow_log and "rolling diagnosis" in shadow_log, shadow_log
-    named = [d.status[0] for d in diagnostics if d.status and d.status[0].name == "boat_twin: shadow twin"
+    named = [d.status[0] for d in diagnostics if d.status and d.status[0].name == "shadow: shadow twin"
              and "water_current" in d.status[0].message]
     assert named, shadow_log
     model = json.loads({kv.key: kv.value for kv in named[-1].values}["model"])

@@ -103,6 +103,10 @@ def test_launch_description_builds() -> None:
     assert module.generate_launch_description().entities
 
 
+SHARED_PARAMETERS = {"conventions.frame_prefix(self)": "frame_prefix", "Diagnostics(self)": "hardware_id"}
+"""Parameters that boat_twin.nodes.conventions and .diagnostics declare for the node that calls them."""
+
+
 def test_launch_parameters_are_declared_by_their_nodes() -> None:
     """Every parameter twin.launch.py passes to a node is one the node declares (a typo would be ignored), set by
     a declared launch argument."""
@@ -110,6 +114,7 @@ def test_launch_parameters_are_declared_by_their_nodes() -> None:
     for executable, table in _launch_table("PARAMETERS").items():
         source = (ROOT / "boat_twin" / "nodes" / f"{executable}.py").read_text()
         declared = set(re.findall(r'parameters\.\w+\(\s*self,\s*"([a-z_]+)"', source)) | {"use_sim_time"}
+        declared |= {name for call, name in SHARED_PARAMETERS.items() if call in source}
         assert table and set(table) <= declared, (executable, set(table) - declared)
         assert set(table.values()) <= set(arguments), (executable, set(table.values()) - set(arguments))
 

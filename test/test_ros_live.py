@@ -40,6 +40,9 @@ RECORDED = (messages.TOPIC_GNSS_FIX, messages.TOPIC_GNSS_VEL, messages.TOPIC_IMU
 CABLE_CASE = rosnodes.ROOT / "config" / "cable" / "default.yaml"
 
 
+RESEND_NS = 250_000_000
+"""Held commands are re-sent this often (simulated ns), as the player does: well within the simulator's 1 s
+command watchdog (command_timeout_s)."""
 MATCH_TIMEOUT_S = 60.0
 """Wall-clock time the probe's publishers and subscriptions get to match the simulator's (DDS discovery)."""
 
@@ -93,7 +96,8 @@ class LiveRun:
                 return
             self.start_ns = self.sim_ns
         row = self.profile.command(self.profile_s, np.zeros((1, 6)))[0]
-        if self._held is None or not np.array_equal(row, self._held) or self.sim_ns - self._last_publish_ns >= 10**9:
+        due = self.sim_ns - self._last_publish_ns >= RESEND_NS
+        if self._held is None or not np.array_equal(row, self._held) or due:
             for publisher, topic, value in zip(self.commands, messages.COMMAND_TOPICS, row.tolist(), strict=True):
                 publisher.publish(Float64(data=value))
                 self.recorded.append((topic, self.sim_ns, messages.float64(value)))

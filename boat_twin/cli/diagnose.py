@@ -15,18 +15,18 @@ from typing import Any
 from boat_twin.cli import verb_help
 from boat_twin.cli.options import (
     TRIAL_HELP,
+    add_fleet_options,
     add_trial_options,
     claim_out_dir,
+    parse_remap,
+    run_each,
     trial_from_args,
     trial_inputs,
     twin_config_from_args,
 )
-from boat_twin.diagnose.defaults import WINDOW_S
+from boat_twin.diagnose.defaults import EXTENDED_MODEL_NAME, WINDOW_S
 from boat_twin.errors import InputError
-from boat_twin.files import atomic_save_figure, atomic_write_text, atomic_write_yaml, to_json
-
-EXTENDED_MODEL_NAME = "extended_model.yaml"
-"""File name of the extended model in --out."""
+from boat_twin.files import atomic_save_figure, atomic_write_yaml, to_json
 
 
 def _progress(message: str) -> None:
@@ -41,57 +41,38 @@ TABLE_OUTPUTS = (EXTENDED_MODEL_NAME, "diagnosis_table.png")
 """What ``diagnose --table dyda2021 --out DIR`` writes."""
 
 
-def _run_trial(args: argparse.Namespace, staging: Path | None) -> int:
-    from boat_twin.config import save_config
+def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     from boat_twin.diagnose.pipeline import diagnose_trial
-    from boat_twin.diagnose.report import (
-        concerned_signals,
-        evidence_figure,
-        residual_figure,
-        signal_figure,
-        text_report,
-    )
+    from boat_twin.diagnose.report import text_report
+    from boat_twin.fleet.reports import write_diagnosis_report
     from boat_twin.io.trial import thrust_outliers
 
     trial = trial_from_args(args.trial, args)
     config = twin_config_from_args(args)
-    summary = trial.metadata.summary_line()
+    summary = trial.metadata.summary_line()  # what identify prints of a trial
     warnings = [w for w in [thrust_outliers(trial, config.vessel.bollard_thrust_N)] if w]
     sys.stderr.write("".join(f"{line}\n" for line in [summary, *(f"warning: {w}" for w in warnings)]))
     done = diagnose_trial(trial, config, args.window, None if args.json else _progress)
     if not args.json:
         sys.stderr.write("\r" + " " * 72 + "\r")
     result = done.result
-    if staging is not None:
-        out = args.out
-        names = ", ".join(v["effect"] for v in result["verdict"]) or "none"
-        save_config(done.extended, staging / EXTENDED_MODEL_NAME,
-                    f"boat_twin extended model: diagnose {args.trial} (named: {names})\n"
-                    f"load with: boat-twin simulate ... --config {out / EXTENDED_MODEL_NAME}")
-        result["extended_model"] = str(out / EXTENDED_MODEL_NAME)
-        concerned = concerned_signals(result)
-        before, after = done.baseline_prediction, done.extended_prediction
-        title = f"diagnose {args.trial}"
-        atomic_save_figure(staging / "diagnosis_signals.png", signal_figure(done.windows, before, after, concerned),
-                           title)
-        atomic_save_figure(staging / "diagnosis_residuals.png", residual_figure(done.windows, before, after), title)
-        atomic_save_figure(staging / "diagnosis_evidence.png", evidence_figure(result), title)
-        atomic_write_text(staging / "diagnosis.json", to_json(result) + "\n")
+    if out is not None:
+        write_diagnosis_report(out, done, str(args.trial), args.out)
     print(to_json(result) if args.json else text_report(result))
     return 0
 
 
-def _run_table(args: argparse.Namespace, staging: Path | None) -> int:
+def _run_table(args: argparse.Namespace, out: Path | None) -> int:
     from boat_twin.diagnose.pipeline import diagnose_paper_table
     from boat_twin.diagnose.report import table_figure, table_text
 
     result, diag, resistance = diagnose_paper_table(args.model_order)
     result["extended_model"] = None
-    if staging is not None and resistance is not None:
-        atomic_write_yaml(staging / EXTENDED_MODEL_NAME, {"vessel": {"resistance": resistance.to_dict()}})
-        result["extended_model"] = str(args.out / EXTENDED_MODEL_NAME)
-    if staging is not None:
-        atomic_save_figure(staging / "diagnosis_table.png", table_figure(diag),
+    if out is not None and resistance is not None:
+        atomic_write_yaml(out / EXTENDED_MODEL_NAME, {"vessel": {"resistance": resistance.to_dict()}})
+        result["extended_model"] = str(args.out / EXTENDED_MODEL_NAME)  # its final name (out: the staging copy)
+    if out is not None:
+        atomic_save_figure(out / "diagnosis_table.png", table_figure(diag),
                            f"diagnose --table dyda2021 (the paper's N = {args.model_order} fit)")
     print(to_json(result) if args.json else table_text(result, diag))
     return 0
@@ -102,13 +83,23 @@ def run(args: argparse.Namespace) -> int:
     from boat_twin.validation import number
 
     if args.table is not None:
-        if args.trial is not None:
+        if args.trial:
             raise InputError("give either a TRIAL or --table, not both")
         with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as reports:
             return _run_table(args, reports.staging if reports else None)
-    if args.trial is None:
+    if not args.trial:
         raise InputError("give a TRIAL (bag, .mcap, .tlog, .BIN, .csv) or --table dyda2021")
     number("--window", args.window, above=0.0)
+    if args.each:
+        from boat_twin.fleet.jobs import DiagnoseJob, ReadOptions
+
+        read = ReadOptions(parse_remap(args.topic), args.namespace or "",
+                           str(args.calibration) if args.calibration is not None else None, args.columns)
+        return run_each(args, DiagnoseJob(twin_config_from_args(args), read, args.window))
+    if len(args.trial) > 1:
+        raise InputError(f"{len(args.trial)} trials given: diagnose reads one trial, or each of several with "
+                         "--each --out DIR")
+    args.trial = args.trial[0]
     with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force, trial_inputs(args)) as reports:
         return _run_trial(args, reports.staging if reports else None)
 
@@ -119,8 +110,10 @@ def register(subparsers: Any) -> None:
         "diagnose", help=verb_help("diagnose"),
         description="Find what the model gets wrong on measured data (a recorded trial, or a steady-state "
         "table), name the cause from a catalogue of effects, and write the extended model with the gain.")
-    p.add_argument("trial", nargs="?", type=Path, help=TRIAL_HELP)
+    p.add_argument("trial", nargs="*", type=Path,
+                   help=TRIAL_HELP + "; with --each several, directories of trials or quoted glob patterns")
     add_trial_options(p)
+    add_fleet_options(p, "diagnose")
     p.add_argument("--table", choices=["dyda2021"],
                    help="diagnose a built-in steady-state table instead: dyda2021 = Dyda & Chumakova (2021) Table 1")
     p.add_argument("--model-order", type=int, choices=[1, 3, 5], default=1,

@@ -14,13 +14,17 @@ from typing import Any
 from boat_twin.cli import verb_help
 from boat_twin.cli.options import (
     TRIAL_HELP,
+    add_fleet_options,
     add_trial_options,
     claim_out_dir,
+    parse_remap,
+    run_each,
     trial_from_args,
     trial_inputs,
     twin_config_from_args,
 )
-from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
+from boat_twin.errors import InputError
+from boat_twin.files import to_json
 
 OUTPUTS = ("follow.json", "follow_innovations.png", "follow_model.png", "follow_causes.png", "twin.yaml")
 """What ``follow TRIAL --out DIR`` writes."""
@@ -46,24 +50,31 @@ def _text(result: dict[str, Any]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Follow the trial; print the timeline (text or JSON); plots, JSON and the adapted twin.yaml into --out."""
+    if not args.trial:
+        raise InputError("give a TRIAL (bag, .mcap, .tlog, .BIN, .csv)")
+    if args.each:
+        from boat_twin.fleet.jobs import FollowJob, ReadOptions
+
+        read = ReadOptions(parse_remap(args.topic), args.namespace or "",
+                           str(args.calibration) if args.calibration is not None else None, args.columns)
+        return run_each(args, FollowJob(twin_config_from_args(args), read))
+    if len(args.trial) > 1:
+        raise InputError(f"{len(args.trial)} trials given: follow reads one trial, or each of several with "
+                         "--each --out DIR")
+    trial_path = args.trial[0]
     with claim_out_dir(args.out, OUTPUTS, args.force, trial_inputs(args)) as reports:
         out = reports.staging if reports else None  # the whole set is swapped in when complete
-        from boat_twin.config import save_config
+        from boat_twin.fleet.reports import write_follow_report
         from boat_twin.shadow.follow import follow_trial
-        from boat_twin.shadow.plots import cause_figure, innovation_figure, model_figure
 
-        trial = trial_from_args(args.trial, args)
+        trial = trial_from_args(trial_path, args)
         config = twin_config_from_args(args)
         done = follow_trial(trial, config, progress=None if args.json else _progress)
         if not args.json:
             sys.stderr.write("\r" + " " * 62 + "\r")
         result = done.to_dict()
         if out is not None:
-            atomic_write_text(out / "follow.json", to_json(result) + "\n")
-            atomic_save_figure(out / "follow_innovations.png", innovation_figure(done))
-            atomic_save_figure(out / "follow_model.png", model_figure(done, config.vessel.mass_kg))
-            atomic_save_figure(out / "follow_causes.png", cause_figure(done))
-            save_config(done.twin, out / "twin.yaml", f"boat_twin live twin adapted by: boat-twin follow {args.trial}")
+            write_follow_report(out, done, config, str(trial_path))
         print(to_json(result) if args.json else _text(result))
     return 0
 
@@ -77,8 +88,10 @@ def register(subparsers: Any) -> None:
         "resistance) when that predicts held-out data better, and runs the diagnosis on the recent window. "
         "Prints a timeline per simulated minute: t_s (s), speed_innovation_ratio (RMS of the speed innovations "
         "over the last minute / their stated noise, -), mass_kg, resistance_factor (-), causes.")
-    p.add_argument("trial", type=Path, help=TRIAL_HELP)
+    p.add_argument("trial", nargs="*", type=Path,
+                   help=TRIAL_HELP + "; with --each several, directories of trials or quoted glob patterns")
     add_trial_options(p)
+    add_fleet_options(p, "follow")
     p.add_argument("--config", type=Path, metavar="FILE",
                    help="twin configuration YAML to start from (default: the built-in boat)")
     p.add_argument("--model", type=Path, metavar="FILE",

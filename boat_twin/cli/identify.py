@@ -16,8 +16,11 @@ from typing import Any
 from boat_twin.cli import verb_help
 from boat_twin.cli.options import (
     TRIAL_HELP,
+    add_fleet_options,
     add_trial_options,
     claim_out_dir,
+    parse_remap,
+    run_each,
     trial_from_args,
     trial_inputs,
     twin_config_from_args,
@@ -67,6 +70,8 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"{name} must be a positive number, got {value:g}")
     if args.table is not None and args.trial:
         raise InputError("give a TRIAL or --table, not both")
+    if args.each:
+        return _run_each(args)
     if args.table is not None:
         with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as reports:
             return _run_table(args, reports.staging if reports else None)
@@ -80,6 +85,34 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"--{name} needs --manoeuvring")
     with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force, trial_inputs(args)) as reports:
         return _run_trial(args, reports.staging if reports else None)
+
+
+def _boat_facts(args: argparse.Namespace) -> dict[str, float] | None:
+    """The vessel facts of --boat (None without it); fields identify measures itself are said to be ignored."""
+    from boat_twin.ident.twin_config import read_boat_file
+
+    if args.boat is None:
+        return None
+    boat_file = read_boat_file(args.boat)
+    if boat_file.ignored:
+        sys.stderr.write(f"{args.boat}: ignoring {', '.join(boat_file.ignored)} (identify measures the resistance and "
+                         "the effective mass, and reads only the vessel's facts)\n")
+    return boat_file.facts
+
+
+def _run_each(args: argparse.Namespace) -> int:
+    """--each: every trial identified on its own (not pooled), on the --scheduler's workers."""
+    from boat_twin.fleet.jobs import IdentifyJob, ReadOptions
+
+    for name in ("table", "manoeuvring", "validate", "window", "config", "model"):
+        if getattr(args, name):
+            raise InputError(f"--each identifies each trial's thrust-speed model; --{name} does not apply")
+    read = ReadOptions(parse_remap(args.topic), args.namespace or "",
+                       str(args.calibration) if args.calibration is not None else None, args.columns)
+    job = IdentifyJob(read, args.order, min(args.max_order, 6), args.monotone, args.steady_window,
+                      args.thrust_tolerance, _boat_facts(args),
+                      str(args.boat) if args.boat is not None else None)
+    return run_each(args, job)
 
 
 def _run_manoeuvring(args: argparse.Namespace, out: Path | None) -> int:
@@ -148,18 +181,11 @@ def rejected_summary(rejected: list[dict[str, Any]]) -> str:
 def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     """Recorded trials, pooled: replay through the online identifier, batch fits, dynamic mass, re-simulation of
     each with the identified model (closing the loop), report (into --out, claimed by the caller)."""
-    import numpy as np
+    from boat_twin.fleet.reports import write_identify_report
+    from boat_twin.ident.pipeline import identify_trials
+    from boat_twin.ident.report import resimulation_line
 
-    from boat_twin.config import TwinConfig, save_config
-    from boat_twin.ident.pipeline import identify_trials, pool, trial_samples
-    from boat_twin.ident.report import resimulation_line, write_trial_report
-    from boat_twin.ident.twin_config import read_boat_file
-
-    boat_file = read_boat_file(args.boat) if args.boat is not None else None
-    if boat_file is not None and boat_file.ignored:
-        sys.stderr.write(f"{args.boat}: ignoring {', '.join(boat_file.ignored)} (identify measures the resistance and "
-                         "the effective mass, and reads only the vessel's facts)\n")
-    boat = None if boat_file is None else boat_file.facts
+    boat = _boat_facts(args)
     trials = []
     for path in args.trial:
         sys.stderr.write(f"reading {path} ...\n")
@@ -170,16 +196,8 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
                                              monotone=args.monotone, window_s=args.steady_window,
                                              thrust_tolerance_N=args.thrust_tolerance, boat=boat)
     if out is not None:
-        if vessel is not None:
-            save_config(TwinConfig(vessel=vessel), out / "twin.yaml",
-                        f"boat_twin twin of the boat identified from {', '.join(map(str, args.trial))}\n"
-                        f"geometry: {args.boat or 'the default boat carried to the identified mass'}; where each fact "
-                        "came from: identify.json 'twin'\n"
-                        f"load with: boat-twin simulate ... --config {args.out / 'twin.yaml'}")
-        t_s, thrust, speed = (np.concatenate(column) for column in zip(*pool([trial_samples(tr) for tr in trials]),
-                                                                       strict=True))
-        write_trial_report(out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None,
-                           title=f"identify {', '.join(map(str, args.trial))}")
+        write_identify_report(out, result, trials, resims, vessel, ", ".join(map(str, args.trial)),
+                              str(args.boat) if args.boat is not None else None, args.out)
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0
@@ -227,8 +245,10 @@ def register(subparsers: Any) -> None:
         "(Dyda & Chumakova 2021). Internally SI; the built-in table is reported in its own units (kn, kgf).",
     )
     p.add_argument("trial", nargs="*", type=Path,
-                   help=TRIAL_HELP + "; several trials of one boat are pooled into one identification")
+                   help=TRIAL_HELP + "; several trials of one boat are pooled into one identification (--each: each on "
+                   "its own; a directory of trials or a quoted glob pattern then expands)")
     add_trial_options(p)
+    add_fleet_options(p, "identify")
     p.add_argument("--manoeuvring", action="store_true",
                    help="fit the turning coefficients (m22, m33, sway/yaw damping, lateral centre, cross-flow drag, "
                    "steering offset) to the TRIALs (zigzags, turning circles), surge held from --config/--model")

@@ -5,13 +5,14 @@ twin configuration (--config, --model, --current). Cheap to import (the librarie
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from boat_twin.errors import InputError
-from boat_twin.files import ReportSet, refuse_input_as_output
+from boat_twin.files import ReportSet, refuse_input_as_output, to_json
 from boat_twin.io.roles import TRIAL_ROLES
 
 if TYPE_CHECKING:
@@ -107,3 +108,55 @@ def claim_out_dir(out: Path | None, names: tuple[str, ...], force: bool,
     with ReportSet(out, names, force) as reports:
         yield reports
         reports.commit()
+
+
+def add_fleet_options(parser: argparse.ArgumentParser, what: str) -> None:
+    """Add --each, --scheduler and --workers to a verb that runs on trials (``what``: its action, e.g.
+    "identify")."""
+    from boat_twin.fleet.engine import LOCAL, SCHEDULER_HELP
+
+    parser.add_argument(
+        "--each", action="store_true",
+        help=f"{what} every trial on its own, in parallel (TRIAL: several trials, directories of trials or quoted "
+        "glob patterns such as 'logs/**/*.mcap'): each trial's report in --out DIR/<trial name>/, one row per "
+        "trial in DIR/summary.csv and DIR/summary.json (columns: docs/fleet.md); a failing trial is reported in "
+        "its row; a trial whose report is complete is skipped (resume; --force redoes it)")
+    parser.add_argument("--scheduler", default=LOCAL, metavar="WHERE", help="with --each: " + SCHEDULER_HELP)
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="with --each and --scheduler local: worker processes (default: one per core)")
+
+
+def run_each(args: argparse.Namespace, job: Any) -> int:
+    """``--each``: ``job`` (:mod:`boat_twin.fleet.jobs`) on every trial of ``args.trial`` into --out, on the
+    --scheduler's workers; a line per failed trial and a summary line; exit 2 when a trial failed."""
+    from boat_twin.fleet.batch import Progress, run_batch
+    from boat_twin.fleet.engine import open_client
+    from boat_twin.fleet.trials import expand_trials, name_trials
+
+    if args.out is None:
+        raise InputError("--each needs --out DIR: each trial's report goes to DIR/<trial name>/, the summary to "
+                         "DIR/summary.csv and DIR/summary.json")
+    if not args.trial:
+        raise InputError("--each: give the trials (files, rosbag2 directories, directories of trials or a quoted "
+                         "glob pattern)")
+    if args.out.exists() and not args.out.is_dir():
+        raise InputError(f"{args.out}: --out must be a directory for the reports, and this is a file")
+    found = expand_trials(args.trial, csv=getattr(args, "columns", None) is not None, skip=args.out.resolve())
+    tasks = name_trials(found)
+    bar = None if args.json else Progress(job.verb, len(tasks))
+    with open_client(args.scheduler, args.workers, quiet=args.json) as client:
+        result = run_batch(job, tasks, args.out, client, force=args.force,
+                           progress=bar.update if bar is not None else None)
+    failed = result.failed
+    if args.json:
+        sys.stdout.write(to_json(result.rows) + "\n")
+    else:
+        for row in failed:
+            sys.stderr.write(f"{row['trial']}: error: {row['error']}\n")
+        sys.stdout.write(f"{job.verb}: {len(result.rows)} trial(s), {len(result.rows) - len(failed)} ok "
+                         f"({result.resumed} complete from an earlier run), {len(failed)} failed; summary "
+                         f"{result.summary_csv}\n")
+    if failed:
+        raise InputError(f"{len(failed)} of {len(result.rows)} trial(s) failed, each named with its error in "
+                         f"{result.summary_csv} (first: {failed[0]['trial']})")
+    return 0

@@ -14,6 +14,7 @@ from boat_twin.cli import verb_help
 from boat_twin.cli.options import twin_config_from_args
 from boat_twin.errors import InputError
 from boat_twin.files import prepare_output, refuse_input_as_output, to_json
+from boat_twin.fleet.engine import LOCAL, SCHEDULER_HELP
 from boat_twin.vessel.scenario_names import SCENARIO_NAMES
 
 if TYPE_CHECKING:
@@ -67,6 +68,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="telemetry stream rate, Hz, per ArduPilot group (EXT_STAT, POSITION, RC_CHAN, EXTRA1, "
                    "EXTRA2, EXTRA3, or ALL); default Rover's 1 Hz each. Identification from a .tlog needs 10 Hz "
                    "POSITION, RC_CHAN and EXTRA1")
+    p.add_argument("--ensemble", type=int, metavar="N",
+                   help="run N boats drawn around the config's vessel (each manoeuvring coefficient within ±30 %%, "
+                   "boat i seeded by (--seed, i)) through the scenario, in chunks run as tasks (--scheduler): one "
+                   "CSV of per-boat rows per chunk (drawn coefficients, track figures, a zigzag's 42 features) in "
+                   "--out DIR, a summary of the chunks; the same seed gives the same rows whatever the chunking "
+                   "and workers (docs/fleet.md)")
+    p.add_argument("--chunk", type=int, default=0, metavar="BOATS",
+                   help="with --ensemble: boats per task (default: as many as fill a 200 MB record, at most 2000)")
+    p.add_argument("--scheduler", default=LOCAL, metavar="WHERE", help="with --ensemble: " + SCHEDULER_HELP)
+    p.add_argument("--workers", type=int, metavar="N",
+                   help="with --ensemble and --scheduler local: worker processes (default: one per core)")
     p.add_argument("--allow-remote", action="store_true",
                    help="allow a --mavlink address that is not loopback (exposes the twin to the network)")
     p.set_defaults(handler=run)
@@ -135,12 +147,14 @@ def run(args: argparse.Namespace) -> int:
     from boat_twin.vessel.params import describe
 
     integer("--seed", args.seed, minimum=0, maximum=SEED_MAX)
-    if args.duration is not None:  # every path: a scenario, --commands, --mavlink, --tlog
+    if args.duration is not None:  # every path: a scenario, --commands, --mavlink, --tlog, --ensemble
         from boat_twin.vessel.scenarios import MAX_DURATION_S
 
         if not (math.isfinite(args.duration) and 0.0 < args.duration <= MAX_DURATION_S):
             raise InputError(f"--duration must be a positive number of seconds up to {MAX_DURATION_S:g} (7 days), "
                              f"got {args.duration!r}")
+    if args.ensemble is not None:
+        return _run_ensemble(args)
     if args.out is not None and args.out.suffix.lower() in (".tlog", ".bin", ".csv"):
         raise InputError(f"--out {args.out}: writes a rosbag2 (a directory, or a .mcap file), which readers take "
                          f"for a {args.out.suffix} file by its name; for a MAVLink log use --tlog FILE")
@@ -191,6 +205,39 @@ def run(args: argparse.Namespace) -> int:
             print(f"wrote {result['messages']} messages to {args.out}")
         if args.plot is not None:
             print(f"wrote {args.plot}")
+    return 0
+
+
+def _run_ensemble(args: argparse.Namespace) -> int:
+    """``--ensemble N``: N drawn boats through the scenario in chunks (:func:`boat_twin.fleet.run_ensemble`)."""
+    from boat_twin.fleet.batch import Progress
+    from boat_twin.fleet.engine import open_client
+    from boat_twin.fleet.ensemble import EnsembleSpec, ensemble_chunks, run_ensemble
+
+    for flag, value in (("--commands", args.commands), ("--mavlink", args.mavlink), ("--tlog", args.tlog)):
+        if value is not None:
+            raise InputError(f"--ensemble runs a named scenario; {flag} does not apply")
+    if not args.scenario:
+        raise InputError(f"--ensemble: name a scenario ({', '.join(SCENARIO_NAMES)})")
+    if args.out is None:
+        raise InputError("--ensemble needs --out DIR for the chunk files and the summary")
+    if args.out.exists() and not args.out.is_dir():
+        raise InputError(f"{args.out}: --out must be a directory for an ensemble, and this is a file")
+    refuse_input_as_output(args.out, args.config, args.model)
+    spec = EnsembleSpec(args.scenario, args.ensemble, args.seed, args.duration, args.chunk,
+                        twin_config_from_args(args))
+    bar = None if args.json else Progress("ensemble chunks", len(ensemble_chunks(spec)))
+    with open_client(args.scheduler, args.workers, quiet=args.json) as client:
+        rows = run_ensemble(spec, args.out, client, force=args.force, progress=bar.update if bar else None)
+    failed = [row for row in rows if row["status"] != "ok"]
+    if args.json:
+        print(to_json(rows))
+    else:
+        print(f"ensemble of {args.ensemble} {args.scenario} boats: {len(rows)} chunk(s), {len(failed)} failed; "
+              f"summary {args.out / 'summary.csv'}")
+    if failed:
+        raise InputError(f"{len(failed)} of {len(rows)} chunk(s) failed (first: chunk {failed[0]['chunk']}: "
+                         f"{failed[0]['error']})")
     return 0
 
 

@@ -4,3 +4,5 @@ them at once)."""
 WINDOW_S = 20.0
 """Default replay window, s: long enough for a 1.5° steering offset to turn the track by several degrees,
 short enough that a heading error from the start does not dominate."""
+EXTENDED_MODEL_NAME = "extended_model.yaml"
+"""File name of the extended model a diagnosis writes into its report directory."""

@@ -38,6 +38,8 @@ TOPIC_IMU_RPY = "imu/rpy"
 TOPIC_IMU_TEMPERATURE = "imu/temperature"
 TOPIC_ODOM_TRUTH = "odom/truth"
 TOPIC_TF = "tf"
+TOPIC_TF_STATIC = "tf_static"
+TOPIC_GNSS_VEL_COV = "gnss/vel_cov"
 
 TOPICS: dict[str, str] = {
     TOPIC_THRUST_LEFT: "std_msgs/msg/Float64",  # N, per outboard (VRX thruster convention)
@@ -54,6 +56,12 @@ TOPICS: dict[str, str] = {
     TOPIC_TF: "tf2_msgs/msg/TFMessage",
 }
 """Every topic boat_twin writes or reads (relative name -> ROS 2 message type)."""
+
+LIVE_TOPICS: dict[str, str] = {
+    TOPIC_GNSS_VEL_COV: "geometry_msgs/msg/TwistWithCovarianceStamped",  # gnss/vel with covariance, for an ekf
+    TOPIC_TF_STATIC: "tf2_msgs/msg/TFMessage",  # base_link -> gnss_link, imu_link
+}
+"""Topics only the simulator node publishes (never in a bag the twin writes)."""
 
 COMMAND_TOPICS = (TOPIC_THRUST_LEFT, TOPIC_THRUST_RIGHT, TOPIC_ANGLE_LEFT, TOPIC_ANGLE_RIGHT)
 """Command topics in the column order of a commands array (n, 4)."""
@@ -78,6 +86,7 @@ _PoseWithCovariance = TS.types["geometry_msgs/msg/PoseWithCovariance"]
 _Twist = TS.types["geometry_msgs/msg/Twist"]
 _TwistWithCovariance = TS.types["geometry_msgs/msg/TwistWithCovariance"]
 _TwistStamped = TS.types["geometry_msgs/msg/TwistStamped"]
+_TwistWithCovarianceStamped = TS.types["geometry_msgs/msg/TwistWithCovarianceStamped"]
 _Vector3Stamped = TS.types["geometry_msgs/msg/Vector3Stamped"]
 _Transform = TS.types["geometry_msgs/msg/Transform"]
 _TransformStamped = TS.types["geometry_msgs/msg/TransformStamped"]
@@ -148,6 +157,27 @@ def twist_stamped(header_msg: Message, linear: Sequence[float], angular: Sequenc
             linear=_Vector3(x=linear[0], y=linear[1], z=linear[2]),
             angular=_Vector3(x=angular[0], y=angular[1], z=angular[2]),
         ),
+    )
+
+
+UNMEASURED_VARIANCE = 1e6
+"""Variance given to what a sensor does not measure (the GNSS's angular velocity), in its unit squared: large,
+so that a filter fusing it by mistake trusts it no more than nothing."""
+
+
+def velocity_with_covariance(velocity: Message, frame_id: str, variances: Sequence[float]) -> Message:
+    """``gnss/vel_cov``: the ``gnss/vel`` message as geometry_msgs/TwistWithCovarianceStamped for a filter.
+
+    Same stamp and ENU components, in ``frame_id`` (the ENU world frame, so that robot_localization rotates it
+    into base_link through tf; docs/ros.md), with ``variances`` (east, north, up, (m/s)^2) on the linear
+    diagonal and :data:`UNMEASURED_VARIANCE` on the angular one (a GNSS does not measure rotation).
+    """
+    covariance = np.zeros(36)
+    covariance[[0, 7, 14]] = variances
+    covariance[[21, 28, 35]] = UNMEASURED_VARIANCE
+    return _TwistWithCovarianceStamped(
+        header=_Header(stamp=velocity.header.stamp, frame_id=frame_id),
+        twist=_TwistWithCovariance(twist=velocity.twist, covariance=covariance),
     )
 
 
@@ -227,8 +257,21 @@ def tf_message(header_msg: Message, east_m: float, north_m: float, orientation_x
     )])
 
 
-def restamped(items: Sequence[tuple[str, int, Message]], stamp_ns: int) -> list[tuple[str, int, Message]]:
-    """The same messages stamped ``stamp_ns`` (headers and tf transforms replaced, the rest shared).
+def static_transforms(stamp_ns: int, antenna_height_m: float, frame_prefix: str = "") -> Message:
+    """tf2_msgs/TFMessage for ``tf_static``: base_link -> gnss_link (the antenna ``antenna_height_m`` straight
+    up) and base_link -> imu_link (coincident), frame ids with ``frame_prefix`` prepended."""
+    base = header(stamp_ns, frame_prefix + FRAME_BASE)
+    identity = _Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
+    return _TFMessage(transforms=[
+        _TransformStamped(header=base, child_frame_id=frame_prefix + child,
+                          transform=_Transform(translation=_Vector3(x=0.0, y=0.0, z=height), rotation=identity))
+        for child, height in ((FRAME_GNSS, antenna_height_m), (FRAME_IMU, 0.0))])
+
+
+def restamped(items: Sequence[tuple[str, int, Message]], stamp_ns: int, frame_prefix: str = ""
+              ) -> list[tuple[str, int, Message]]:
+    """The same messages stamped ``stamp_ns`` (headers and tf transforms replaced, the rest shared), every frame
+    id (headers, child frames) with ``frame_prefix`` prepended (several boats on one graph: ``boat1/``).
 
     A live node stamps what a tick publishes with its clock at that tick, while the sensor models run on the
     tick's nominal time; messages without a header (Float32/64) keep only the new log stamp.
@@ -237,15 +280,19 @@ def restamped(items: Sequence[tuple[str, int, Message]], stamp_ns: int) -> list[
 
     def new_header(old: Message) -> Message:
         if id(old) not in stamps:
-            stamps[id(old)] = header(stamp_ns, old.frame_id)
+            stamps[id(old)] = header(stamp_ns, frame_prefix + old.frame_id)
         return stamps[id(old)]
 
     out = []
     for topic, _old_ns, msg in items:
         if hasattr(msg, "header"):
             msg = replace(msg, header=new_header(msg.header))
+            if frame_prefix and hasattr(msg, "child_frame_id"):
+                msg = replace(msg, child_frame_id=frame_prefix + msg.child_frame_id)
         elif hasattr(msg, "transforms"):
-            msg = replace(msg, transforms=[replace(t, header=new_header(t.header)) for t in msg.transforms])
+            msg = replace(msg, transforms=[
+                replace(t, header=new_header(t.header), child_frame_id=frame_prefix + t.child_frame_id)
+                for t in msg.transforms])
         out.append((topic, stamp_ns, msg))
     return out
 

@@ -1,20 +1,42 @@
 """rclpy adapters: the only modules that import rclpy. Console-script entry points live here so that a machine
 without ROS gets one clear line instead of an ImportError traceback (named ``*_main``: a function named like a
-submodule would be replaced by that submodule once it is imported)."""
+submodule would be replaced by that submodule once it is imported).
+
+Ctrl-C or SIGTERM while the node's modules load (numpy, scipy, numba, rclpy: a second or more) ends the
+process quietly, exit 0: the handlers go in before any heavy import; the node runner then installs its own
+(:mod:`boat_twin.nodes.spin`).
+"""
 
 from __future__ import annotations
 
 import importlib
 import importlib.util
+import signal
 import sys
+from types import FrameType
+
+
+class _EarlyStop(BaseException):
+    """A signal before the node runs (not an Exception: no library handler swallows it)."""
+
+
+def _early_stop(_signum: int, _frame: FrameType | None) -> None:
+    raise _EarlyStop
 
 
 def _run(name: str) -> int:
-    if importlib.util.find_spec("rclpy") is None:
-        sys.stderr.write(f"{name}: error: rclpy is not installed: source a ROS 2 Jazzy install, or "
-                         "pip install 'boat_twin[ros]' for its PyPI wheels\n")
-        return 2
-    return int(importlib.import_module(f"boat_twin.nodes.{name}").main())
+    previous = {sig: signal.signal(sig, _early_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        if importlib.util.find_spec("rclpy") is None:
+            sys.stderr.write(f"{name}: error: rclpy is not installed: source a ROS 2 Jazzy install, or "
+                             "pip install 'boat_twin[ros]' for its PyPI wheels\n")
+            return 2
+        return int(importlib.import_module(f"boat_twin.nodes.{name}").main())
+    except _EarlyStop:  # the node runner replaces the handlers first thing: this is before it runs
+        return 0
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 def simulator_main() -> int:

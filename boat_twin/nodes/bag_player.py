@@ -19,6 +19,7 @@ Parameters (read at start-up)
   config_file (string, "")      twin YAML whose sensors' noise fills the covariances (empty: built-in)
   start_time_s (double, 1.0)    stamp of the trial's t = 0, s (0 would read as "no clock yet")
   wait_for_subscriber_s (double, 10.0)  wall time to wait for a subscriber on gnss/vel before playing
+  frame_prefix (string, "")     prepended to every frame id (several boats: boat1/)
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.io import messages
 from boat_twin.io.sources import read_trial_file
-from boat_twin.nodes import parameters
+from boat_twin.nodes import conventions, parameters
 from boat_twin.nodes.simulator import _time, message_class
 from boat_twin.nodes.spin import run_node
 from boat_twin.shadow.playback import playback_messages
@@ -67,6 +68,7 @@ class BagPlayerNode(Node):
         config_file = parameters.string(self, "config_file", "", "twin YAML for the covariances")
         self.start_s = parameters.double(self, "start_time_s", 1.0, "stamp of the trial's start, s", above=0.0)
         self.wait_s = parameters.double(self, "wait_for_subscriber_s", 10.0, "wait for a subscriber, s")
+        self.frame_prefix = conventions.frame_prefix(self)
         if not trial_path:
             from boat_twin.errors import InputError
 
@@ -87,6 +89,7 @@ class BagPlayerNode(Node):
         self.created_wall = time.monotonic()
         self.done = False
         self.create_timer(TICK_S, self.on_tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        conventions.use_sim_time(self)
         self.get_logger().info(f"playing {trial.metadata.source}: {self.duration_s:.0f} s at {self.rate:g}x "
                                f"({trial.metadata.summary_line()})")
 
@@ -101,6 +104,8 @@ class BagPlayerNode(Node):
         clock_ns = -1
         while self.pending is not None and self.pending[1] <= played_ns:
             topic, stamp_ns, msg = self.pending
+            if self.frame_prefix:
+                ((topic, stamp_ns, msg),) = messages.restamped([self.pending], stamp_ns, self.frame_prefix)
             if stamp_ns != clock_ns:  # the clock reaches each stamp before its messages go out
                 self.clock_pub.publish(ClockMsg(clock=_time(stamp_ns)))
                 clock_ns = stamp_ns

@@ -10,6 +10,8 @@ Parameters
                              reason); cable.length_m, cable.winch_capacity_m and target_depth_m: 0.0 = unset
   follow_gnss_vel (bool, false)   use the horizontal speed of gnss/vel as the tow speed
   frame_id (string, tow_point)    frame of the published path (x forward, z up, origin at the tow point)
+  frame_prefix (string, "")       prepended to frame_id (several boats: boat1/)
+  hardware_id (string, namespace) of the /diagnostics status ("towed cable": the last problem 1 answer)
   update_period_s (double, 1.0)   how often a changed parameter or speed re-solves problem 1 (start-up only)
 Services (std_srvs/srv/Trigger; response.message is the JSON result, or the error when success is false)
   ~/solve_depth    problem 1 for cable.length_m      ~/solve_length   problem 2 for target_depth_m
@@ -39,7 +41,8 @@ from std_srvs.srv import Trigger
 from boat_twin.cable.case import CableCase, case_from_parameters, case_parameters, load_case, with_overrides
 from boat_twin.cable.problems import CableSolution, solve_depth, solve_length
 from boat_twin.errors import InputError
-from boat_twin.nodes import parameters
+from boat_twin.nodes import conventions, parameters
+from boat_twin.nodes.diagnostics import ERROR, OK, STALE, Diagnostics, Status
 from boat_twin.nodes.spin import run_node
 
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -70,6 +73,9 @@ class CableNode(Node):
             self._case_names.append(name)
         parameters.boolean(self, "follow_gnss_vel", False, "tow speed from gnss/vel", read_only=False)
         parameters.string(self, "frame_id", "tow_point", "frame of cable/path")
+        self._frame_prefix = conventions.frame_prefix(self)
+        self._diagnostics = Diagnostics(self)
+        self._status = Status("towed cable", STALE, "not solved yet")
         period = parameters.double(self, "update_period_s", 1.0, "re-solve period, s", above=0.0)
         self._live_speed_mps: float | None = None
         self._dirty = True
@@ -82,6 +88,8 @@ class CableNode(Node):
         self.create_service(Trigger, "~/solve_length", self._solve_length)
         self.create_subscription(TwistStamped, "gnss/vel", self._on_velocity, qos_profile_sensor_data)
         self.create_timer(period, self._refresh)
+        self.create_timer(1.0, lambda: self._diagnostics.publish(self._status), clock=conventions.steady_clock())
+        conventions.use_sim_time(self)
         self.get_logger().info(f"cable case {case_file}: services ~/solve_depth, ~/solve_length")
 
     def _case(self, changes: dict[str, Any] | None = None) -> CableCase:
@@ -108,7 +116,7 @@ class CableNode(Node):
         stamp = self.get_clock().now().to_msg()
         path = PathMsg()
         path.header.stamp = stamp
-        path.header.frame_id = self.get_parameter("frame_id").value
+        path.header.frame_id = self._frame_prefix + self.get_parameter("frame_id").value
         for x, z in zip(*solution.tow_frame_xz(), strict=True):
             pose = PoseStamped()
             pose.header = path.header
@@ -146,9 +154,16 @@ class CableNode(Node):
             return
         self._dirty = False
         try:
-            self._publish(solve_depth(self._case()))
+            case = self._case()
+            solution = solve_depth(case)
         except InputError as err:
             self.get_logger().warning(f"problem 1 not solved: {err}")
+            self._status = Status("towed cable", ERROR, f"problem 1 not solved: {err}")
+            return
+        self._publish(solution)
+        self._status = Status("towed cable", OK, f"vehicle at {solution.vehicle_depth_m:.1f} m depth", {
+            "tow_speed_mps": case.tow_speed_mps, "length_m": solution.length_m,
+            "vehicle_depth_m": solution.vehicle_depth_m, "top_tension_N": solution.top_tension_N})
 
 
 def main(args: list[str] | None = None) -> int:

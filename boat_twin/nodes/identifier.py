@@ -1,10 +1,12 @@
 """ROS 2 node ``identifier``: online thrust-speed identification from live topics. Thin wiring only.
 
-Subscribes: thrusters/{left,right}/thrust and pos (std_msgs/Float64, reliable), gnss/vel
+Subscribes: thrusters/{left,right}/thrust and pos (std_msgs/Float64, best effort), gnss/vel
 (geometry_msgs/TwistStamped, best effort like SensorDataQoS: connects to reliable and best-effort drivers alike).
 Publishes every second of the node clock (sim time with use_sim_time:=true): identification/coefficients
 (std_msgs/Float64MultiArray, layout label "c0_N_per_mps0,...,effective_mass_kg"; NaN until known) and
-/diagnostics (diagnostic_msgs/DiagnosticArray). Services: ~/reset, ~/save (std_srvs/Trigger).
+/diagnostics (diagnostic_msgs/DiagnosticArray, boat_twin.nodes.diagnostics). Services: ~/reset, ~/save
+(std_srvs/Trigger). A clock that jumps backwards (a restarted simulator's /clock, a looped bag) resets the
+identification, with one log line: the steady points held belong to another run.
 
 Parameters (read at start-up)
   order (int, 5)            order N of the resistance power series Fc(v); a curve needs N + 2 steady points.
@@ -19,18 +21,19 @@ Parameters (read at start-up)
   thrust_tolerance_N (double, 5)    thrust counts as constant within max(this, 1 %) of a segment's start, N
   model_path (string)       YAML written by ~/save; default $ROS_HOME/boat_twin/identified_model.yaml
                             ($ROS_HOME defaults to ~/.ros)
+  hardware_id (string, namespace)   of the /diagnostics status
 """
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped
+from rclpy.clock import JumpThreshold, TimeJump
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64, Float64MultiArray, MultiArrayDimension
@@ -41,7 +44,8 @@ from boat_twin.ident.live import LiveIdentifier
 from boat_twin.ident.online import SteadyCriteria
 from boat_twin.ident.steady import MAX_ORDER
 from boat_twin.io.messages import COMMAND_TOPICS, TOPIC_GNSS_VEL
-from boat_twin.nodes import parameters
+from boat_twin.nodes import conventions, parameters
+from boat_twin.nodes.diagnostics import OK, WARN, Diagnostics, Status
 from boat_twin.nodes.spin import run_node
 
 SENSOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -75,13 +79,22 @@ class IdentifierNode(Node):
         self.model_path = Path(model_path).expanduser() if model_path else default_model_path()
         self.ident = LiveIdentifier(order, memory_s, criteria)
         for index, topic in enumerate(COMMAND_TOPICS):
-            self.create_subscription(Float64, topic, partial(self.on_command, index), 10)
+            self.create_subscription(Float64, topic, partial(self.on_command, index), conventions.COMMAND_QOS)
         self.create_subscription(TwistStamped, TOPIC_GNSS_VEL, self.on_velocity, SENSOR_QOS)
         self.coefficients_pub = self.create_publisher(Float64MultiArray, "identification/coefficients", 10)
-        self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.diagnostics = Diagnostics(self)
         self.create_service(Trigger, "~/reset", self.on_reset)
         self.create_service(Trigger, "~/save", self.on_save)
         self.create_timer(1.0, self.on_publish)
+        self.jump_handle = self.get_clock().create_jump_callback(
+            JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False),
+            post_callback=self.on_clock_jump)
+        conventions.use_sim_time(self)
+
+    def on_clock_jump(self, jump: TimeJump) -> None:
+        """The clock went back: start the identification afresh."""
+        self.ident.reset()
+        self.get_logger().warning(f"clock jumped back {-jump.delta.nanoseconds * 1e-9:.3f} s: identification reset")
 
     def on_command(self, index: int, msg: Float64) -> None:
         self.ident.set_command(index, msg.data)
@@ -112,13 +125,8 @@ class IdentifierNode(Node):
         status = self.ident.status()
         ok = status["coefficients"] is not None
         waiting = f"waiting for steady points ({status['steady_points']} of {status['steady_points_needed']})"
-        diag = DiagnosticStatus(name="boat_twin: thrust-speed identification", hardware_id="boat_twin",
-                                level=DiagnosticStatus.OK if ok else DiagnosticStatus.WARN,
-                                message="identified" if ok else waiting,
-                                values=[KeyValue(key=k, value=json.dumps(v)) for k, v in status.items()])
-        array = DiagnosticArray(status=[diag])
-        array.header.stamp = self.get_clock().now().to_msg()
-        self.diagnostics_pub.publish(array)
+        self.diagnostics.publish(Status("thrust-speed identification", OK if ok else WARN,
+                                        "identified" if ok else waiting, dict(status)))
 
     def on_reset(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         self.ident.reset()

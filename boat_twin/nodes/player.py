@@ -1,9 +1,11 @@
 """ROS 2 node ``player``: plays a scenario's open-loop commands on the thruster topics, on the node clock.
 
 The helmsman of a live walkthrough or a hardware-in-the-loop test: the same command profiles as
-``boat-twin simulate`` (boat_twin.vessel.scenarios), published on change and re-sent every second (a late
-subscriber gets the held value), stamped by the node clock (use_sim_time:=true follows the simulator's /clock).
-It exits when the profile ends.
+``boat-twin simulate`` (boat_twin.vessel.scenarios), published on change and re-sent every 0.25 s (a late
+subscriber gets the held value; the simulator's 1 s command watchdog stays fed), stamped by the node clock
+(use_sim_time:=true follows the simulator's /clock). It exits when the profile ends. Whenever it stops — the
+profile's end, Ctrl-C, SIGTERM — it sends zero thrust last (the steering stays), so that the boat is not left
+running on its last command.
 
 Parameters (read at start-up)
   scenario (string, thrust-steps)   an open-loop scenario of the registry (boat_twin.vessel.scenarios.SCENARIOS)
@@ -18,18 +20,22 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from rclpy.duration import Duration
 from rclpy.node import Node
 from std_msgs.msg import Float64
 
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.errors import InputError
 from boat_twin.io.messages import COMMAND_TOPICS
-from boat_twin.nodes import parameters
+from boat_twin.nodes import conventions, parameters
 from boat_twin.nodes.spin import run_node
 from boat_twin.vessel.scenarios import CommandProfile, make_scenario, read_command_csv
 
-RESEND_PERIOD_S = 1.0
-"""Held commands are re-sent this often, s (of the node clock)."""
+RESEND_PERIOD_S = 0.25
+"""Held commands are re-sent this often, s (of the node clock): four times per simulator command_timeout_s
+(1 s), so that three lost messages in a row do not stop the boat."""
+STOP_ACK_TIMEOUT_S = 1.0
+"""Wall time the final zero thrust gets to be acknowledged by the subscribers (reliable) before the node ends."""
 
 
 class PlayerNode(Node):
@@ -57,7 +63,17 @@ class PlayerNode(Node):
         self.sent_ns = 0
         self.done = False
         self.create_timer(0.05, self.on_timer)
+        conventions.use_sim_time(self)
         self.get_logger().info(f"playing {profile.name}: {profile.duration_s:.0f} s of commands")
+
+    def on_stop(self) -> None:
+        """Zero thrust on both outboards, waited for (the node runner calls this however the node stops)."""
+        thrust = self.publishers_[:2]
+        for publisher in thrust:
+            publisher.publish(Float64(data=0.0))
+        for publisher in thrust:
+            publisher.wait_for_all_acked(Duration(seconds=STOP_ACK_TIMEOUT_S))
+        self.get_logger().info("stopped: zero thrust sent")
 
     def on_timer(self) -> None:
         now_ns = self.get_clock().now().nanoseconds

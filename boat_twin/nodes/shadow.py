@@ -6,8 +6,8 @@ Subscribes (found as the bag reader finds them, boat_twin.io.bags.resolve_topics
 one, then the one topic of the role's type): thrusters/{left,right}/thrust and pos (std_msgs/Float64, stamped
 by the node clock on arrival), gnss/fix (NavSatFix), gnss/vel (TwistStamped, TwistWithCovarianceStamped, or
 an Odometry when it is the only velocity), imu/data (Imu); sensors best effort (SensorDataQoS, 1,000 samples of
-history),
-commands reliable. The graph is searched again every 2 s until a GNSS stream is found.
+history), commands best effort (boat_twin.nodes.conventions.COMMAND_QOS). The graph is searched again every 2 s
+until a GNSS stream is found.
 Publishes: shadow/odom (nav_msgs/Odometry: the twin's predicted state, pose in ENU ``map`` about the first fix,
 twist through the water in ``base_link``), shadow/innovations (std_msgs/Float64MultiArray per velocity fix:
 layout label ``t_s,speed_innovation_mps,stdev_mps,ratio``), shadow/model (Float64MultiArray every wall second: label
@@ -25,18 +25,18 @@ Parameters (read at start-up)
   twin_path (string, "")     YAML written by ~/save; default $ROS_HOME/boat_twin/twin.yaml
   reorder_s (double, 0.3)    samples wait this long for late siblings, s of the node clock (a recording played
                              at N x on a busy machine: N x the executor's delays)
+  frame_prefix (string, ""), hardware_id (string, namespace)   as every node (boat_twin.nodes.conventions,
+                             boat_twin.nodes.diagnostics)
 """
 
 from __future__ import annotations
 
-import json
 import math
 from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -48,7 +48,9 @@ from boat_twin.config import TwinConfig, load_config
 from boat_twin.errors import InputError
 from boat_twin.frames import quaternion_xyzw
 from boat_twin.io.bags import EXTRACTORS, resolve_topics
-from boat_twin.nodes import parameters
+from boat_twin.io.messages import FRAME_BASE, FRAME_MAP
+from boat_twin.nodes import conventions, parameters
+from boat_twin.nodes.diagnostics import OK, WARN, Diagnostics, Status
 from boat_twin.nodes.identifier import default_model_path
 from boat_twin.nodes.simulator import message_class
 from boat_twin.nodes.spin import run_node
@@ -81,6 +83,7 @@ class ShadowNode(Node):
         twin_path = parameters.string(self, "twin_path", "", "YAML written by ~/save")
         reorder_s = parameters.double(self, "reorder_s", SyncSettings().reorder_s,
                                       "samples wait this long (node clock) for late siblings, s", above=0.0)
+        self.frame_prefix = conventions.frame_prefix(self)
         from boat_twin.nodes.bag_player import _remap
 
         self.remap = _remap(topics)
@@ -93,7 +96,7 @@ class ShadowNode(Node):
         self.odom_pub = self.create_publisher(Odometry, "shadow/odom", 10)
         self.innovation_pub = self.create_publisher(Float64MultiArray, "shadow/innovations", 10)
         self.model_pub = self.create_publisher(Float64MultiArray, "shadow/model", 10)
-        self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.diagnostics = Diagnostics(self)
         self.create_service(Trigger, "~/save", self.on_save)
         self.create_service(Trigger, "~/reset", self.on_reset)
         # wall-clock (steady) timers: with use_sim_time, a node clock stops with the player, and a diagnosis that
@@ -101,6 +104,7 @@ class ShadowNode(Node):
         self.create_timer(1.0, self.on_publish, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.discovery = self.create_timer(2.0, self.discover)
         self.discover()
+        conventions.use_sim_time(self)
 
     def discover(self) -> None:
         """Subscribe to the roles found on the graph (once a GNSS stream is there)."""
@@ -116,7 +120,7 @@ class ShadowNode(Node):
             cls = message_class(available[topic])
             if cls is None:
                 continue
-            qos = 10 if role in COMMAND_KINDS else SENSOR_QOS
+            qos = conventions.COMMAND_QOS if role in COMMAND_KINDS else SENSOR_QOS
             self.create_subscription(cls, topic, partial(self.on_message, role), qos)
             self.subscribed[role] = topic
             self.get_logger().info(f"{role}: subscribed to {topic} ({available[topic]})")
@@ -146,20 +150,15 @@ class ShadowNode(Node):
         causes = latest.causes if latest is not None else []
         ratio = status["speed_innovation_ratio"]
         if not status["synchronised"]:
-            level, message = DiagnosticStatus.WARN, "waiting for a fix, a velocity and an IMU heading"
+            level, message = WARN, "waiting for a fix, a velocity and an IMU heading"
         elif causes:
-            level = DiagnosticStatus.WARN
+            level = WARN
             message = "named cause: " + ", ".join(f"{c.name} {c.size:.3g} {c.size_unit}" for c in causes)
         elif ratio is not None and ratio > self.shadow.settings.misfit_ratio:
-            level, message = DiagnosticStatus.WARN, f"misfit: speed innovations {ratio:.1f}x their noise"
+            level, message = WARN, f"misfit: speed innovations {ratio:.1f}x their noise"
         else:
-            level, message = DiagnosticStatus.OK, "twin in step with the boat"
-        values = {**status, "model": self.shadow.model()}
-        diag = DiagnosticStatus(name="boat_twin: shadow twin", hardware_id="boat_twin", level=level, message=message,
-                                values=[KeyValue(key=k, value=json.dumps(v, default=str)) for k, v in values.items()])
-        array = DiagnosticArray(status=[diag])
-        array.header.stamp = self.get_clock().now().to_msg()
-        self.diagnostics_pub.publish(array)
+            level, message = OK, "twin in step with the boat"
+        self.diagnostics.publish(Status("shadow twin", level, message, {**status, "model": self.shadow.model()}))
 
     def _publish_odometry(self) -> None:
         twin = self.shadow.twin
@@ -169,7 +168,8 @@ class ShadowNode(Node):
         odom = Odometry()
         sec = math.floor(twin.t_s)
         odom.header.stamp.sec, odom.header.stamp.nanosec = int(sec), int((twin.t_s - sec) * 1e9)
-        odom.header.frame_id, odom.child_frame_id = "map", "base_link"
+        odom.header.frame_id = self.frame_prefix + FRAME_MAP
+        odom.child_frame_id = self.frame_prefix + FRAME_BASE
         odom.pose.pose.position.x, odom.pose.pose.position.y = east, north
         q = quaternion_xyzw(np.zeros(1), np.zeros(1), np.array([yaw]))[0]
         odom.pose.pose.orientation.x, odom.pose.pose.orientation.y = float(q[0]), float(q[1])

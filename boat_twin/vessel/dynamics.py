@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from boat_twin.threads import configure_openmp
 from boat_twin.units import AIR_DENSITY_KGPM3
 from boat_twin.vessel.params import WINDAGE_DRAG_COEFFICIENT, VesselParams, derive_coefficients
 from boat_twin.vessel.steering import steering_history, steering_target
@@ -45,6 +46,8 @@ STATE_NAMES = ("east_m", "north_m", "yaw_rad", "u_mps", "v_mps", "r_radps")
 """Order of the state vector's components."""
 COMMAND_NAMES = ("thrust_left_N", "thrust_right_N", "angle_left_rad", "angle_right_rad")
 """Order of the command vector's components (per-engine thrust and steering angle, the VRX convention)."""
+
+configure_openmp()  # before the first parallel kernel loads the OpenMP runtime: idle threads sleep, never spin
 
 RESISTANCE_TABLE_POINTS = 4001
 """Grid points of the tabulated resistance over [0, u_max]; linear-interpolation error < 1e-5 of Fc here."""
@@ -385,9 +388,10 @@ PARALLEL_MIN_BOATS = 64
 """Ensembles of at least this many boats are stepped on numba's threads (one per core). Measured per RK4 step
 (benchmarks/bench_simulator.py, idle 2-core machine): 1 boat 2.3 µs threaded against 1.3 µs on one thread,
 4 boats 0.86×, 8 boats 1.25× faster, 64 boats 2.9×. On a busy machine the threads compete with the other work
-(OpenMP's workers spin while they wait): with the threshold at 8 the test suite on both cores (pytest-xdist)
-took 5:49 and twice the CPU time instead of 2:35, since the diagnosis replays of 8-60 boats went threaded. 64
-keeps the threads to the ensembles where a call's work dwarfs that (training sets, a fit's batched Jacobian)."""
+(measured while OpenMP's workers still spun as they waited; they now sleep: boat_twin.threads): with the
+threshold at 8 the test suite on both cores (pytest-xdist) took 5:49 and twice the CPU time instead of 2:35, since
+the diagnosis replays of 8-60 boats went threaded. 64 keeps the threads to the ensembles where a call's work dwarfs
+that (training sets, a fit's batched Jacobian)."""
 
 
 class Dynamics:

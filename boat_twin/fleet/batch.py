@@ -1,0 +1,205 @@
+"""A verb run on many trials, each on its own, as tasks: on a Dask client's workers or one after another here.
+
+:func:`run_batch` is what ``boat-twin identify|diagnose TRIAL... --each --out DIR`` runs. Contract:
+
+- ``DIR/<trial name>/`` holds each trial's own report (what the verb writes for one trial) and, written last,
+  ``row.json``, its summary row: a trial with ``row.json`` is complete, and a later run skips it (resume) unless
+  ``force``. A trial that failed has no ``row.json`` and is tried again.
+- ``DIR/summary.csv`` and ``DIR/summary.json`` (a list of rows, one per trial in the order given) are rewritten
+  after every trial, so that a killed run leaves the rows of the trials it finished. Each row has at least
+  ``trial``, ``status`` ("ok" or "error"), ``error`` (null when ok), ``boat``, ``source``, ``duration_s``, the
+  verb's headline (the job's ``columns``), ``seconds``, ``cpu_s`` and ``worker``.
+- A failing trial (bad file, a pipeline error, even a crash of its worker) is reported in its row and never stops
+  the others.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import socket
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+from boat_twin.errors import InputError
+from boat_twin.files import atomic_write_text, ensure_out_dir, locked_directory, refuse_input_as_output, to_json
+from boat_twin.fleet.jobs import COMMON_COLUMNS, RUN_COLUMNS
+from boat_twin.fleet.trials import TrialTask
+
+ROW_FILE = "row.json"
+"""A trial's summary row in its report directory, written last: the mark of a complete report."""
+SUMMARY_CSV = "summary.csv"
+SUMMARY_JSON = "summary.json"
+
+
+class Job(Protocol):
+    """One trial's work (:class:`~boat_twin.fleet.jobs.IdentifyJob`, :class:`~boat_twin.fleet.jobs.DiagnoseJob`)."""
+
+    verb: str
+    columns: tuple[str, ...]
+
+    def __call__(self, path: Path, out: Path) -> dict[str, Any]: ...
+
+
+@dataclass
+class BatchResult:
+    """What :func:`run_batch` did: every row (in the order of the trials), how many were resumed from an earlier
+    run, and the summary files."""
+
+    rows: list[dict[str, Any]]
+    resumed: int
+    summary_csv: Path
+    summary_json: Path
+
+    @property
+    def failed(self) -> list[dict[str, Any]]:
+        """The rows of the trials that failed."""
+        return [row for row in self.rows if row["status"] != "ok"]
+
+
+def run_task(job: Job, task: TrialTask, report_dir: str, one_thread: bool) -> dict[str, Any]:
+    """Run ``job`` on ``task`` into ``report_dir`` and return its row; any failure becomes the row's ``error``.
+    ``one_thread``: numba's kernels on one thread (a worker process among several on the machine)."""
+    if one_thread:
+        from boat_twin.threads import use_one_numba_thread
+
+        use_one_numba_thread()
+    start, cpu = time.perf_counter(), time.process_time()
+    row: dict[str, Any] = {"trial": task.name, "status": "ok", "error": None, "boat": task.boat,
+                           "source": task.path, "duration_s": None, **dict.fromkeys(job.columns)}
+    out = Path(report_dir)
+    try:
+        row.update(job(Path(task.path), out))
+    except InputError as err:
+        row.update(status="error", error=str(err))
+    except Exception as err:  # noqa: BLE001  a bug or a broken file the readers did not foresee: this trial's row
+        row.update(status="error", error=f"{task.path}: {type(err).__name__}: {err}")
+    row.update(seconds=time.perf_counter() - start, cpu_s=time.process_time() - cpu,
+               worker=f"{socket.gethostname()}:{os.getpid()}")
+    if row["status"] == "ok":
+        atomic_write_text(out / ROW_FILE, to_json(row) + "\n")
+    return row
+
+
+def _crashed(task: TrialTask, job: Job, err: BaseException) -> dict[str, Any]:
+    """The row of a trial whose task did not return (its worker died, the cluster lost it)."""
+    return {"trial": task.name, "status": "error", "error": f"task lost: {type(err).__name__}: {err}",
+            "boat": task.boat, "source": task.path, "duration_s": None, **dict.fromkeys(job.columns),
+            "seconds": None, "cpu_s": None, "worker": None}
+
+
+def _cell(value: Any) -> Any:
+    if value is None:
+        return ""
+    if isinstance(value, (list, tuple)):
+        return ";".join(str(v) for v in value)
+    return value
+
+
+def write_summary(out: Path, rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> None:
+    """``summary.json`` (the rows) and ``summary.csv`` (``columns``; lists joined by ``;``, null empty)."""
+    atomic_write_text(out / SUMMARY_JSON, to_json(list(rows)) + "\n")
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(columns)
+    for row in rows:
+        writer.writerow([_cell(row.get(c)) for c in columns])
+    atomic_write_text(out / SUMMARY_CSV, text.getvalue())
+
+
+def _complete_row(report_dir: Path) -> dict[str, Any] | None:
+    """The row of an earlier complete report in ``report_dir``, or None."""
+    try:
+        row = json.loads((report_dir / ROW_FILE).read_text())
+    except (OSError, ValueError):
+        return None
+    return row if isinstance(row, dict) and row.get("status") == "ok" else None
+
+
+class Progress:
+    """A progress bar on stderr: trials done of all, errors, elapsed time."""
+
+    WIDTH = 30
+
+    def __init__(self, verb: str, total: int, stream: Any = None) -> None:
+        self.verb, self.total, self.done, self.errors = verb, total, 0, 0
+        self.stream = stream if stream is not None else sys.stderr
+        self.start = time.monotonic()
+
+    def update(self, row: dict[str, Any]) -> None:
+        """Count ``row`` and redraw."""
+        self.done += 1
+        self.errors += row["status"] != "ok"
+        filled = self.WIDTH * self.done // max(self.total, 1)
+        elapsed = time.monotonic() - self.start
+        self.stream.write(f"\r{self.verb} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {self.done}/{self.total}"
+                          f", {self.errors} error(s), {elapsed:.0f} s")
+        if self.done == self.total:
+            self.stream.write("\n")
+        self.stream.flush()
+
+
+def run_batch(job: Job, tasks: Sequence[TrialTask], out: Path, client: Any = None, *, force: bool = False,
+              progress: Callable[[dict[str, Any]], None] | None = None) -> BatchResult:
+    """Run ``job`` on every trial of ``tasks`` into ``out`` (the module's contract): on ``client``'s workers (a
+    Dask client, one task per trial) or, with None, one after another in this process. ``force`` redoes the
+    trials an earlier run completed; ``progress(row)`` is called for each trial as it finishes (first for those
+    an earlier run completed). Returns the rows."""
+    if not tasks:
+        raise InputError("no trial to run")
+    refuse_input_as_output(out, *(Path(t.path) for t in tasks))
+    out = ensure_out_dir(out).resolve()
+    columns = (*COMMON_COLUMNS, *job.columns, *RUN_COLUMNS)
+    with locked_directory(out):
+        rows: dict[str, dict[str, Any]] = {}
+        if not force:
+            for task in tasks:
+                earlier = _complete_row(out / task.name)
+                if earlier is not None:
+                    rows[task.name] = earlier
+        resumed = len(rows)
+        pending = [t for t in tasks if t.name not in rows]
+        if progress is not None:
+            for row in rows.values():
+                progress(row)
+
+        def finished(task: TrialTask, row: dict[str, Any]) -> None:
+            rows[task.name] = row
+            write_summary(out, [rows[t.name] for t in tasks if t.name in rows], columns)
+            if progress is not None:
+                progress(row)
+
+        if client is None:
+            for task in pending:
+                finished(task, run_task(job, task, str(out / task.name), False))
+        else:
+            _run_on_dask(client, job, pending, out, finished)
+        ordered = [rows[t.name] for t in tasks]
+        write_summary(out, ordered, columns)
+    return BatchResult(ordered, resumed, out / SUMMARY_CSV, out / SUMMARY_JSON)
+
+
+def _run_on_dask(client: Any, job: Job, tasks: Sequence[TrialTask], out: Path,
+                 finished: Callable[[TrialTask, dict[str, Any]], None]) -> None:
+    """One Dask task per trial; rows recorded as they complete, in any order."""
+    from distributed import as_completed
+
+    futures = {client.submit(run_task, job, task, str(out / task.name), True, pure=False,
+                             key=f"{job.verb}-{task.name}-{os.getpid()}-{i}"): task
+               for i, task in enumerate(tasks)}
+    try:
+        for future in as_completed(futures):
+            task = futures[future]
+            try:
+                row = future.result()
+            except Exception as err:  # noqa: BLE001  the worker died or the task was lost: this trial's row
+                row = _crashed(task, job, err)
+            finished(task, row)
+    finally:
+        client.cancel(list(futures))

@@ -1,0 +1,147 @@
+"""What a batch does to each trial: read it, run the verb's library pipeline, write its report, return its
+summary row. A job is a small picklable value (the verb's options), called on a Dask worker or in this process."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from boat_twin.config import TwinConfig
+from boat_twin.io.trial import Trial
+
+COMMON_COLUMNS = ("trial", "status", "error", "boat", "source", "duration_s")
+"""Columns every summary row starts with (then the verb's :attr:`columns`, then ``seconds`` and ``worker``)."""
+RUN_COLUMNS = ("seconds", "cpu_s", "worker")
+"""Columns every summary row ends with: the task's wall time and the CPU time of its process meanwhile, s, and
+where it ran (host:pid)."""
+
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """How a trial is read (``--topic``, ``--namespace``, ``--calibration``, ``--columns``)."""
+
+    remap: dict[str, str] = field(default_factory=dict)
+    namespace: str = ""
+    calibration: str | None = None
+    columns: str | None = None
+
+    def read(self, path: Path) -> Trial:
+        """:func:`~boat_twin.io.sources.read_trial_file` of ``path`` with these options."""
+        from boat_twin.io.sources import read_trial_file
+
+        return read_trial_file(path, remap=self.remap, namespace=self.namespace, calibration=self.calibration,
+                               columns=self.columns)
+
+
+def duration_s(trial: Trial) -> float:
+    """Length of a trial's time axis, s."""
+    return float(trial.t_s[-1] - trial.t_s[0]) if trial.t_s.size else 0.0
+
+
+@dataclass(frozen=True)
+class IdentifyJob:
+    """``boat-twin identify TRIAL --out DIR`` on one trial: the thrust-speed model, the twin, the re-simulation."""
+
+    read: ReadOptions = field(default_factory=ReadOptions)
+    order: int | None = None
+    max_order: int = 6
+    monotone: bool = False
+    window_s: float | None = None
+    thrust_tolerance_N: float | None = None
+    boat: dict[str, float] | None = None
+    """Boat facts for the twin (``--boat`` file's contents), None: the default boat's."""
+    boat_file: str | None = None
+    verb = "identify"
+    columns = ("mass_kg", "mass_ci95_low_kg", "mass_ci95_high_kg", "order", "curve_N", "fit_rmse_N",
+               "steady_points", "misfit_speed_rmse_mps", "warnings")
+    """The headline: effective mass and its 95 % interval, kg; the selected order N and the resistance curve's
+    coefficients c0..cN, N/(m/s)^i; the steady fit's RMSE, N; steady points used; the re-simulation's speed RMSE
+    (the identified model run on the trial's commands against the measured speed), m/s; warnings counted."""
+
+    def __call__(self, path: Path, out: Path) -> dict[str, Any]:
+        """Identify the trial at ``path``, write its report into ``out``; its row's values."""
+        from boat_twin.fleet.reports import write_identify_report
+        from boat_twin.ident.pipeline import identify_trials
+
+        trial = self.read.read(path)
+        result, resims, vessel = identify_trials([trial], order=self.order, max_order=self.max_order,
+                                                 monotone=self.monotone, window_s=self.window_s,
+                                                 thrust_tolerance_N=self.thrust_tolerance_N, boat=self.boat)
+        out.mkdir(parents=True, exist_ok=True)
+        write_identify_report(out, result, [trial], resims, vessel, str(path), self.boat_file)
+        fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
+        dynamic = result.get("dynamic", {})
+        low, high = dynamic.get("mass_ci95_kg", (None, None))
+        return {"duration_s": duration_s(trial), "mass_kg": dynamic.get("mass_kg"), "mass_ci95_low_kg": low,
+                "mass_ci95_high_kg": high, "order": result["selected_order"],
+                "curve_N": [float(c) for c in fit["coefficients"]], "fit_rmse_N": fit["rmse"],
+                "steady_points": len(result["steady_points"]),
+                "misfit_speed_rmse_mps": result["resimulation"].get("speed_rmse_mps"),
+                "warnings": len(result["warnings"])}
+
+
+@dataclass(frozen=True)
+class DiagnoseJob:
+    """``boat-twin diagnose TRIAL --out DIR`` on one trial against the model ``config``."""
+
+    config: TwinConfig = field(default_factory=TwinConfig)
+    read: ReadOptions = field(default_factory=ReadOptions)
+    window_s: float | None = None
+    verb = "diagnose"
+    columns = ("verdict", "unexplained", "ambiguous", "misfit_x_noise", "misfit_extended_x_noise")
+    """The headline: the named effects; whether a structured residual is left that no catalogue effect explains;
+    the candidates the trial cannot tell apart; the largest signal RMSE over its noise before and after the named
+    effects, -."""
+
+    def __call__(self, path: Path, out: Path) -> dict[str, Any]:
+        """Diagnose the trial at ``path``, write its report into ``out``; its row's values."""
+        from boat_twin.diagnose.defaults import WINDOW_S
+        from boat_twin.diagnose.pipeline import diagnose_trial
+        from boat_twin.fleet.reports import write_diagnosis_report
+
+        trial = self.read.read(path)
+        done = diagnose_trial(trial, self.config, self.window_s or WINDOW_S)
+        out.mkdir(parents=True, exist_ok=True)
+        write_diagnosis_report(out, done, str(path))
+        result = done.result
+        ambiguous = result["ambiguous"]
+        return {"duration_s": duration_s(trial), "verdict": [v["effect"] for v in result["verdict"]],
+                "unexplained": result["unexplained"], "ambiguous": ambiguous["effects"] if ambiguous else [],
+                "misfit_x_noise": _misfit(result["baseline"]["rmse"], result["noise"]),
+                "misfit_extended_x_noise": _misfit(result["extended"]["rmse"], result["noise"])}
+
+
+@dataclass(frozen=True)
+class FollowJob:
+    """``boat-twin follow TRIAL --out DIR`` on one trial, the live twin started from ``config``."""
+
+    config: TwinConfig = field(default_factory=TwinConfig)
+    read: ReadOptions = field(default_factory=ReadOptions)
+    verb = "follow"
+    columns = ("mass_kg", "resistance_factor", "causes", "unexplained", "misfit_speed_innovation_ratio")
+    """The headline at the trial's end: the adapted surge mass, kg, and resistance factor, -; the causes the
+    rolling diagnosis names and whether something is unexplained; the speed innovations' RMS over their noise
+    in the last minute, -."""
+
+    def __call__(self, path: Path, out: Path) -> dict[str, Any]:
+        """Follow the trial at ``path``, write its report into ``out``; its row's values."""
+        from boat_twin.fleet.reports import write_follow_report
+        from boat_twin.shadow.follow import follow_trial
+
+        trial = self.read.read(path)
+        done = follow_trial(trial, self.config)
+        out.mkdir(parents=True, exist_ok=True)
+        write_follow_report(out, done, self.config, str(path))
+        final = done.final
+        return {"duration_s": duration_s(trial), "mass_kg": final["mass_kg"],
+                "resistance_factor": final["resistance_factor"], "causes": list(final["causes"]),
+                "unexplained": final["unexplained"], "misfit_speed_innovation_ratio": final["speed_innovation_ratio"]}
+
+
+def _misfit(rmse: dict[str, float], noise: dict[str, float]) -> float | None:
+    """The largest RMSE over noise of the signals whose noise is known, -."""
+    ratios = [rmse[s] / noise[s] for s in noise if s in rmse and np.isfinite(noise[s]) and noise[s] > 0.0]
+    return float(max(ratios)) if ratios else None

@@ -1,0 +1,71 @@
+"""One trial's report files, written the same way by ``identify`` / ``diagnose`` / ``follow TRIAL --out DIR`` and
+by a batch (``--each --out DIR``: each trial's report in ``DIR/<trial name>/``)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from boat_twin.config import TwinConfig, save_config
+from boat_twin.diagnose.defaults import EXTENDED_MODEL_NAME
+from boat_twin.diagnose.pipeline import TrialDiagnosis
+from boat_twin.diagnose.report import concerned_signals, evidence_figure, residual_figure, signal_figure
+from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
+from boat_twin.ident.pipeline import TrialIdentifyResult, pool, trial_samples
+from boat_twin.ident.report import write_trial_report
+from boat_twin.ident.resimulate import Resimulation
+from boat_twin.io.trial import Trial
+from boat_twin.shadow.follow import FollowResult
+from boat_twin.vessel.params import VesselParams
+
+
+def write_identify_report(out: Path, result: TrialIdentifyResult, trials: Sequence[Trial],
+                          resims: Sequence[Resimulation | None], vessel: VesselParams | None,
+                          sources: str, boat_file: str | None, named: Path | None = None) -> None:
+    """The report of :func:`~boat_twin.ident.pipeline.identify_trials` on ``trials`` (read from ``sources``) into
+    ``out``: twin.yaml (when a mass is known; geometry from ``boat_file`` or the default boat), identify.json,
+    model.yaml and the figures (resimulation.png for a single trial). ``named``: the directory the texts name
+    (default ``out``; a report set's final name when ``out`` is its staging copy)."""
+    if vessel is not None:
+        save_config(TwinConfig(vessel=vessel), out / "twin.yaml",
+                    f"boat_twin twin of the boat identified from {sources}\n"
+                    f"geometry: {boat_file or 'the default boat carried to the identified mass'}; where each fact "
+                    "came from: identify.json 'twin'\n"
+                    f"load with: boat-twin simulate ... --config {(named or out) / 'twin.yaml'}")
+    t_s, thrust, speed = (np.concatenate(column) for column in zip(*pool([trial_samples(tr) for tr in trials]),
+                                                                   strict=True))
+    write_trial_report(out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None,
+                       title=f"identify {sources}")
+
+
+def write_diagnosis_report(out: Path, done: TrialDiagnosis, source: str, named: Path | None = None) -> None:
+    """The report of a :func:`~boat_twin.diagnose.pipeline.diagnose_trial` of ``source`` into ``out``: the
+    extended model (its path set in ``done.result["extended_model"]``), three figures and diagnosis.json.
+    ``named``: the directory the texts name (default ``out``; a report set's final name)."""
+    result = done.result
+    names = ", ".join(v["effect"] for v in result["verdict"]) or "none"
+    save_config(done.extended, out / EXTENDED_MODEL_NAME,
+                f"boat_twin extended model: diagnose {source} (named: {names})\n"
+                f"load with: boat-twin simulate ... --config {(named or out) / EXTENDED_MODEL_NAME}")
+    result["extended_model"] = str((named or out) / EXTENDED_MODEL_NAME)
+    concerned = concerned_signals(result)
+    before, after = done.baseline_prediction, done.extended_prediction
+    title = f"diagnose {source}"
+    atomic_save_figure(out / "diagnosis_signals.png", signal_figure(done.windows, before, after, concerned), title)
+    atomic_save_figure(out / "diagnosis_residuals.png", residual_figure(done.windows, before, after), title)
+    atomic_save_figure(out / "diagnosis_evidence.png", evidence_figure(result), title)
+    atomic_write_text(out / "diagnosis.json", to_json(result) + "\n")
+
+
+def write_follow_report(out: Path, done: FollowResult, config: TwinConfig, source: str) -> None:
+    """The report of a :func:`~boat_twin.shadow.follow.follow_trial` of ``source`` (started from ``config``) into
+    ``out``: follow.json, the three figures and the adapted twin.yaml."""
+    from boat_twin.shadow.plots import cause_figure, innovation_figure, model_figure
+
+    atomic_write_text(out / "follow.json", to_json(done.to_dict()) + "\n")
+    atomic_save_figure(out / "follow_innovations.png", innovation_figure(done))
+    atomic_save_figure(out / "follow_model.png", model_figure(done, config.vessel.mass_kg))
+    atomic_save_figure(out / "follow_causes.png", cause_figure(done))
+    save_config(done.twin, out / "twin.yaml", f"boat_twin live twin adapted by: boat-twin follow {source}")

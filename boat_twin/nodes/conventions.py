@@ -1,0 +1,68 @@
+"""What every boat_twin node does the same way: command QoS, frame prefixes, and the clock (use_sim_time).
+
+- Commands are subscribed best effort: a best-effort subscription matches reliable and best-effort publishers
+  alike (a reliable one refuses best-effort publishers: "incompatible QoS", and the boat would not move). On
+  one machine nothing is lost in practice, and the ``player`` re-sends held commands four times a second.
+- ``frame_prefix`` (string, default empty) is prepended to every frame id a node stamps, so that several boats
+  share a graph: ``-r __ns:=/boat1 -p frame_prefix:=boat1/`` gives ``boat1/base_link``, ``boat1/gnss_link``...
+- ``use_sim_time`` is read at start-up only: a change at run time is refused with the reason (rclpy would
+  switch the clock under running timers, and a simulator that publishes ``/clock`` would wait on itself).
+  A node on simulated time that has heard no ``/clock`` after :data:`CLOCK_WAIT_S` says so once.
+"""
+
+from __future__ import annotations
+
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from boat_twin.errors import InputError
+from boat_twin.nodes import parameters
+
+COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+"""Thruster command subscriptions: best effort, so that both reliable and best-effort publishers connect."""
+CLOCK_WAIT_S = 5.0
+"""Wall time a node on simulated time waits for its first /clock before it warns, s: a simulator needs 2-4 s
+to start on a loaded 2-core machine (tests/test_node_*.py), so 5 s is a silent start-up, not a slow one."""
+
+
+def steady_clock() -> Clock:
+    """The wall clock, for timers that must run whatever the node clock does (no /clock yet)."""
+    return Clock(clock_type=ClockType.STEADY_TIME)
+
+
+def frame_prefix(node: Node) -> str:
+    """Declare and check the ``frame_prefix`` parameter (tf2 frame ids never start with '/')."""
+    prefix = parameters.string(node, "frame_prefix", "", "prepended to every frame id (several boats: boat1/)")
+    if prefix.startswith("/") or prefix != prefix.strip():
+        raise InputError(f"parameter frame_prefix: a tf2 frame id starts with neither '/' nor a space, got {prefix!r}")
+    return prefix
+
+
+def use_sim_time(node: Node) -> bool:
+    """Whether the node runs on /clock; refuse later changes of ``use_sim_time``; warn once if no /clock comes.
+
+    Call at the end of the node's constructor (the refusal runs before rclpy's own handler)."""
+    def refuse(params: list[Parameter]) -> SetParametersResult:
+        if any(p.name == "use_sim_time" and p.value != simulated for p in params):  # the same value is no change
+            return SetParametersResult(successful=False, reason=(
+                "use_sim_time is read at start-up only: restart the node with -p use_sim_time:=true|false"))
+        return SetParametersResult(successful=True)
+
+    simulated = bool(node.get_parameter("use_sim_time").value)
+    node.add_on_set_parameters_callback(refuse)
+    if simulated:
+        timer = None
+
+        def check() -> None:
+            if timer is not None:
+                timer.cancel()
+            if node.get_clock().now().nanoseconds == 0:
+                node.get_logger().warning(
+                    f"use_sim_time is true and no /clock has arrived in {CLOCK_WAIT_S:.0f} s: nothing runs until "
+                    "one is published (the simulator with publish_clock:=true, ros2 bag play --clock)")
+
+        timer = node.create_timer(CLOCK_WAIT_S, check, clock=steady_clock())
+    return simulated
