@@ -218,9 +218,9 @@ def test_a_real_process_signalled_at_a_seeded_moment(tmp_path, bag, old_reports,
     then a complete new set beside the user's notes; nothing left behind either way."""
     shutil.copytree(old_reports, tmp_path / "rep")
     shutil.copy(bag, tmp_path / "own.mcap")
-    shutil.copy(bag, tmp_path / "trial.mcap")
+    shutil.copytree(ROOT / "bags" / "thrust_steps_sample", tmp_path / "trial")  # a trial identify can fit
     before = _snapshot(tmp_path)
-    line = [a.format(rep=tmp_path / "rep", trial=tmp_path / "trial.mcap", own=tmp_path / "own.mcap") for a in argv]
+    line = [a.format(rep=tmp_path / "rep", trial=tmp_path / "trial", own=tmp_path / "own.mcap") for a in argv]
     run = subprocess.Popen([BOAT_TWIN, *line], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(float(np.random.default_rng(seed).uniform(1.5, 4.0)))  # start-up is ~1.5 s of imports
