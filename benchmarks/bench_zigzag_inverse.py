@@ -7,7 +7,8 @@ Run: .venv/bin/python benchmarks/bench_zigzag_inverse.py [--samples 600] [--larg
 Nothing is asserted: the script prints Markdown tables for docs/identification.md and the command that made them.
 
 Training sets (the paper's recipe on this boat): every manoeuvring coefficient (m22, m33, a_v, a_r, Y_vv, N_rr
-and x_c) drawn normally around the twin's with a standard deviation of 10 % (z clipped to ±3), one 20°/20°
+and x_c) drawn normally around the twin's with a standard deviation of 10 % (z clipped to ±3) and the steering
+offset with 0.5° (the features record the outboards' actual angle, command + offset), one 20°/20°
 zigzag at 6 m/s each (helm at the 10 Hz log rate), simulated as one ensemble (each boat its own coefficients in
 one kernel run) and summarised by the 42 features (:mod:`boat_twin.ident.zigzag_features`); split 400/100/100
 (train / verification / test) as the paper, and 80/10/10 % of ``--large`` (10^4; simulated for the length of
@@ -32,6 +33,10 @@ coefficients, and from the answers for the measured features of that same trial 
 noise-free features and of the largest set's MLP trained on measured features (is the network a useful starting
 point?).
 Speed: zigzags per second, one simulate() per boat against the ensemble, in the same run.
+Sensitivity (the paper's Fig. 17, Statistica's analysis): each input of a trained MLP replaced by its mean (and,
+apart, shuffled across the samples), the error over the error with all inputs, ranked; beside the ranks of
+VAR1-14 the paper shows. And the features that do not vary over the noise-free set, with the actual rudder angle
+and with the commanded one.
 """
 
 from __future__ import annotations
@@ -51,9 +56,15 @@ from typing import Any
 import numpy as np
 
 from boat_twin.config import TwinConfig
+from boat_twin.errors import InputError
 from boat_twin.ident.manoeuvring import apply_parameters, fit_manoeuvring
 from boat_twin.ident.manoeuvring_trials import recorded
-from boat_twin.ident.zigzag_features import ensemble_features, measured_ensemble_features, trial_features
+from boat_twin.ident.zigzag_features import (
+    FEATURE_NAMES,
+    ensemble_features,
+    measured_ensemble_features,
+    trial_features,
+)
 from boat_twin.twin.sea_trial import run_sea_trial
 from boat_twin.vessel.params import MANOEUVRING_KEYS, VesselParams, derive_coefficients
 from boat_twin.vessel.scenarios import Zigzag
@@ -70,10 +81,27 @@ except ImportError:
           file=sys.stderr)
     raise SystemExit(2) from None
 
-KEYS = MANOEUVRING_KEYS + ("lateral_centre_x_m",)
-"""The coefficients perturbed and mapped back (the paper's 19 model parameters, on this model)."""
+KEYS = MANOEUVRING_KEYS + ("lateral_centre_x_m", "steering_offset_rad")
+"""The parameters perturbed and mapped back (the paper's 19 model parameters, on this model): the seven
+coefficients and the outboards' steering offset, the eight the output-error fit identifies."""
+COEFFICIENTS = len(KEYS) - 1
+"""The first seven of :data:`KEYS` (the headline median errors are over these, as before the offset joined)."""
 SPREAD = 0.10
 """Standard deviation of the perturbation, relative (Pashentsev 2025: normal, 10 %)."""
+OFFSET_SD_RAD = math.radians(0.5)
+"""Standard deviation of the steering offset, rad (its default is 0, so no relative spread: a linkage set
+within about ±1°, as the hidden boats of :func:`~boat_twin.ident.manoeuvring_trials.draw_boat`). The actual
+rudder angle the features record is the command plus this offset."""
+PAPER_FIG17 = {  # VAR1..VAR14 = the first two events' seven values, in the order the paper stores them
+    "rank": (2, 19, 29, 6, 33, 35, 26, 17, 8, 1, 13, 28, 42, 34),
+    "ratio": (1.752967, 1.195139, 1.111512, 1.507133, 1.069128, 1.032849, 1.138822, 1.211143, 1.472674,
+              1.85842, 1.277084, 1.115297, 1.0, 1.0631),
+}
+"""Pashentsev (2025) Fig. 17, the part the paper shows: Statistica's sensitivity of the best network to VAR1-14
+(rank 1 = most relied on; ratio = error with the input ignored / baseline error 0.002233). The paper stores
+each event's values as Tzig, Xzig, Yzig, Vzig, DKzig, Rulzig, Omzig, event after event (our order of
+:data:`~boat_twin.ident.zigzag_features.VALUES`): VAR1-7 are the first equality, VAR8-14 the first extreme —
+our reading, as the paper does not print the file's column order."""
 SPEED_MPS = 6.0
 DURATION_S = 75.0
 """Zigzag length for the features, s: the third extreme comes 32 s after the execute (10 s approach) on the
@@ -106,24 +134,35 @@ def zigzag(vessel: VesselParams, duration_s: float = DURATION_S) -> Zigzag:
     return Zigzag(vessel, angle, angle, speed_mps=SPEED_MPS, duration_s=duration_s, decision_rate_hz=OUTPUT_RATE_HZ)
 
 
-def draw(base: VesselParams, n: int, rng: np.random.Generator) -> np.ndarray:
-    """(n, 7) coefficients (:data:`KEYS`) drawn normally around ``base``'s, SD :data:`SPREAD` relative."""
+def centre_of(base: VesselParams) -> np.ndarray:
+    """(8,) the parameters (:data:`KEYS`) of ``base``."""
     coeff = derive_coefficients(base)
-    centre = np.array([getattr(coeff, k) for k in MANOEUVRING_KEYS] + [base.lateral_centre_x_m])
-    return centre * (1.0 + SPREAD * np.clip(rng.standard_normal((n, len(KEYS))), -3.0, 3.0))
+    return np.array([getattr(coeff, k) for k in MANOEUVRING_KEYS]
+                    + [base.lateral_centre_x_m, base.steering_offset_rad])
+
+
+def draw(base: VesselParams, n: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, 8) parameters (:data:`KEYS`) drawn normally around ``base``'s: the coefficients with SD :data:`SPREAD`
+    relative, the offset with SD :data:`OFFSET_SD_RAD` (z clipped to ±3)."""
+    z = np.clip(rng.standard_normal((n, len(KEYS))), -3.0, 3.0)
+    spread = np.array([SPREAD] * COEFFICIENTS + [0.0])
+    shift = np.array([0.0] * COEFFICIENTS + [OFFSET_SD_RAD])
+    return centre_of(base) * (1.0 + spread * z) + shift * z
 
 
 def boat(base: VesselParams, values: np.ndarray) -> VesselParams:
     return replace(base, manoeuvring={k: float(v) for k, v in zip(MANOEUVRING_KEYS, values, strict=False)},
-                   lateral_centre_x_m=float(values[-1]))
+                   lateral_centre_x_m=float(values[COEFFICIENTS - 1]), steering_offset_rad=float(values[-1]))
 
 
-def features_of(base: VesselParams, values: np.ndarray, duration_s: float = DURATION_S) -> np.ndarray:
-    """(n, 42) noise-free zigzag features of the boats ``values`` (ensemble runs of :data:`BATCH`)."""
+def features_of(base: VesselParams, values: np.ndarray, duration_s: float = DURATION_S,
+                actual_rudder: bool = True) -> np.ndarray:
+    """(n, 42) noise-free zigzag features of the boats ``values`` (ensemble runs of :data:`BATCH`; the rudder the
+    actual angle, or the command)."""
     out = []
     for lo in range(0, len(values), BATCH):
         boats = [boat(base, v) for v in values[lo:lo + BATCH]]
-        out.append(ensemble_features(simulate(base, zigzag(base, duration_s), boats=boats)))
+        out.append(ensemble_features(simulate(base, zigzag(base, duration_s), boats=boats), actual_rudder))
     return np.concatenate(out)
 
 
@@ -172,9 +211,11 @@ def sd_ratio(predicted: np.ndarray, truth: np.ndarray) -> np.ndarray:
 
 
 def relative_error(predicted: np.ndarray, truth: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """Error relative to the value (x_c: relative to the centre's size, |x_c| = 1 m here)."""
+    """Error relative to the value (x_c: relative to the centre's size, |x_c| = 1 m here); the offset's error
+    absolute, rad."""
     scale = np.abs(truth).copy()
-    scale[:, -1] = abs(centre[-1])
+    scale[:, COEFFICIENTS - 1] = abs(centre[COEFFICIENTS - 1])
+    scale[:, -1] = 1.0
     return (predicted - truth) / scale
 
 
@@ -320,6 +361,42 @@ def noisy_study(name: str, base: VesselParams, y: np.ndarray, measured: np.ndarr
     return r
 
 
+def sensitivity(maps: InverseMaps, x: np.ndarray, y: np.ndarray, rng: np.random.Generator
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Per input feature, the network's error (RMS over the standardised parameters) on ``x`` → ``y`` with that
+    input ignored, over its error with all inputs: Statistica's sensitivity ratio (Pashentsev 2025 Fig. 17; the
+    input replaced by its training mean, i.e. 0 standardised) and the permutation ratio (the input shuffled
+    across the samples, which keeps its distribution). Rank 1 = the largest ratio."""
+    xs, ys = maps.x_scale.transform(x), maps.y_scale.transform(y)
+
+    def rms(inputs: np.ndarray) -> float:
+        return float(np.sqrt(np.mean((maps.net.predict(inputs) - ys) ** 2)))
+
+    baseline = rms(xs)
+    mean_out, shuffled = np.empty(x.shape[1]), np.empty(x.shape[1])
+    for j in range(x.shape[1]):
+        ignored = xs.copy()
+        ignored[:, j] = 0.0
+        mean_out[j] = rms(ignored) / baseline
+        ignored[:, j] = xs[rng.permutation(len(xs)), j]
+        shuffled[j] = rms(ignored) / baseline
+    return mean_out, shuffled
+
+
+def ranks(ratio: np.ndarray) -> np.ndarray:
+    """Rank of each ratio, 1 = the largest (Statistica's convention)."""
+    out = np.empty(ratio.size, dtype=int)
+    out[np.argsort(-ratio, kind="stable")] = np.arange(1, ratio.size + 1)
+    return out
+
+
+def constant_features(x: np.ndarray) -> list[str]:
+    """Names of the features that do not vary over the rows of ``x`` (SD below 10⁻⁹ of their scale)."""
+    sd = np.nanstd(x, axis=0)
+    scale = np.maximum(np.nanmax(np.abs(x), axis=0), 1e-12)
+    return [FEATURE_NAMES[j] for j in np.flatnonzero(sd <= 1e-9 * scale)]
+
+
 def finite_rows(*arrays: np.ndarray) -> np.ndarray:
     """Rows (boats) with all six events in every feature array (the last axis the 42 features)."""
     return np.all([np.all(np.isfinite(a), axis=-1).reshape(-1, a.shape[-2]).all(axis=0) for a in arrays], axis=0)
@@ -342,8 +419,7 @@ def main() -> int:
     config = TwinConfig()
     base = config.vessel
     rng = np.random.default_rng(args.seed)
-    coeff = derive_coefficients(base)
-    centre = np.array([getattr(coeff, k) for k in MANOEUVRING_KEYS] + [base.lateral_centre_x_m])
+    centre = centre_of(base)
     noise_seed = NOISE_SEED * (1 + 2 * args.seed)
 
     # Speed: one simulate() per boat against one ensemble run, same boats.
@@ -360,6 +436,8 @@ def main() -> int:
     start = time.perf_counter()
     x = features_of(base, y)
     small_s = time.perf_counter() - start
+    constant = {"actual": constant_features(x),
+                "commanded": constant_features(features_of(base, y, actual_rudder=False))}
     _, xm, small_measure_s = clean_and_measured(config, y, args.noise_draws, noise_seed)
     ok = finite_rows(x[None], xm)
     y, x, xm = y[ok], x[ok], xm[:, ok]
@@ -396,7 +474,8 @@ def main() -> int:
               "noisy": f"the answer of the MLP ({args.large or 600}, measured features)"}
     start_net = {"clean": "600 noise-free", "noisy": f"{args.large or 600} measured"}
     net_err: dict[str, list[np.ndarray]] = {name: [] for name in nets}
-    fits: dict[str, dict[str, list[Any]]] = {k: {"err": [], "s": [], "evals": [], "start": []} for k in starts}
+    fits: dict[str, dict[str, list[Any]]] = {k: {"err": [], "s": [], "evals": [], "start": [], "failed": []}
+                                             for k in starts}
     fit_sd = []
     test = small_split.test[:args.fit_boats]
     with tempfile.TemporaryDirectory(prefix="zigzag_inverse_") as tmp:
@@ -411,7 +490,12 @@ def main() -> int:
             line = []
             for key in starts:
                 prior = centre if key == "twin" else guesses[start_net[key]]
-                fit = fit_manoeuvring([trial], apply_parameters(config, dict(zip(KEYS, prior, strict=True))))
+                try:
+                    fit = fit_manoeuvring([trial], apply_parameters(config, dict(zip(KEYS, prior, strict=True))))
+                except InputError as err:  # a fit that ends nowhere is a result: counted, not a crash
+                    fits[key]["failed"].append(f"boat {j}: {err}")
+                    line.append(f"from {key} failed")
+                    continue
                 fitted = np.array([fit.values[k] for k in KEYS])
                 fits[key]["err"].append(relative_error(fitted[None], y[i][None], centre)[0])
                 fits[key]["start"].append(relative_error(prior[None], y[i][None], centre)[0])
@@ -440,7 +524,7 @@ def main() -> int:
                      (f"{args.large} measured", large_noisy)):
         if r is not None:
             print(f"- {label}: {r.maps.describe()}")
-    med = lambda a: float(np.median(np.abs(np.asarray(a))))  # noqa: E731
+    med = lambda a: float(np.median(np.abs(np.asarray(a)[..., :COEFFICIENTS])))  # noqa: E731
     print("\n| method | training set | SD ratio (\"Perf\"), mean over coefficients | median parameter error "
           "| trajectory SD (median) |")
     print("| --- | --- | --- | --- | --- |")
@@ -476,7 +560,8 @@ def main() -> int:
                   f"{med(net_err[name]):.2%} | – |")
         print(f"| output-error fit, one noisy 120 s zigzag, {n} hidden boats | none | – | "
               f"{med(fits['twin']['err']):.2%} | {np.median(fit_sd):.3e} |")
-    print("\nPer coefficient (test split; SD ratio / median |error|; x_c error relative to |x_c| = 1 m):\n")
+    print("\nPer coefficient (test split; SD ratio / median |error|; x_c error relative to |x_c| = 1 m, the "
+          "offset's in degrees):\n")
     columns: list[tuple[str, np.ndarray | None, np.ndarray]] = [
         ("MLP 600", small.ratio_mlp, small.err_mlp),
         ("nearest 600 (standardised)", small.ratio_knn, small.err_knn)]
@@ -492,16 +577,46 @@ def main() -> int:
         columns.append((f"output-error fit ({n} boats)", None, np.array(fits["twin"]["err"])))
     print("| coefficient |" + "".join(f" {c[0]} |" for c in columns))
     print("|" + " --- |" * (len(columns) + 1))
+    def cell(c: int, key: str, ratio: np.ndarray | None, err: np.ndarray) -> str:
+        size = float(np.median(np.abs(err[:, c])))
+        shown = f"{math.degrees(size):.3f}°" if key == "steering_offset_rad" else f"{size:.1%}"
+        return f" {shown} |" if ratio is None else f" {ratio[c]:.2f} / {shown} |"
+
     for c, key in enumerate(KEYS):
-        print(f"| {key} |" + "".join(f" {ratio[c]:.2f} / {med(err[:, c]):.1%} |" if ratio is not None
-                                     else f" {med(err[:, c]):.1%} |" for _, ratio, err in columns))
+        print(f"| {key} |" + "".join(cell(c, key, ratio, err) for _, ratio, err in columns))
+    print(f"\nConstant features over the {args.samples} noise-free zigzags: with the outboards' actual angle as the "
+          f"rudder {len(constant['actual'])} ({', '.join(constant['actual']) or 'none'}); with the commanded angle "
+          f"{len(constant['commanded'])} ({', '.join(constant['commanded'])})")
+    sens_rng = np.random.default_rng(args.seed + 17)
+    tables = [("MLP 600 noise-free, noise-free test split", small.maps, x[small_split.test], y[small_split.test])]
+    if large_noisy is not None:
+        tables.append((f"MLP {args.large} measured-trained, measured test split", large_noisy.maps,
+                       xm_big[0][big_split.test], y_big[big_split.test]))
+    results = [(label, *sensitivity(maps, xt, yt, sens_rng)) for label, maps, xt, yt in tables]
+    print("\nSensitivity (Statistica's: the input replaced by its mean; error RMS over the standardised parameters "
+          "/ baseline; rank 1 = relied on most) and the permutation ratio (input shuffled):\n")
+    print("| feature | paper VAR | paper rank / ratio (Fig. 17) |" + "".join(
+        f" {label}: rank / ratio / permutation ratio |" for label, _, _ in results))
+    print("|" + " --- |" * (3 + len(results)))
+    for j, name in enumerate(FEATURE_NAMES):
+        paper = (f"{PAPER_FIG17['rank'][j]} / {PAPER_FIG17['ratio'][j]:.3f}" if j < len(PAPER_FIG17["rank"])
+                 else "not shown")
+        print(f"| {name} | VAR{j + 1} | {paper} |" + "".join(
+            f" {ranks(mean_out)[j]} / {mean_out[j]:.3f} / {shuffled[j]:.3f} |" for _, mean_out, shuffled in results))
+    shown = len(PAPER_FIG17["rank"])
+    paper_order = np.argsort(np.argsort(PAPER_FIG17["rank"]))
+    for label, mean_out, _ in results:
+        ours = np.argsort(np.argsort(-mean_out[:shown]))
+        rho = float(np.corrcoef(paper_order, ours)[0, 1])
+        print(f"\nSpearman correlation of the ranks of VAR1-14 (paper vs {label}): {rho:+.2f}")
     if n:
         print()
         for key, label in starts.items():
             f = fits[key]
             print(f"- output-error fit from {label}: start error median {med(f['start']):.1%}; median "
                   f"{np.median(f['s']):.1f} s, {np.median(f['evals']):.0f} evaluations (range {min(f['evals'])}–"
-                  f"{max(f['evals'])}), error {med(f['err']):.2%}")
+                  f"{max(f['evals'])}), error {med(f['err']):.2%}; failed {len(f['failed'])}"
+                  + "".join(f"\n  - {why}" for why in f["failed"]))
     return 0
 
 

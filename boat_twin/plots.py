@@ -98,7 +98,7 @@ def manoeuvre_figure(truth: TruthSeries, figures: dict[str, Any] | None, execute
         turned = np.degrees(yaw - at["yaw"])
         if figures["manoeuvre"] == "turning circle":
             _mark_turning(track, heading, truth, turned, at, figures)
-        else:
+        elif figures["manoeuvre"].startswith("zigzag"):
             _mark_zigzag(heading, truth.t_s, turned, figures)
     track.legend(loc="best", fontsize=8)
     heading.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncols=2, fontsize=8)

@@ -60,7 +60,8 @@ def test_identify_cli_on_a_simulated_bag(tmp_path, capsys) -> None:
     resim = result["resimulation"]
     assert resim["speed_nrmse"] == pytest.approx(resim["speed_rmse_mps"] / resim["mean_speed_mps"])
     assert resim["speed_rmse_mps"] > 0.95 * NOISE_MPS  # measured, not simulated, speed: the noise stays in
-    assert resim["effective_mass_kg"] == pytest.approx(result["dynamic"]["mass_kg"]) and resim["mass_identified"]
+    assert resim["effective_mass_kg"] == pytest.approx(result["output_error"]["selected"]["mass_kg"])
+    assert resim["mass_source"] == "identified"
     assert resim["duration_s"] > 900.0 and resim["samples"] > 9000
     assert (tmp_path / "report" / "resimulation.png").stat().st_size > 0
     assert json.loads((tmp_path / "report" / "identify.json").read_text())["resimulation"] == resim
@@ -110,16 +111,16 @@ def test_resimulation_error_is_the_gnss_noise_plus_a_small_model_error(stepped_t
     identified = resimulate(trial, model).to_dict()
     assert 0.95 * NOISE_MPS < identified["speed_rmse_mps"] < 2.0 * NOISE_MPS
     assert identified["speed_nrmse"] < 0.025 and abs(identified["speed_bias_mps"]) < NOISE_MPS
-    assert identified["mass_identified"] and identified["initial_speed_mps"] < 2.0 * NOISE_MPS  # starts at rest
+    assert identified["mass_source"] == "identified" and identified["initial_speed_mps"] < 2.0 * NOISE_MPS
 
 
 def test_resimulation_error_grows_for_a_wrong_model(stepped_trial) -> None:
     trial, model = stepped_trial
     reference = resimulate(trial, model).to_dict()["speed_rmse_mps"]
     draggy = {**model, "resistance": {**model["resistance"],
-                                      "coefficients": [1.1 * c for c in model["resistance"]["coefficients"]]}}
+                                      "force_N": [1.1 * f for f in model["resistance"]["force_N"]]}}
     assert resimulate(trial, draggy).to_dict()["speed_rmse_mps"] > 3.0 * reference  # steady speeds all off
     heavy = {**model, "effective_mass_kg": 1.3 * model["effective_mass_kg"]}
     assert resimulate(trial, heavy).to_dict()["speed_rmse_mps"] > 1.1 * reference  # transients lag
     no_mass = {"resistance": model["resistance"]}
-    assert not resimulate(trial, no_mass).mass_identified
+    assert resimulate(trial, no_mass).mass_source == "the base boat's (none identified)"

@@ -175,7 +175,7 @@ def test_seconds_one_ulp_apart_give_the_same_windows_and_the_same_model() -> Non
 
 def test_a_negative_mass_is_refused_as_physically_impossible(monkeypatch) -> None:
     """A transient fit that lands on a negative mass (seen on a recording whose GNSS stamps ran backwards) is
-    refused with the reason; the steady model stands."""
+    refused with the reason; the model (the output-error fit) does not take its mass from there."""
     from dataclasses import replace
 
     import boat_twin.ident.pipeline as pipeline
@@ -185,4 +185,5 @@ def test_a_negative_mass_is_refused_as_physically_impossible(monkeypatch) -> Non
     monkeypatch.setattr(pipeline, "identify_dynamic", lambda *a: replace(real(*a), mass_kg=-860.0))
     result = pipeline.identify_arrays(t, f, v, order=1)
     assert "-860 kg: physically impossible" in result["dynamic"]["error"]
-    assert "effective_mass_kg" not in result["model"] and len(result["steady_points"]) == 4
+    assert result["model"]["effective_mass_kg"] == result["output_error"]["selected"]["mass_kg"] > 0.0
+    assert len(result["steady_points"]) == 4

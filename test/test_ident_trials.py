@@ -23,7 +23,7 @@ from boat_twin.io import messages
 from boat_twin.io.bags import read_trial, write_bag
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.params import VesselParams, load_params
-from boat_twin.vessel.resistance import PowerSeriesResistance
+from boat_twin.vessel.resistance import PowerSeriesResistance, resistance_from_dict
 from boat_twin.vessel.scenarios import CommandProfile, thrust_steps
 from boat_twin.vessel.simulate import simulate
 
@@ -95,13 +95,29 @@ def test_mass_within_5_percent_with_a_covering_interval(identified) -> None:
     lo, hi = dyn["mass_ci95_kg"]
     assert lo < dyn["mass_kg"] < hi and (hi - lo) < 0.3 * MASS_KG
     assert dyn["two_way_fraction"] > 0.5
-    assert result["model"]["effective_mass_kg"] == dyn["mass_kg"]
+    oe = result["output_error"]["selected"]  # the model's mass: the output-error fit's
+    assert result["model"]["effective_mass_kg"] == oe["mass_kg"] == pytest.approx(MASS_KG, rel=0.05)
+    lo, hi = oe["mass_ci95_kg"]
+    assert lo < MASS_KG < hi and result["output_error"]["mass_identified"]
+
+
+def test_output_error_curve_within_3_percent_rms_and_beats_the_baseline(identified) -> None:
+    *_, result = identified
+    model = resistance_from_dict(result["model"]["resistance"])
+    grid = np.linspace(0.5, max(p["speed_mps"] for p in result["steady_points"]), 200)
+    assert nrms(model.force_N(grid), TRUTH.force_N(grid)) < 0.03
+    assert np.all(np.diff(model.force_N(np.linspace(0.0, 12.0, 500))) >= 0.0) and model.force_N(0.0) == 0.0
+    cv = {c["model"]: c["cv_rmse_mps"] for c in result["output_error"]["candidates"]}
+    assert result["output_error"]["selected"]["model"] != "baseline"  # the hump is beyond a·u + b·u|u|
+    assert cv[result["output_error"]["selected"]["model"]] < 0.5 * cv["baseline"]
+    assert result["physical_problems"] == []
 
 
 def test_result_is_strict_json(identified) -> None:
     *_, result = identified
     text = json.dumps(result, allow_nan=False, default=lambda o: o.tolist())
-    assert set(json.loads(text)) >= {"steady_points", "fits", "selected_order", "dynamic", "online", "model"}
+    assert set(json.loads(text)) >= {"output_error", "physical_problems", "steady_points", "fits", "selected_order",
+                                     "dynamic", "online", "model"}
 
 
 def test_online_within_1_percent_of_batch(identified) -> None:
@@ -142,11 +158,9 @@ def test_model_yaml_loads_as_vessel_override(identified, tmp_path) -> None:
     write_model_yaml(path, result["model"], "identified\nfrom a simulated trial")
     assert path.read_text().startswith("# identified\n# from a simulated trial\n")
     params = load_params(path)
-    fit = next(fr for fr in result["fits"] if fr["order"] == result["selected_order"])
-    assert params.resistance.force_N(3.0) == pytest.approx(
-        np.polynomial.polynomial.polyval(3.0, fit["coefficients"])
-    )
-    assert params.mass_kg * (1.0 + params.surge_added_mass_ratio) == pytest.approx(result["dynamic"]["mass_kg"])
+    assert params.resistance.to_dict() == result["model"]["resistance"]
+    assert params.mass_kg * (1.0 + params.surge_added_mass_ratio) == pytest.approx(
+        result["output_error"]["selected"]["mass_kg"])
     written = write_trial_report(tmp_path / "report", result, t, f, v, title="a simulated trial")
     assert all(p.stat().st_size > 0 for p in written)
     speed = [p["speed_mps"] for p in result["steady_points"]]

@@ -10,9 +10,18 @@ import pytest
 
 from boat_twin.cli import main
 from boat_twin.errors import InputError
-from boat_twin.vessel.manoeuvres import manoeuvre_figures, turning_figures, zigzag_figures
-from boat_twin.vessel.params import VesselParams, load_params, sway_yaw_time_constants_s
-from boat_twin.vessel.scenarios import Zigzag, ZigzagHelm, make_scenario
+from boat_twin.vessel.manoeuvres import manoeuvre_figures, stopping_figures, turning_figures, zigzag_figures
+from boat_twin.vessel.params import VesselParams, derive_coefficients, load_params, sway_yaw_time_constants_s
+from boat_twin.vessel.resistance import PowerSeriesResistance
+from boat_twin.vessel.scenarios import (
+    EngineTurningCircle,
+    Zigzag,
+    ZigzagHelm,
+    crash_stop,
+    engine_setting_thrust_N,
+    make_scenario,
+    turning_circle,
+)
 from boat_twin.vessel.simulate import INTEGRATION_RATE_HZ, simulate
 
 PARAMS = VesselParams()
@@ -253,3 +262,75 @@ def test_a_run_that_ends_before_the_execute_has_no_figures(capsys: pytest.Captur
     assert main(["simulate", "turning-circle", "--duration", "5", "--json", "--no-noise"]) == 0
     figures = json.loads(capsys.readouterr().out)["manoeuvre"]
     assert figures["advance_m"] is None and figures["tactical_diameter_m"] is None
+
+
+def test_stopping_figures_of_a_track_built_by_hand() -> None:
+    """A boat on a 50 m circle to port from heading 0.7 rad, its speed falling at 2 m/s² from 6 m/s after the
+    full-astern order at t = 1.03 s (off the 10 Hz samples): dead in the water 3 s later, after 9 m of track
+    (u0²/2a), 50·sin(9/50) m ahead and 50·(1 − cos(9/50)) m to port of the original course."""
+    radius, u0, decel, psi0, t_exec = 50.0, 6.0, 2.0, 0.7, 1.03
+    t = np.arange(0.0, 8.0, 0.1)
+    tau = np.clip(t - t_exec, 0.0, None)
+    travelled = np.where(tau < u0 / decel, u0 * tau - 0.5 * decel * tau**2, u0**2 / (2 * decel)) + u0 * np.minimum(
+        t - t_exec, 0.0)
+    surge = np.where(t < t_exec, u0, u0 - decel * tau)  # keeps falling past zero (backing)
+    turned = travelled / radius
+    yaw = psi0 + turned
+    east = radius * (np.sin(yaw) - math.sin(psi0))
+    north = radius * (math.cos(psi0) - np.cos(yaw))
+    fig = stopping_figures(t, east, north, yaw, surge, t_exec, 6.0)
+    reach = u0**2 / (2 * decel)
+    assert fig.time_to_stop_s == pytest.approx(u0 / decel, abs=1e-9)
+    assert fig.track_reach_m == pytest.approx(reach, rel=1e-4)  # the polyline's chords of a 50 m arc
+    assert fig.head_reach_m == pytest.approx(radius * math.sin(reach / radius), abs=2e-3)
+    assert fig.lateral_deviation_m == pytest.approx(radius * (1 - math.cos(reach / radius)), abs=2e-3)
+    d = fig.as_dict()
+    assert d["track_reach_L"] == pytest.approx(reach / 6.0, rel=1e-4) and d["track_reach_limit_L"] == 15.0
+    assert stopping_figures(t[:30], east[:30], north[:30], yaw[:30], surge[:30], t_exec, 6.0).track_reach_m is None
+
+
+def test_simulated_crash_stop_against_the_closed_form() -> None:
+    """Full astern from 6 m/s on a boat whose resistance is k·u² and whose astern thrust is constant (the reverse
+    limit, ½ bollard per outboard): m11·u̇ = −T − k·u² stops it in m11/√(T·k)·atan(u0·√(k/T)) after
+    m11/(2k)·ln(1 + k·u0²/T) of straight track."""
+    k = 30.0
+    params = replace(PARAMS, resistance=PowerSeriesResistance((0.0, 0.0, k), 20.0))
+    figures = manoeuvre_figures(crash_stop(params), simulate(params, crash_stop(params)).truth(), params.length_m)
+    assert figures is not None and figures["manoeuvre"] == "full astern stopping"
+    m11 = derive_coefficients(params).m11_kg
+    thrust = 2.0 * params.reverse_thrust_ratio * params.bollard_thrust_N
+    u0 = 6.0
+    assert figures["approach_speed_mps"] == pytest.approx(u0, abs=1e-6)
+    assert figures["time_to_stop_s"] == pytest.approx(
+        m11 / math.sqrt(thrust * k) * math.atan(u0 * math.sqrt(k / thrust)), rel=2e-3)
+    reach = m11 / (2.0 * k) * math.log(1.0 + k * u0**2 / thrust)
+    assert figures["track_reach_m"] == pytest.approx(reach, rel=2e-3)
+    assert figures["head_reach_m"] == pytest.approx(reach, rel=2e-3)
+    assert abs(figures["lateral_deviation_m"]) < 1e-6
+
+
+def test_turning_at_a_constant_engine_setting_holds_the_shaft_power() -> None:
+    """MSC.137(76) holds the approach's engine setting through the turn. The twin holds each outboard's shaft
+    power P (the setting that gives the approach thrust T0 at u0: P = T0·u0/η), so the thrust is η·P/u: T0 at the
+    approach speed, 2·T0 at half of it, the bollard thrust at a standstill; in the steady turn thrust × speed
+    through water stays η·P. The constant-thrust turning circle (the VRX convention) slows more and turns
+    tighter."""
+    scenario = EngineTurningCircle(PARAMS, duration_s=90.0)
+    t0 = scenario.shaft_power_W * PARAMS.propulsive_efficiency / 6.0
+    assert float(PARAMS.resistance.force_N(6.0)) / 2.0 == pytest.approx(t0, rel=1e-9)
+    thrust = engine_setting_thrust_N(PARAMS, scenario.shaft_power_W, np.array([6.0, 3.0, 0.0]))
+    np.testing.assert_allclose(thrust, [t0, 2.0 * t0, PARAMS.bollard_thrust_N], rtol=1e-9)
+    record = simulate(PARAMS, scenario)
+    u = record.states[:, 0, 3]
+    before = record.t_s < scenario.execute_s
+    np.testing.assert_allclose(u[before], 6.0, atol=1e-6)  # the setting holds the approach speed
+    late = record.t_s > 60.0
+    np.testing.assert_allclose(record.commands[late, 0, 0] * u[late], PARAMS.propulsive_efficiency
+                               * scenario.shaft_power_W, rtol=0.02)  # sampled at the tick: u moves a little
+    engine = manoeuvre_figures(scenario, record.truth(), PARAMS.length_m)
+    held = manoeuvre_figures(turning_circle(PARAMS, turn_s=80.0), simulate(PARAMS, turning_circle(PARAMS, turn_s=80.0)
+                                                                           ).truth(), PARAMS.length_m)
+    assert engine is not None and held is not None
+    assert engine["engine_setting"]["shaft_power_W"] == pytest.approx(scenario.shaft_power_W)
+    assert engine["steady_speed_mps"] > held["steady_speed_mps"] and engine["speed_loss"] < held["speed_loss"]
+    assert engine["steady_diameter_m"] > held["steady_diameter_m"]

@@ -33,7 +33,7 @@ from boat_twin.io.bags import read_trial, write_bag
 from boat_twin.io.sources import read_trial_file
 from boat_twin.units import KGF_N, KNOT_MPS
 from boat_twin.vessel.params import VesselParams, derive_coefficients, params_from_dict, similar_boat
-from boat_twin.vessel.resistance import PowerSeriesResistance
+from boat_twin.vessel.resistance import PowerSeriesResistance, resistance_from_dict
 
 TOP_SPEED_MPS = 6.0 * KNOT_MPS
 BOLLARD_N = 24.4 * KGF_N / 2.0
@@ -111,7 +111,7 @@ def test_twin_made_otter_identifies_into_a_twin_that_simulates_and_diagnoses_cle
                  str(tmp_path / "ident"), "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
     assert result["twin"]["sources"]["length_m"] == "boat file"
-    assert result["twin"]["sources"]["mass_kg"] == "identified (transients)"
+    assert result["twin"]["sources"]["mass_kg"] == "identified (output-error fit)"
     twin_yaml = str(tmp_path / "ident" / "twin.yaml")
     twin = load_config(tmp_path / "ident" / "twin.yaml")
     assert (twin.vessel.length_m, twin.vessel.beam_m, twin.vessel.engine_y_m) == (2.0, 1.08, 0.395)
@@ -266,11 +266,10 @@ def test_a_csv_trial_identifies_and_diagnoses_like_a_bag(tmp_path, boat_file, ca
     assert main(["identify", str(tmp_path / "otter.csv"), "--columns", str(tmp_path / "map.yaml"), "--json",
                  "--boat", str(boat_file)]) == 0
     result = json.loads(capsys.readouterr().out)
-    assert result["dynamic"]["mass_kg"] == pytest.approx(1.10 * 55.0, rel=0.15)
-    coef = next(f for f in result["fits"] if f["order"] == result["selected_order"])["coefficients"]
+    assert result["output_error"]["selected"]["mass_kg"] == pytest.approx(1.10 * 55.0, rel=0.15)
+    model = resistance_from_dict(result["model"]["resistance"])
     grid = np.linspace(0.5, 2.5, 9)
-    np.testing.assert_allclose(np.polynomial.polynomial.polyval(grid, coef), LINEAR_DAMPING * grid + 4.0 * grid**2,
-                               rtol=0.08)
+    np.testing.assert_allclose(model.force_N(grid), LINEAR_DAMPING * grid + 4.0 * grid**2, rtol=0.08)
     capsys.readouterr()
     assert main(["diagnose", str(tmp_path / "otter.csv"), "--columns", str(tmp_path / "map.yaml"), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["unexplained"]  # the default 6 m twin is far off this boat

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import tempfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,7 @@ from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.ident.manoeuvring_trials import recorded
 from boat_twin.ident.zigzag_features import (
+    EVENTS,
     FEATURE_NAMES,
     ZigzagRecord,
     ensemble_features,
@@ -22,6 +24,7 @@ from boat_twin.ident.zigzag_features import (
 )
 from boat_twin.twin.sea_trial import run_sea_trial
 from boat_twin.vessel.manoeuvres import zigzag_figures
+from boat_twin.vessel.params import derive_coefficients
 from boat_twin.vessel.scenarios import Zigzag
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ, simulate
 
@@ -120,3 +123,40 @@ def test_simulated_and_measured_zigzag_features_agree_with_the_imo_figures() -> 
     np.testing.assert_allclose(measured[:, 4], events[:, 4], atol=math.radians(0.2))
     np.testing.assert_allclose(measured[:, 1:3], events[:, 1:3], atol=8.0)
     np.testing.assert_allclose(measured[:, 6], events[:, 6], atol=0.01)
+
+
+def test_actual_rudder_leaves_no_feature_constant_where_the_command_left_nine() -> None:
+    """Pashentsev (2025) records the rudder's position (the steering actuator), not the order. Over an ensemble
+    of boats with their coefficients and steering offsets varied (the training sets'), every one of the 42
+    features varies with the actual angle; with the commanded angle the rudder at every event and the deviation
+    at the equalities are the constants ±20° (9 features). At an equality the deviation equals the actual rudder
+    angle; where the offset brings the rudder's target inside ±20° (before the helm reverses at ±20°), the rudder
+    stands settled there at the command plus the offset."""
+    config = TwinConfig()
+    rng = np.random.default_rng(5)
+    base = config.vessel
+    coeff = derive_coefficients(base)
+    boats, offsets = [], rng.normal(0.0, math.radians(0.5), 16)
+    for offset in offsets:
+        scale = 1.0 + 0.1 * rng.standard_normal(3)
+        manoeuvring = {"m22_kg": coeff.m22_kg * scale[0], "m33_kgm2": coeff.m33_kgm2 * scale[1],
+                       "yaw_damping_Nms": coeff.yaw_damping_Nms * scale[2]}
+        boats.append(replace(base, manoeuvring=manoeuvring, steering_offset_rad=float(offset)))
+    angle = math.radians(20.0)
+    zigzag = Zigzag(base, angle, angle, speed_mps=6.0, duration_s=75.0, decision_rate_hz=OUTPUT_RATE_HZ)
+    record = simulate(base, zigzag, boats=boats)
+    actual, commanded = ensemble_features(record), ensemble_features(record, actual_rudder=False)
+    assert np.all(np.isfinite(actual)) and np.all(np.isfinite(commanded))
+
+    def constant(x: np.ndarray) -> list[str]:
+        return [FEATURE_NAMES[j] for j in np.flatnonzero(np.ptp(x, axis=0) <= 1e-9 * np.abs(x).max(axis=0))]
+
+    assert constant(actual) == []
+    assert sorted(constant(commanded)) == sorted(
+        [f"{e}.rudder_rad" for e in EVENTS] + [f"equality_{k}.heading_deviation_rad" for k in (1, 2, 3)])
+    events = actual.reshape(-1, 6, 7)
+    for k, sign in zip((0, 2, 4), (1.0, -1.0, 1.0), strict=True):
+        np.testing.assert_allclose(events[:, k, 4], events[:, k, 5], atol=1e-9)
+        inside = sign * offsets < 0.0
+        assert inside.sum() >= 4
+        np.testing.assert_allclose(events[inside, k, 5], sign * angle + offsets[inside], atol=1e-9)

@@ -127,14 +127,15 @@ def identification_summary(sample: Trial, out: Path, staging: Path | None = None
     write_trial_report((staging or out) / "identify", result, t_s, thrust, speed,
                        true_resistance_N=TwinConfig().vessel.resistance.force_N,  # the sample's own boat
                        title=f"demo: identify {sample.metadata.source}")
-    fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
-    dyn = result["dynamic"]
+    oe = result["output_error"]
+    lo, hi = oe["selected"]["mass_ci95_kg"]
     paper = reproduce()
     fisher = paper["paper"]["fisher"]
     lines = [
-        f"sample: {len(result['steady_points'])} steady points, order N = {result['selected_order']}, "
-        f"RMSE {fit['rmse']:.1f} N; effective mass {dyn.get('mass_kg', float('nan')):.0f} kg "
-        f"(simulated boat: {TwinConfig().vessel.mass_kg * 1.05:.0f} kg); report in {out / 'identify'}",
+        f"sample: output-error fit {oe['selected']['model']} over every sample, effective mass "
+        f"{oe['selected']['mass_kg']:.0f} kg, 95% CI [{lo:.0f}, {hi:.0f}] (simulated boat: "
+        f"{TwinConfig().vessel.mass_kg * 1.05:.0f} kg); {len(result['steady_points'])} steady points; "
+        f"report in {out / 'identify'}",
         f"Dyda & Chumakova (2021) Table 7 Fisher statistic, recomputed: N=1 {fisher['1']:.2f}, N=3 {fisher['3']:.2f}, "
         f"N=5 {fisher['5']:.2f} (printed: 314.76, 228.98, 315.3)",
         f"least-squares optimum on Table 1: selected order N = {paper['selected_order']}",

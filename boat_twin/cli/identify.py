@@ -155,9 +155,16 @@ def _run_manoeuvring(args: argparse.Namespace, out: Path | None) -> int:
                   "residual RMS / measured noise: ") + ratios + (
                   f"; thresholds {block['misfit_threshold']}): the model lacks a cause in these trials and the "
                   "coefficients are biased" if block["misfit"] else ""))
+    timing = block["steering_timing"]
+    if not timing["flagged"]:  # a flagged check says so in its note
+        low, high = timing["delay_ci95_s"]
+        lines.append(f"steering timing: delay {timing['delay_s']:+.3f} s, 95% CI [{low:+.3f}, {high:+.3f}] s (score "
+                     f"test t {timing['t']:+.2f}, limit ±{timing['t_limit']:g})")
     for check in block["validation"]:
+        track = "track: no GNSS positions" if check["track_rmse_m"] is None \
+            else f"track RMSE {check['track_rmse_m']:.1f} m"
         line = (f"validation {check['source']}: heading RMSE {check['heading_rmse_deg']:.2f}°, yaw rate RMSE "
-                f"{check['yaw_rate_rmse_degps']:.3f}°/s, track RMSE {check['track_rmse_m']:.1f} m")
+                f"{check['yaw_rate_rmse_degps']:.3f}°/s, {track}")
         if "tactical_diameter_m" in check:
             d = check["tactical_diameter_m"]
             line += f", tactical diameter {d['predicted']:.1f} m predicted vs {d['measured']:.1f} m measured"
@@ -183,7 +190,7 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     each with the identified model (closing the loop), report (into --out, claimed by the caller)."""
     from boat_twin.fleet.reports import write_identify_report
     from boat_twin.ident.pipeline import identify_trials
-    from boat_twin.ident.report import resimulation_line
+    from boat_twin.ident.report import count, model_lines, resimulation_line
 
     boat = _boat_facts(args)
     trials = []
@@ -201,21 +208,10 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0
-    fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
-    dyn = result.get("dynamic", {})
-    names = ", ".join(map(str, args.trial))
-    rejected = len(result.get("rejected_segments", []))
-    lines = [
-        f"trial{'s' if len(trials) > 1 else ''} {names}: {_count(len(result['steady_points']), 'steady point')}, "
-        f"{_count(rejected, 'segment')} rejected",
-        f"steady-state detector: window {result['steady_criteria']['window_s']:.3g} s, thrust tolerance "
-        f"{result['steady_criteria']['thrust_tolerance_N']:.3g} N",
-        f"selected order N = {result['selected_order']} ({result.get('selection_reason', '')})",
-        "Fc(v) coefficients c0..cN, N/(m/s)^i: " + ", ".join(f"{c:.4g}" for c in fit["coefficients"]),
-        f"RMSE {fit['rmse']:.2f} N",
-        f"effective mass {dyn['mass_kg']:.0f} kg, 95% CI [{dyn['mass_ci95_kg'][0]:.0f}, {dyn['mass_ci95_kg'][1]:.0f}]"
-        if "mass_kg" in dyn else f"effective mass: {dyn.get('error', 'not identified')}",
-    ]
+    lines = [f"trial{'s' if len(trials) > 1 else ''} {', '.join(map(str, args.trial))}: "
+             f"{count(len(result['steady_points']), 'steady point')}, "
+             f"{count(len(result.get('rejected_segments', [])), 'segment')} rejected"]
+    lines += model_lines(result)
     if result.get("rejected_segments"):
         lines.append(rejected_summary(result["rejected_segments"]))
     if vessel is not None:
@@ -231,18 +227,16 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     return 0
 
 
-def _count(n: int, noun: str) -> str:
-    """``n`` and ``noun``, plural unless one ("1 segment", "2 segments")."""
-    return f"{n} {noun}" + ("" if n == 1 else "s")
-
-
 def register(subparsers: Any) -> None:
     """Add the ``identify`` verb."""
     p = subparsers.add_parser(
         "identify",
         help=verb_help("identify"),
-        description="Identify the longitudinal model m·dv/dt = F - Fc(v), Fc(v) = sum c_i·v^i "
-        "(Dyda & Chumakova 2021). Internally SI; the built-in table is reported in its own units (kn, kgf).",
+        description="Identify the longitudinal model m·du/dt = T - Fc(u) (Dyda & Chumakova 2021). From trials: an "
+        "output-error fit over every sample (effective mass, Fc non-decreasing with Fc(0) = 0, complexity by "
+        "cross-validated prediction, beside the baseline a·u + b·u|u|), with the paper's steady-point power "
+        "series Fc(v) = sum c_i·v^i as a view. Internally SI; the built-in table is reported in its own units "
+        "(kn, kgf).",
     )
     p.add_argument("trial", nargs="*", type=Path,
                    help=TRIAL_HELP + "; several trials of one boat are pooled into one identification (--each: each on "
@@ -269,7 +263,8 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--order", type=int, metavar="N",
-        help="power-series order N (default: chosen by leave-one-out cross-validation and the Bayesian information "
+        help="power-series order N of the steady points' fit (the table's model; for a trial a view beside the "
+        "output-error model; default: chosen by leave-one-out cross-validation and the Bayesian information "
         "criterion, BIC)"
     )
     p.add_argument(
@@ -279,7 +274,8 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--monotone",
         action="store_true",
-        help="constrain Fc to be non-decreasing from 0 to the top speed and Fc(0) >= 0",
+        help="constrain the power series to be non-decreasing from 0 to the top speed and Fc(0) >= 0 (the "
+        "output-error model of a trial always is)",
     )
     p.add_argument(
         "--through-origin", action="store_true", help="impose Fc(0) = c0 = 0 (no resistance at rest)"
@@ -297,7 +293,8 @@ def register(subparsers: Any) -> None:
         help="the boat's facts for the twin --out writes (twin.yaml): vessel fields, e.g. length_m, beam_m, "
         "draft_m, engine_y_m, bollard_thrust_N (SI; docs/identification.md), or a twin config as simulate --config "
         "takes (its resistance, effective mass and other sections are ignored: identify measures them); facts not "
-        "given are the default boat's carried to the identified mass")
+        "given are the default boat's carried to the identified mass; its mass_kg is held when the data do not "
+        "identify the mass")
     p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
     p.add_argument(
         "--out",

@@ -145,6 +145,7 @@ def run(args: argparse.Namespace) -> int:
     from boat_twin.validation import integer
     from boat_twin.vessel.manoeuvres import execute_time_s, manoeuvre_figures
     from boat_twin.vessel.params import describe
+    from boat_twin.vessel.scenarios import scenario_warnings
 
     integer("--seed", args.seed, minimum=0, maximum=SEED_MAX)
     if args.duration is not None:  # every path: a scenario, --commands, --mavlink, --tlog, --ensemble
@@ -174,9 +175,12 @@ def run(args: argparse.Namespace) -> int:
     scenario = _scenario(args, config)
     if args.out is None and args.plot is None and not args.json:
         raise InputError("nothing to do: give --out BAG (and/or --plot PNG, --json)")
+    warnings = scenario_warnings(config.vessel, scenario)
+    for warning in warnings:
+        sys.stderr.write(f"warning: {warning}\n")
     trial = run_compact_trial(config, scenario, args.seed, noise=not args.no_noise)
     result = {"scenario": scenario.name, "seed": args.seed, **summarize(trial.truth),
-              "vessel": describe(config.vessel)}
+              "vessel": describe(config.vessel), "warnings": warnings}
     figures = manoeuvre_figures(scenario, trial.truth, config.vessel.length_m)
     if figures is not None:
         result["manoeuvre"] = figures

@@ -177,8 +177,13 @@ def text_report(result: DiagnosisResult) -> str:
     lines.append("signal            baseline RMSE   extended RMSE")
     for s in ("speed_mps", *SIGNALS, "position_m"):
         lines.append(f"  {s:16s} {base[s]:10.4f}      {ext[s]:10.4f}  {UNITS[s]}")
-    if not result["verdict"]:
+    if not result["verdict"] and result["unexplained"]:
+        lines.append("verdict     UNEXPLAINED: the model is off the data and no catalogue effect explains it "
+                     "(see the unexplained lines below)")
+    elif not result["verdict"]:
         lines.append("verdict     no significant discrepancy a catalogue effect explains")
+    elif result["unexplained"]:
+        lines.append("verdict     PARTLY UNEXPLAINED: the effects below leave structure no catalogue effect explains")
     for v in result["verdict"]:
         parts = [f"{k} = {val:.4g} [{v['ci95'][k][0]:.4g}, {v['ci95'][k][1]:.4g}]" for k, val in
                  v["parameters"].items()]

@@ -55,11 +55,15 @@ class IdentifyJob:
     """Boat facts for the twin (``--boat`` file's contents), None: the default boat's."""
     boat_file: str | None = None
     verb = "identify"
-    columns = ("mass_kg", "mass_ci95_low_kg", "mass_ci95_high_kg", "order", "curve_N", "fit_rmse_N",
-               "steady_points", "misfit_speed_rmse_mps", "warnings")
-    """The headline: effective mass and its 95 % interval, kg; the selected order N and the resistance curve's
-    coefficients c0..cN, N/(m/s)^i; the steady fit's RMSE, N; steady points used; the re-simulation's speed RMSE
-    (the identified model run on the trial's commands against the measured speed), m/s; warnings counted."""
+    columns = ("mass_kg", "mass_ci95_low_kg", "mass_ci95_high_kg", "mass_identified", "model", "curve_speed_mps",
+               "curve_N", "heldout_rmse_mps", "baseline_heldout_rmse_mps", "physical_problems", "steady_points",
+               "misfit_speed_rmse_mps", "warnings")
+    """The headline: the model's effective mass and its 95 % interval, kg (null when the data do not identify
+    it); the selected output-error model (``baseline`` or ``spline-K``) and its resistance Fc at eleven speeds
+    from 0 to the top measured one (m/s, N); the held-out speed RMSE of the model and of the baseline
+    a·u + b·u|u|, m/s; why the model is not physical (empty: it is); steady points seen; the re-simulation's
+    speed RMSE (the identified model run on the trial's commands against the measured speed), m/s; warnings
+    counted."""
 
     def __call__(self, path: Path, out: Path) -> dict[str, Any]:
         """Identify the trial at ``path``, write its report into ``out``; its row's values."""
@@ -72,12 +76,16 @@ class IdentifyJob:
                                                  thrust_tolerance_N=self.thrust_tolerance_N, boat=self.boat)
         out.mkdir(parents=True, exist_ok=True)
         write_identify_report(out, result, [trial], resims, vessel, str(path), self.boat_file)
-        fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
-        dynamic = result.get("dynamic", {})
-        low, high = dynamic.get("mass_ci95_kg", (None, None))
-        return {"duration_s": duration_s(trial), "mass_kg": dynamic.get("mass_kg"), "mass_ci95_low_kg": low,
-                "mass_ci95_high_kg": high, "order": result["selected_order"],
-                "curve_N": [float(c) for c in fit["coefficients"]], "fit_rmse_N": fit["rmse"],
+        oe = result["output_error"]
+        selected, table = oe["selected"], oe["selected"]["resistance_table"]
+        known = "effective_mass_kg" in result["model"]
+        low, high = selected["mass_ci95_kg"] if known else (None, None)
+        heldout = {c["model"]: c["cv_rmse_mps"] for c in oe["candidates"]}
+        return {"duration_s": duration_s(trial), "mass_kg": result["model"].get("effective_mass_kg"),
+                "mass_ci95_low_kg": low, "mass_ci95_high_kg": high, "mass_identified": oe["mass_identified"],
+                "model": selected["model"], "curve_speed_mps": table["speed_mps"], "curve_N": table["force_N"],
+                "heldout_rmse_mps": heldout[selected["model"]], "baseline_heldout_rmse_mps": heldout["baseline"],
+                "physical_problems": result["physical_problems"],
                 "steady_points": len(result["steady_points"]),
                 "misfit_speed_rmse_mps": result["resimulation"].get("speed_rmse_mps"),
                 "warnings": len(result["warnings"])}

@@ -75,6 +75,13 @@ NOT_IDENTIFIED_FACTOR = 2.0
 identified: the trials leave it free by more than its own size."""
 NOT_IDENTIFIED_ABSOLUTE = {"lateral_centre_x_m": 0.5, "steering_offset_rad": math.radians(2.0)}
 """Half-interval above which a signed parameter is not identified (m; rad)."""
+TIMING_SHIFT_SAMPLES = 1
+"""The steering commands are replayed this many samples late (0.1 s at 10 Hz) for the timing check's regressor:
+the finite-difference sensitivity of every residual to a steering delay."""
+TIMING_T_LIMIT = 3.0
+"""|t| of the steering-timing score test above which a fit is flagged (``timing_flag``): the residuals keep a
+component a steering delay or lag would explain. Measured (docs/identification.md): clean fits of the right model
+|t| ≤ 1.7 over 6 seeds; a 0.2 s first-order lag of the steering on an independent integrator 6.8-16."""
 SEPARATION_CORRELATION = 0.95
 """|correlation| above which two estimates are reported as not separated by the trials."""
 DIVERGED_RESIDUAL = 1e3
@@ -114,6 +121,10 @@ HELD_NOTE = ("held, not fitted: m11 and the resistance Fc(u) (surge: the thrust�
 LEVER_ARM_NOTE = ("engine lever arm x_e: the yaw equation holds it only as x_e/m33 (with a_r/m33, x_c·a_v/m33, "
                   "N_rr/m33), so a wrong x_e rescales m33 and the yaw coefficients together; taken as given "
                   "({x_e:+.2f} m), m33, a_r and N_rr are relative to it")
+TIMING_NOTE = ("STEERING TIMING: the residuals follow the steering's timing (score test t = {t:+.1f}, limit "
+               "±{t_limit:g}): the outboards act {delay_s:+.2f} s late (95 % [{low:+.2f}, {high:+.2f}] s, linearized) "
+               "against the model, a command delay or actuator lag it lacks; the coefficients and their intervals "
+               "absorb it (m22, m33 and the damping biased): model the timing (config) or fix the recording")
 PAIR_REASONS = {
     frozenset(("sway_damping_Nspm2", "sway_quadratic_Ns2pm2")):
         "lift a_v·|u|·v and cross-flow Y_vv·|v|·v are told apart by the drift |v| against the speed |u|: "
@@ -191,6 +202,18 @@ def _normalized_residuals(data: TrialData, prediction: Prediction) -> dict[str, 
         diverged = settled & np.isfinite(measured) & ~np.isfinite(predicted)
         out[s] = np.where(diverged, DIVERGED_RESIDUAL, residual(s, measured, predicted) / data.noise[s])
     return out
+
+
+def _steering_late(windows: Windows, samples: int) -> Windows:
+    """``windows`` with the steering commands (not the thrust) acting ``samples`` samples late: each sample's
+    steering is the trial's from ``samples`` earlier (the first held)."""
+    commands = windows.trial.commands
+    late = commands.copy()
+    late[samples:, 2:4] = commands[:-samples, 2:4]
+    late[:samples, 2:4] = commands[0, 2:4]
+    trial = replace(windows.trial, angle_left_rad=late[:, 2], angle_right_rad=late[:, 3])
+    index = windows.start_index[None, :] + np.arange(windows.t_s.shape[0])[:, None]
+    return replace(windows, commands=late[index], trial=trial)
 
 
 DIFFERENCE_STEP = 1e-4
@@ -339,6 +362,45 @@ class _Problem:
             columns.append(projection.apply(derivative).reshape(-1, x.size))
         return np.concatenate(columns)
 
+    def steering_timing(self, x: np.ndarray, jac: np.ndarray, fun: np.ndarray, p_count: int) -> dict[str, Any]:
+        """Score (Lagrange multiplier) test for a steering delay the model lacks, at the solution ``x``.
+
+        The regressor is each residual's change when the steering commands are replayed
+        :data:`TIMING_SHIFT_SAMPLES` late (projected like the Jacobian, then orthogonalized against its columns:
+        what the fitted coefficients cannot mimic). Its score sᵀr over the cluster-robust standard deviation
+        (windows as clusters, as the intervals) is t, ≈ N(0, 1) when the steering acts when commanded; a delay or
+        a first-order lag of the steering (a lag τ is a delay τ at the frequencies a zigzag excites) leaves
+        residuals along it. The one-step estimate of the delay, −(sᵀr)/(sᵀs)·shift, and its 95 % interval size
+        it (linearized: indicative beyond a few tenths of a second)."""
+        _, projections, raw = self.evaluate(x)
+        vessel = apply_parameters(self.base, self.values(x)).vessel
+        columns = []
+        shift_s = 0.0
+        for d, m, projection, r in zip(self.data, self.motion, projections, raw, strict=True):
+            late = _steering_late(d.windows, TIMING_SHIFT_SAMPLES)
+            shift_s = TIMING_SHIFT_SAMPLES * d.windows.dt_s
+            with np.errstate(all="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                prediction = predict_vessels(late, self.base, [vessel], m)[0]
+            q = np.concatenate(list(_normalized_residuals(d, prediction).values()))
+            change = np.where(np.isfinite(r) & np.isfinite(q), q - r, 0.0)
+            columns.append(projection.apply(change[..., None]).reshape(-1))
+        s = np.concatenate(columns)
+        coefficients, *_ = np.linalg.lstsq(jac, s, rcond=None)
+        s = s - jac @ coefficients
+        clusters = self.clusters()
+        score = float(s @ fun)
+        groups = np.unique(clusters)
+        variance = sum(float(s[clusters == g] @ fun[clusters == g]) ** 2 for g in groups)
+        variance *= groups.size / max(groups.size - p_count - 1, 1)
+        t_value = score / math.sqrt(variance) if variance > 0.0 else 0.0
+        curvature = float(s @ s)
+        delay = -score / curvature * shift_s if curvature > 0.0 else 0.0
+        half = (float(student_t.ppf(0.975, max(groups.size - p_count - 1, 1))) * math.sqrt(variance) / curvature
+                * shift_s if curvature > 0.0 else math.inf)
+        return {"t": t_value, "flagged": bool(abs(t_value) > TIMING_T_LIMIT), "t_limit": TIMING_T_LIMIT,
+                "delay_s": delay, "delay_ci95_s": [delay - half, delay + half]}
+
     def clusters(self) -> np.ndarray:
         """Window index (over all trials) of every stacked residual."""
         labels, offset = [], 0
@@ -373,6 +435,9 @@ class ManoeuvringFit:
     fit_time_s: float
     config: TwinConfig
     notes: list[str]
+    steering_timing: dict[str, Any]
+    """The steering-timing check (:meth:`_Problem.steering_timing`): score test ``t``, ``flagged``, the
+    linearized delay estimate ``delay_s`` and its ``delay_ci95_s``."""
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready result (SI)."""
@@ -384,6 +449,7 @@ class ManoeuvringFit:
             "not_identified": dict(self.not_identified),
             "not_separated": list(self.not_separated),
             "misfit": self.misfit,
+            "steering_timing": dict(self.steering_timing),
             "residual_to_noise": dict(self.residual_to_noise),
             "noise_floor": dict(self.noise),
             "misfit_threshold": {s: MISFIT_RATIO[s] for s in self.residual_to_noise},
@@ -459,6 +525,10 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     ratio = {s: float(np.sqrt(np.nanmean(np.concatenate([r[s].ravel() for r in residuals if s in r]) ** 2)))
              for s in used}
     noise = {s: float(np.median([d.noise[s] for d in data if s in d.noise])) for s in used}
+    timing = problem.steering_timing(x, jac, fun, len(free))
+    notes = [HELD_NOTE, LEVER_ARM_NOTE.format(x_e=base.vessel.engine_x_m)]
+    if timing["flagged"]:
+        notes.append(TIMING_NOTE.format(**timing, low=timing["delay_ci95_s"][0], high=timing["delay_ci95_s"][1]))
     return ManoeuvringFit(
         values=values, fitted=list(free), ci95=ci95,
         stderr={p.key: float(se) for p, se in zip(problem.free, stderr, strict=True)},
@@ -466,8 +536,7 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
         not_separated=_not_separated(free, correlation),
         residual_to_noise=ratio, noise=noise, misfit=any(r > MISFIT_RATIO[s] for s, r in ratio.items()),
         windows=groups, trials=[str(t.metadata.source) for t in trials], evaluations=evaluations + 1,
-        fit_time_s=time.perf_counter() - started, config=config,
-        notes=[HELD_NOTE, LEVER_ARM_NOTE.format(x_e=base.vessel.engine_x_m)],
+        fit_time_s=time.perf_counter() - started, config=config, notes=notes, steering_timing=timing,
     )
 
 
@@ -499,8 +568,8 @@ def tactical_diameter_m(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray
                         execute_index: int) -> float | None:
     """Transfer when the heading has changed by 180° since the execute (IMO MSC.137(76) tactical diameter), m:
     the displacement normal to the approach heading between the execute and that instant; None if the heading
-    never turns that far. Positions are averaged over ±:data:`TURN_AVERAGING_S` (both instants are stationary
-    points of the transfer)."""
+    never turns that far or no position is known there. Positions are averaged over ±:data:`TURN_AVERAGING_S`
+    (both instants are stationary points of the transfer)."""
     change = np.abs(yaw_rad[execute_index:] - yaw_rad[execute_index])
     beyond = np.flatnonzero(change >= math.pi)
     if beyond.size == 0:
@@ -511,9 +580,12 @@ def tactical_diameter_m(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray
 
     def around(i: int) -> np.ndarray:
         span = slice(max(i - half, 0), i + half + 1)
-        return np.array([np.nanmean(east_m[span]), np.nanmean(north_m[span])])
+        east, north = east_m[span], north_m[span]
+        known = np.isfinite(east) & np.isfinite(north)
+        return np.array([np.mean(east[known]), np.mean(north[known])]) if known.any() else np.full(2, np.nan)
 
-    return float(abs(normal @ (around(execute_index + int(beyond[0])) - around(execute_index))))
+    across = float(abs(normal @ (around(execute_index + int(beyond[0])) - around(execute_index))))
+    return across if math.isfinite(across) else None
 
 
 def gyro_heading(trial: Trial, first: int) -> np.ndarray:
@@ -523,6 +595,12 @@ def gyro_heading(trial: Trial, first: int) -> np.ndarray:
     turned = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * dt)])
     turned -= turned[first]
     return turned + float(np.nanmean(trial.heading_rad[first:] - turned[first:]))
+
+
+def _rms_or_none(squares: np.ndarray) -> float | None:
+    """√(mean of the finite ``squares``), or None when there is none (e.g. a trial without positions)."""
+    finite = squares[np.isfinite(squares)]
+    return float(np.sqrt(np.mean(finite))) if finite.size else None
 
 
 def validate(trial: Trial, config: TwinConfig) -> dict[str, Any]:
@@ -554,7 +632,7 @@ def validate(trial: Trial, config: TwinConfig) -> dict[str, Any]:
         "duration_s": float(trial.t_s[stop - 1] - trial.t_s[first]),
         "yaw_rate_rmse_degps": math.degrees(float(np.sqrt(np.nanmean(rate_error**2)))),
         "heading_rmse_deg": math.degrees(float(np.sqrt(np.nanmean((yaw - model_yaw) ** 2)))),
-        "track_rmse_m": float(np.sqrt(np.nanmean(np.sum(track_error**2, axis=-1)))),
+        "track_rmse_m": _rms_or_none(np.sum(track_error**2, axis=-1)),
     }
     steering = trial.commands[first:stop, 2]
     changed = np.flatnonzero(np.abs(steering - steering[0]) > 1e-6)

@@ -21,7 +21,7 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.io.bags import read_trial, write_bag
 from boat_twin.io.trial import Trial
-from boat_twin.twin.sea_trial import SeaTrial, run_sea_trial, trial_messages
+from boat_twin.twin.sea_trial import SeaTrial, actual_angle_on_grid, run_sea_trial, trial_messages
 from boat_twin.vessel.params import MANOEUVRING_KEYS, derive_coefficients
 from boat_twin.vessel.scenarios import CommandProfile, Scenario, Zigzag
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
@@ -77,10 +77,13 @@ def zigzag_scenarios(config: TwinConfig, speeds_mps: Sequence[float] = ZIGZAG_SP
 
 
 def recorded(trial: SeaTrial, name: str, directory: Path) -> Trial:
-    """``trial`` as a recorded trial: written to a bag without truth and read back."""
+    """``trial`` as a recorded trial: written to a bag without truth and read back, with the outboards' actual
+    angle the simulator knows (a boat with a rudder-angle indicator; the bag has no topic for it)."""
     path = directory / name
     write_bag(path, trial_messages(trial, truth=False), force=True)
-    return read_trial(path)
+    out = read_trial(path)
+    out.actual_angle_rad = actual_angle_on_grid(trial.record, 0, out)
+    return out
 
 
 def zigzag_set(config: TwinConfig, seed: int, both_sides: bool = True, directory: Path | None = None,

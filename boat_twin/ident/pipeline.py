@@ -20,8 +20,9 @@ import yaml
 from boat_twin.data import dyda2021_table1_si
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_write_text
-from boat_twin.ident.dynamic import DynamicResult, DynamicWindow, check_samples, identify_dynamic
+from boat_twin.ident.dynamic import DynamicWindow, check_samples, identify_dynamic
 from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadyCriteria, detect_steady_segments
+from boat_twin.ident.output_error import SurgeFit, SurgeRecord, identify_surge
 from boat_twin.ident.paper import reproduce
 from boat_twin.ident.resimulate import Resimulation, resimulate
 from boat_twin.ident.settling import derive_criteria
@@ -30,7 +31,6 @@ from boat_twin.ident.twin_config import identified_vessel, thrust_seen
 from boat_twin.io.trial import COMMAND_ROLES, Trial
 from boat_twin.units import KGF_N, KNOT_MPS
 from boat_twin.vessel.params import VesselParams, params_to_dict
-from boat_twin.vessel.resistance import TableResistance
 
 SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
 """Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
@@ -41,6 +41,12 @@ TWO_WAY_WARNING = 0.3
 class IdentifyResult(TypedDict):
     """What :func:`identify_arrays` returns: the ``--json`` contract of ``boat-twin identify`` (SI, JSON-ready)."""
 
+    output_error: dict[str, Any]
+    """The model: OutputErrorResult.to_dict() (selected fit, the baseline beside it, every candidate's
+    cross-validated error, why the selection, whether the mass is identified)."""
+    physical_problems: list[str]
+    """Why the model is not physical (empty when it is): such a model never becomes a twin."""
+
     steady_points: list[dict[str, float]]
     """Accepted constant-thrust segments: speed_mps, thrust_N, duration_s, start_s, end_s, speed_stderr_mps,
     recording (index of the pooled recording it came from)."""
@@ -49,15 +55,18 @@ class IdentifyResult(TypedDict):
     steady_criteria: dict[str, Any]
     """The detector's window and thrust tolerance and the figures they were derived from (DerivedCriteria)."""
     fits: list[dict[str, Any]]
-    """Steady power-series fits (FitResult.to_dict): coefficients N/(m/s)^i, intervals, RMSE, CV, BIC, ..."""
-    selected_order: int
+    """Steady power-series fits (FitResult.to_dict; a view of the data, not the model): coefficients N/(m/s)^i,
+    intervals, RMSE, CV, BIC, ..."""
+    selected_order: int | None
+    """Order of the selected steady fit (None: too few steady points for any)."""
     selection_reason: str
     dynamic: dict[str, Any]
-    """Mass + Fc from the transients (DynamicResult.to_dict), or ``{"error": why}``."""
+    """Mass + Fc from the transients (DynamicResult.to_dict; a view), or ``{"error": why}``."""
     online: dict[str, Any]
     """The online identifier replayed over the same samples (snapshot) and its agreement with batch."""
     model: dict[str, Any]
-    """The identified model the vessel loader accepts (:func:`model_dict`)."""
+    """The identified model the vessel loader accepts: ``resistance`` (a monotone table of the output-error fit)
+    and ``effective_mass_kg`` when identified or given."""
     warnings: list[str]
 
 
@@ -151,8 +160,9 @@ def replay_online(
 
 POOL_GAP_S = 1000.0
 """Pooled recordings are placed on one time axis this far apart, s: no steady segment or dynamic window spans two."""
-EXTRAPOLATION_MARGIN = 0.05
-"""The trial's top speed may exceed the steady points' by this share (or 3 noise σ) before it is flagged, -."""
+OVER_THRUST = 0.15
+"""A resistance more than this share above the thrust that held a steady speed (or above the largest thrust at a
+speed the boat sustained) is not physical: the twin is refused, -."""
 
 
 def pool(pieces: list[tuple[Any, Any, Any]]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -170,45 +180,67 @@ def pool(pieces: list[tuple[Any, Any, Any]]) -> list[tuple[np.ndarray, np.ndarra
     return out
 
 
-def _extrapolation_warning(pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], fit: FitResult,
-                           dyn_domain: tuple[float, float] | None, noise_mps: float) -> str | None:
-    """A warning when the trial ran well above the steady points' top speed (the model extrapolates there)."""
-    top_trial = float(np.quantile(np.concatenate([v for _, _, v in pieces]), 0.995))
-    top_fit = fit.domain[1]
-    if top_trial <= top_fit + max(EXTRAPOLATION_MARGIN * top_fit, 3.0 * noise_mps):
-        return None
-    dyn = (f"; the fit from the transients spans {dyn_domain[0]:.2f}-{dyn_domain[1]:.2f} m/s"
-           if dyn_domain is not None else "")
-    return (f"extrapolation: the trial reaches {top_trial:.2f} m/s but the steady points span "
-            f"{fit.domain[0]:.2f}-{top_fit:.2f} m/s; above {top_fit:.2f} m/s the model follows the quadratic law, "
-            f"not data{dyn}: hold thrust levels up to the top speed")
+def physical_problems(fit: SurgeFit, points: list[dict[str, float]],
+                      pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> list[str]:
+    """Why the identified model is not physical (empty: it is): a mass that is not positive, a resistance above
+    the (positive) thrust that held a steady speed, or above the largest thrust at a speed the boat sustained for
+    5 s, or a curve that decreases."""
+    problems = []
+    if not (np.isfinite(fit.mass_kg) and fit.mass_kg > 0.0):
+        problems.append(f"effective mass {fit.mass_kg:.4g} kg is not positive")
+    for p in points:
+        if p["thrust_N"] <= 0.0:  # at rest (or astern): the speed over ground is the GNSS noise floor
+            continue
+        force = float(fit.resistance_N(np.array([p["speed_mps"]]))[0])
+        if force > (1.0 + OVER_THRUST) * p["thrust_N"] + 3.0 * p.get("thrust_stderr_N", 0.0):
+            problems.append(f"Fc({p['speed_mps']:.2f} m/s) = {force:.4g} N is above the {p['thrust_N']:.4g} N "
+                            "that held that speed steadily")
+    sustained = 0.0
+    for t, _, v in pieces:
+        width = max(int(round(5.0 / float(np.median(np.diff(t))))), 1) if t.size > 1 else 1
+        if v.size >= width:
+            sustained = max(sustained, float(np.max(np.convolve(np.abs(v), np.ones(width) / width, "valid"))))
+    top_thrust = max(float(np.max(f)) for _, f, _ in pieces)
+    grid = np.linspace(0.0, sustained, 50)
+    over = fit.resistance_N(grid) > (1.0 + OVER_THRUST) * max(top_thrust, 0.0)
+    if np.any(over):
+        problems.append(f"Fc({grid[np.argmax(over)]:.2f} m/s) exceeds the largest thrust commanded "
+                        f"({top_thrust:.4g} N), yet the boat sustained {sustained:.2f} m/s")
+    if np.any(np.diff(fit.resistance_N(np.linspace(0.0, fit.top_speed_mps, 200))) < -1e-9):
+        problems.append("Fc decreases with speed")
+    return problems
 
 
-TRANSIENT_AGREEMENT = 0.1
-"""The transient fit extends the model above the steady points only if it agrees with the steady fit over the upper
-half of their span (where the two join) within this share (RMS difference over RMS force), -."""
-
-
-def _extended_by_transients(fit: FitResult, dyn: DynamicResult) -> TableResistance | str | None:
-    """Fc from the steady fit up to its top speed, then the transient fit's shape up to the top of the transients'
-    speeds (shifted to join the steady fit there), as a table; None when the transients reach no higher, or why
-    the transient fit is not used (it disagrees with the steady fit on their common span, or decreases)."""
-    low, top = fit.domain[1], dyn.speed_domain_mps[1]
-    if top <= low * (1.0 + EXTRAPOLATION_MARGIN) or abs(float(fit.predict(0.0))) > 1e-9:
-        return None
-    common = np.linspace(max(fit.domain[0], dyn.speed_domain_mps[0], low / 2.0), low, 50)
-    steady, transient = fit.predict(common), np.polynomial.polynomial.polyval(common, dyn.coefficients)
-    if _nrms(transient, steady) > TRANSIENT_AGREEMENT:
-        return (f"it differs from the steady fit by {_nrms(transient, steady):.0%} RMS over "
-                f"{common[0]:.2f}-{low:.2f} m/s (limit {TRANSIENT_AGREEMENT:.0%})")
-    speeds = np.concatenate([np.linspace(0.0, low, 25), np.linspace(low, top, 16)[1:]])
-    high = speeds > low
-    forces = fit.predict(speeds)
-    forces[high] = fit.predict(low) + np.polynomial.polynomial.polyval(speeds[high], dyn.coefficients) \
-        - np.polynomial.polynomial.polyval(low, dyn.coefficients)
-    if np.any(np.diff(forces) < 0.0):
-        return f"Fc would decrease with speed below {top:.2f} m/s"
-    return TableResistance(tuple(float(u) for u in speeds), tuple(float(f) for f in forces))
+def _steady_view(points: list[Any], rejected: list[Any], criteria: SteadyCriteria, order: int | None,
+                 max_order: int, monotone: bool, through_origin: bool
+                 ) -> tuple[tuple[FitResult, ...], int | None, str, list[str]]:
+    """Steady power-series fits (a view of the data and the paper's method): fits, selected order, why, warnings.
+    Too few steady points for an ``order`` asked for is an error; without one, the view is left out."""
+    needed = (order or 1) + 2
+    if len(points) < needed:
+        why = "; ".join(f"{s.thrust_N:.0f} N at {s.start_s:.0f} s: {s.reason}" for _, s in rejected[:3])
+        message = (f"{len(points)} steady point(s) found, order {order or 1} needs at least {needed} (N + 2): "
+                   f"hold more thrust levels until the speed settles ({criteria.window_s:.3g} s without a trend)"
+                   + (f"; rejected: {why}" if why else ""))
+        if order is not None:
+            raise InputError(message)
+        return (), None, message, [f"no steady points' polynomial (a view only): {message}"]
+    speed = np.array([s.speed_mps for _, s in points])
+    thrust = np.array([s.thrust_N for _, s in points])
+    if order is None:
+        selection = select_order(speed, thrust, max_order, monotone, through_origin=through_origin)
+        fits: tuple[FitResult, ...] = selection.fits
+        chosen, reason = selection.selected_order, selection.reason
+    else:
+        fits = (fit_power_series(speed, thrust, order, monotone, through_origin),)
+        chosen, reason = order, f"N = {order}: given"
+    fit = next(fr for fr in fits if fr.order == chosen)
+    warnings = []
+    if not fit.monotone:
+        bands = ", ".join(f"{lo:.2f}-{hi:.2f}" for lo, hi in fit.nonmonotone_bands)
+        warnings.append(f"the steady points' polynomial (N = {chosen}) decreases at {bands} m/s (a view only: the "
+                        "model is the output-error fit, non-decreasing by construction)")
+    return fits, chosen, reason, warnings
 
 
 def identify_arrays(
@@ -236,21 +268,24 @@ def identify_recordings(
     speed_noise_mps: float | None = None,
     window: DynamicWindow | None = None,
     memory_s: float = 3600.0,
+    fallback_mass_kg: float | None = None,
 ) -> IdentifyResult:
     """Identify a boat from one or more recordings of (time s, total thrust N, speed m/s), pooled in one fit.
 
-    Steady points (detector, run on each recording; its criteria derived from the data by
-    :func:`~boat_twin.ident.settling.derive_criteria`, ``window_s`` / ``thrust_tolerance_N`` overriding,
-    ``noise_correlation_s`` > 0 and ``speed_noise_mps`` for a speed smoothed from positions; or ``criteria``
-    taken as given), steady fits of N = 1..``max_order`` with CV/BIC selection (or ``order``), mass + Fc from
-    transients (own order selection), and the online identifier replayed over the same samples with its agreement
-    with batch. Steady fits impose Fc(0) = 0 unless ``through_origin`` is False
-    (trial steady points start above rest: a free c_0 would be an extrapolation). Returns the ``--json``
-    contract (SI): ``steady_points``, ``rejected_segments``, ``steady_criteria``, ``fits``, ``selected_order``,
-    ``selection_reason``, ``dynamic``, ``online``, ``model`` (for :func:`write_model_yaml`) and ``warnings``.
-    A trial whose transients cannot give the mass still yields the steady model; ``dynamic`` then holds
-    ``{"error": why}``. Pooled recordings share one time axis (:func:`pool`); each steady point and rejected
-    segment names its ``recording`` (0-based).
+    The model is the output-error fit over every sample (:func:`~boat_twin.ident.output_error.identify_surge`:
+    effective mass and a non-decreasing resistance with Fc(0) = 0, complexity by cross-validated multi-step
+    prediction, always beside the baseline m·du/dt = T − a·u − b·u|u| fitted the same way). When the data do not
+    identify the mass, ``fallback_mass_kg`` (effective mass, kg, e.g. from a boat file) is held instead and the
+    curve refitted; without it the model has no mass. Views of the same data: steady points (detector run on
+    each recording; its criteria derived from the data by :func:`~boat_twin.ident.settling.derive_criteria`,
+    ``window_s`` / ``thrust_tolerance_N`` overriding, ``noise_correlation_s`` > 0 and ``speed_noise_mps`` for a
+    speed smoothed from positions; or ``criteria`` taken as given) with power-series fits of N = 1..``max_order``
+    (CV/BIC selection, or ``order``; Fc(0) = 0 unless ``through_origin`` is False), mass + Fc from transients,
+    and the online identifier replayed over the same samples with its agreement with batch. Returns the
+    ``--json`` contract (SI): ``output_error``, ``physical_problems``, ``steady_points``, ``rejected_segments``,
+    ``steady_criteria``, ``fits``, ``selected_order`` (None without enough steady points), ``selection_reason``,
+    ``dynamic``, ``online``, ``model`` (for :func:`write_model_yaml`) and ``warnings``. Pooled recordings share
+    one time axis (:func:`pool`); each steady point and rejected segment names its ``recording`` (0-based).
     """
     pieces = pool(recordings)
     derived = derive_criteria(pieces, criteria, window_s=window_s, thrust_tolerance_N=thrust_tolerance_N,
@@ -269,34 +304,14 @@ def identify_recordings(
     segments = [(i, s) for i, piece in enumerate(pieces) for s in detect_steady_segments(*piece, criteria)]
     points = [(i, s) for i, s in segments if s.accepted]
     rejected = [(i, s) for i, s in segments if not s.accepted]
-    needed = (order or 1) + 2
-    if len(points) < needed:
-        why = "; ".join(f"{s.thrust_N:.0f} N at {s.start_s:.0f} s: {s.reason}" for _, s in rejected[:3])
-        raise InputError(
-            f"{len(points)} steady point(s) found, order {order or 1} needs at least {needed} (N + 2): "
-            f"hold more thrust levels until the speed settles ({criteria.window_s:.3g} s without a trend)"
-            + (f"; rejected: {why}" if why else "")
-        )
-    speed = np.array([s.speed_mps for _, s in points])
-    thrust = np.array([s.thrust_N for _, s in points])
-    if order is None:
-        selection = select_order(speed, thrust, max_order, monotone, through_origin=through_origin)
-        fits: tuple[FitResult, ...] = selection.fits
-        chosen, reason = selection.selected_order, selection.reason
-    else:
-        fits = (fit_power_series(speed, thrust, order, monotone, through_origin),)
-        chosen, reason = order, f"N = {order}: given"
-    fit = next(fr for fr in fits if fr.order == chosen)
-    warnings = []
-    if not fit.monotone:
-        bands = ", ".join(f"{lo:.2f}-{hi:.2f}" for lo, hi in fit.nonmonotone_bands)
-        warnings.append(
-            f"the selected fit decreases at {bands} m/s: steady speed not unique there (use --monotone)"
-        )
-    if fit.coefficients[0] < 0.0:
-        warnings.append(
-            f"Fc(0) = {fit.coefficients[0]:.3g} N < 0: the model creeps at zero thrust (use --monotone)"
-        )
+    fits, chosen, reason, warnings = _steady_view(points, rejected, criteria, order, max_order, monotone,
+                                                   through_origin)
+    records = [SurgeRecord(*piece) for piece in pieces]
+    oe = identify_surge(records)
+    if not oe.mass_identified and fallback_mass_kg is not None:
+        oe = identify_surge(records, mass_kg=fallback_mass_kg)
+    elif not oe.mass_identified:
+        warnings.append(f"{oe.mass_note}; no mass in the model (give a boat file with mass_kg)")
     try:
         dyn = identify_dynamic(t, f, v, None, window)
         if not dyn.mass_kg > 0.0:
@@ -306,27 +321,21 @@ def identify_recordings(
         if dyn.two_way_fraction < TWO_WAY_WARNING:
             warnings.append(
                 f"only {dyn.two_way_fraction:.0%} of the speed range was crossed both accelerating and "
-                "decelerating: the mass rests on the polynomial form of Fc; add thrust steps down as well"
+                "decelerating: the mass rests on the form of Fc; add thrust steps down as well"
             )
     except InputError as err:
         dyn = None
         dynamic = {"error": str(err)}
-    extrapolation = _extrapolation_warning(pieces, fit, dyn.speed_domain_mps if dyn else None,
-                                           derived.speed_noise_mps)
-    model = model_dict(fit, dyn.mass_kg if dyn else None)
-    if extrapolation:
-        warnings.append(extrapolation)
-        extended = _extended_by_transients(fit, dyn) if dyn is not None else None
-        if isinstance(extended, str):
-            warnings.append(f"the transient fit is not used above the steady points: {extended}")
-        elif extended is not None:
-            model["resistance"] = extended.to_dict()
-            warnings.append(f"instead of the quadratic law, above {fit.domain[1]:.2f} m/s the model follows the "
-                            f"transient fit (joined to the steady fit there) up to {extended.max_speed_mps:.2f} m/s, "
-                            "the top of its data")
+    steady_points = [{"speed_mps": s.speed_mps, "thrust_N": s.thrust_N, "duration_s": s.duration_s,
+                      "start_s": s.start_s, "end_s": s.end_s, "speed_stderr_mps": s.speed_stderr_mps,
+                      "recording": i} for i, s in points]
+    problems = physical_problems(oe.selected, steady_points, pieces)
+    model: dict[str, Any] = {"resistance": oe.selected.resistance_model().to_dict()}
+    if oe.mass_identified or oe.selected.mass_fixed:
+        model["effective_mass_kg"] = oe.selected.mass_kg
     online = OnlineThrustSpeedIdentifier(
-        chosen,
-        dyn.order if dyn else chosen,
+        chosen or 1,
+        dyn.order if dyn else (chosen or 1),
         memory_s=memory_s,
         through_origin=through_origin,
         criteria=criteria,
@@ -335,28 +344,19 @@ def identify_recordings(
     for piece in pieces:
         replay_online(*piece, online)
     snap = online.snapshot()
-    grid = np.linspace(speed.min(), speed.max(), 200)
     agreement: dict[str, Any] = {}
-    if snap["coefficients"] is not None:
-        agreement["curve_nrms"] = _nrms(
-            np.polynomial.polynomial.polyval(grid, snap["coefficients"]), fit.predict(grid)
-        )
+    if snap["coefficients"] is not None and fits:
+        fit = next(fr for fr in fits if fr.order == chosen)
+        grid = np.linspace(fit.domain[0], fit.domain[1], 200)
+        agreement["curve_nrms"] = _nrms(np.polynomial.polynomial.polyval(grid, snap["coefficients"]),
+                                        fit.predict(grid))
     if dyn is not None and snap["dynamic"] is not None:
         agreement["mass_rel"] = snap["dynamic"]["mass_kg"] / dyn.mass_kg - 1.0
     snap["agreement_with_batch"] = agreement
     return {
-        "steady_points": [
-            {
-                "speed_mps": s.speed_mps,
-                "thrust_N": s.thrust_N,
-                "duration_s": s.duration_s,
-                "start_s": s.start_s,
-                "end_s": s.end_s,
-                "speed_stderr_mps": s.speed_stderr_mps,
-                "recording": i,
-            }
-            for i, s in points
-        ],
+        "output_error": oe.to_dict(),
+        "physical_problems": problems,
+        "steady_points": steady_points,
         "rejected_segments": [{**s.to_dict(), "recording": i} for i, s in rejected],
         "steady_criteria": derived.to_dict(),
         "fits": [fr.to_dict() for fr in fits],
@@ -389,19 +389,29 @@ def identify_trials(trials: list[Trial], *, order: int | None = None, max_order:
     samples = []
     for trial in trials:
         samples.append(trial_samples(trial))
+    boat = boat or {}
+    fallback = boat["mass_kg"] * (1.0 + boat.get("surge_added_mass_ratio", VesselParams().surge_added_mass_ratio)) \
+        if "mass_kg" in boat else None
     result = TrialIdentifyResult(**identify_recordings(
         samples, order=order, max_order=max_order, monotone=monotone, window_s=window_s,
         thrust_tolerance_N=thrust_tolerance_N,
         noise_correlation_s=max(trial.metadata.speed_smoothing_s for trial in trials),
-        speed_noise_mps=max(trial.metadata.derived_speed_noise_mps for trial in trials) or None))
+        speed_noise_mps=max(trial.metadata.derived_speed_noise_mps for trial in trials) or None,
+        fallback_mass_kg=fallback))
     result["warnings"] += [w for trial in trials for w in trial_warnings(trial)]
     vessel: VesselParams | None = None
     try:
-        vessel, sources = identified_vessel(result["model"], boat or {}, thrust_seen(trials))
+        if result["physical_problems"]:
+            raise InputError("the identified model is not physical: " + "; ".join(result["physical_problems"]))
+        vessel, sources = identified_vessel(result["model"], boat, thrust_seen(trials))
         result["twin"] = {"vessel": params_to_dict(vessel), "sources": sources}
     except InputError as err:
         result["twin"] = {"error": str(err)}
         result["warnings"].append(f"no twin configuration: {err}")
+    oe = result["output_error"]
+    mass_source = "identified" if oe["mass_identified"] else \
+        "boat file" if oe["selected"]["mass_fixed"] else "NOT identified: the fit's point estimate"
+    resim_model = {**result["model"], "effective_mass_kg": oe["selected"]["mass_kg"]}
     entries: list[dict[str, Any]] = []
     resims: list[Resimulation | None] = []
     for trial in trials:
@@ -410,7 +420,7 @@ def identify_trials(trials: list[Trial], *, order: int | None = None, max_order:
                                  "derived": trial.metadata.derived}
         resim: Resimulation | None = None
         try:
-            resim = resimulate(trial, result["model"], vessel)
+            resim = resimulate(trial, resim_model, vessel, mass_source)
             entry["resimulation"] = resim.to_dict()
         except InputError as err:  # the identification stands; say why the loop could not be closed
             entry["resimulation"] = {"error": str(err)}

@@ -16,6 +16,7 @@ from boat_twin.ident.paper import paper_model_values
 from boat_twin.ident.pipeline import IdentifyResult, write_model_yaml
 from boat_twin.ident.resimulate import Resimulation, resimulation_figure
 from boat_twin.ident.steady import FitResult
+from boat_twin.vessel.resistance import resistance_from_dict
 
 
 def write_trial_report(
@@ -39,7 +40,8 @@ def write_trial_report(
         written.append(out / "resimulation.png")
         atomic_save_figure(written[-1], resimulation_figure(resimulation), title)
     atomic_write_text(written[0], to_json(result) + "\n")
-    write_model_yaml(written[1], result["model"], f"boat-twin identify: order {result['selected_order']}, SI")
+    write_model_yaml(written[1], result["model"],
+                     f"boat-twin identify: output-error fit ({result['output_error']['selected']['model']}), SI")
     fig = Figure(figsize=(9, 6))
     ax_v, ax_f = fig.subplots(2, 1, sharex=True)
     ax_v.plot(t_s, speed_mps, lw=0.6, color="0.4", label="speed")
@@ -70,27 +72,33 @@ def unvisited_bands(speeds_mps: np.ndarray) -> list[tuple[float, float]]:
 
 def resistance_figure(result: IdentifyResult,
                       true_resistance_N: Callable[[np.ndarray], np.ndarray] | None = None) -> Figure:
-    """Steady points and the identified curves Fc(v) (drawn so that coinciding curves all show), the true curve
-    when known, and the speed bands with no steady point."""
+    """The identified Fc(u) (output error) with its 95 % band, the baseline fitted the same way, the steady
+    points and their polynomial (a view), the true curve when known, and the speed bands no steady point visits."""
     fig = Figure(figsize=(7, 5), layout="constrained")
     ax = fig.subplots()
+    oe = result["output_error"]
+    selected, baseline = oe["selected"], oe["baseline"]
     pts = result["steady_points"]
     sv = np.array([p["speed_mps"] for p in pts])
-    grid = np.linspace(0.0, sv.max(), 300)
+    grid = np.linspace(0.0, selected["top_speed_mps"], 300)
     for k, (lo, hi) in enumerate(unvisited_bands(sv)):
-        ax.axvspan(lo, hi, color="0.92", label="no steady point: curves interpolate" if k == 0 else None)
+        ax.axvspan(lo, hi, color="0.92", label="no steady point" if k == 0 else None)
     if true_resistance_N is not None:
         ax.plot(grid, true_resistance_N(grid), color="k", lw=1.0, label="true Fc (the simulated boat)")
-    fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
-    ax.plot(grid, np.polynomial.polynomial.polyval(grid, fit["coefficients"]), color="C0", lw=4.0, alpha=0.45,
-            label=f"steady least squares, N = {fit['order']}")
-    if "coefficients" in result["dynamic"]:
-        c = result["dynamic"]["coefficients"]
-        ax.plot(grid, np.polynomial.polynomial.polyval(grid, c), "--", color="C1", lw=1.5, label="from transients")
-    if result["online"]["coefficients"] is not None:
-        ax.plot(grid, np.polynomial.polynomial.polyval(grid, result["online"]["coefficients"]), ":", color="C2",
-                lw=2.0, label="online recursive least squares")
-    ax.plot(sv, [p["thrust_N"] for p in pts], "ko", ms=5, mfc="white", label="steady points", zorder=5)
+    table = selected["resistance_table"]
+    ax.fill_between(table["speed_mps"], table["ci95_low_N"], table["ci95_high_N"], color="C0", alpha=0.25,
+                    label="95 % interval (cluster-robust)")
+    model = resistance_from_dict(result["model"]["resistance"])
+    ax.plot(grid, model.force_N(grid), color="C0", lw=2.0, label=f"output error, {selected['model']} (the model)")
+    a, b = baseline["coefficients"]
+    ax.plot(grid, a * grid + b * grid**2, "--", color="C1", lw=1.5, label="baseline a·u + b·u|u|, output error")
+    if result["selected_order"] is not None:
+        fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
+        top = np.linspace(0.0, sv.max(), 200)
+        ax.plot(top, np.polynomial.polynomial.polyval(top, fit["coefficients"]), ":", color="C2", lw=1.5,
+                label=f"steady points' polynomial, N = {fit['order']} (a view)")
+    if pts:
+        ax.plot(sv, [p["thrust_N"] for p in pts], "ko", ms=5, mfc="white", label="steady points", zorder=5)
     ax.set_xlabel("speed, m/s")
     ax.set_ylabel("resistance Fc, N")
     ax.legend(fontsize=8)
@@ -207,15 +215,56 @@ def table_figures(result: dict[str, Any]) -> tuple[Figure, Figure]:
 
 
 def resimulation_line(resim: dict[str, Any]) -> str:
-    """One report line: the speed error of the re-simulated trial (or why there is none)."""
+    """One report line: the speed error of the re-simulated trial (or why there is none). A mass that is not
+    identified leads the line."""
     if "error" in resim:
         return f"re-simulation: not done ({resim['error']})"
-    mass = "identified" if resim["mass_identified"] else "default boat's"
+    source = resim["mass_source"]
     relative = f" = {resim['speed_nrmse']:.1%} of the mean speed {resim['mean_speed_mps']:.2f} m/s" \
         if resim["speed_nrmse"] is not None else ""
+    head = "re-simulated with the identified model" if source == "identified" else \
+        f"MASS {source.upper()}: re-simulated with it"
     return (
-        f"re-simulated with the identified model ({mass} mass {resim['effective_mass_kg']:.0f} kg, calm water): "
+        f"{head} (effective mass {resim['effective_mass_kg']:.0f} kg, {source}; calm water): "
         f"speed RMSE {resim['speed_rmse_mps']:.3f} m/s{relative} over {resim['duration_s']:.0f} s "
         f"(bias {resim['speed_bias_mps']:+.3f} m/s, max {resim['speed_max_abs_error_mps']:.2f} m/s; "
         f"GNSS speed noise {resim['speed_noise_mps']:.3f} m/s)"
     )
+
+
+def count(n: int, noun: str) -> str:
+    """``1 segment``, ``2 segments``."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def model_lines(result: IdentifyResult) -> list[str]:
+    """The identified model in words: the selected output-error fit against the baseline, the curve with its
+    intervals, the mass (or why there is none), the steady points' polynomial as a view, and anything not
+    physical — the latter first."""
+    oe = result["output_error"]
+    sel, base = oe["selected"], oe["baseline"]
+    cv = {c["model"]: c["cv_rmse_mps"] for c in oe["candidates"]}
+    lines = [f"NOT PHYSICAL, no twin: {problem}" for problem in result["physical_problems"]]
+    lines.append(f"model: output error, {sel['model']} ({oe['selection_reason']}; cross-validation: {oe['folds']})")
+    table = sel["resistance_table"]
+    picks = [i for i in (2, 4, 6, 8, 10) if i < len(table["speed_mps"])]
+    lines.append("Fc(u), N [95% interval]: " + ", ".join(
+        f"{table['force_N'][i]:.4g} [{table['ci95_low_N'][i]:.4g}, {table['ci95_high_N'][i]:.4g}] at "
+        f"{table['speed_mps'][i]:.2f} m/s" for i in picks))
+    if sel["mass_fixed"]:
+        lines.append(f"effective mass NOT IDENTIFIED by the data: held at {sel['mass_kg']:.0f} kg from the boat file")
+    elif oe["mass_identified"]:
+        lo, hi = sel["mass_ci95_kg"]
+        lines.append(f"effective mass {sel['mass_kg']:.0f} kg, 95% CI [{lo:.0f}, {hi:.0f}] (cluster-robust, "
+                     f"{sel['clusters']} blocks of {sel['cluster_s']:.3g} s)")
+    else:
+        lines.append(f"effective mass NOT IDENTIFIED: {oe['mass_note']}")
+    a, b = base["coefficients"]
+    lines.append(f"baseline m·du/dt = T - a·u - b·u|u| (output error): a = {a:.4g} N·s/m, b = {b:.4g} N·s²/m², "
+                 f"mass {base['mass_kg']:.0f} kg; held-out RMSE {cv['baseline']:.3g} m/s, selected "
+                 f"{cv[sel['model']]:.3g} m/s")
+    if result["selected_order"] is not None:
+        fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
+        lines.append(f"steady points' polynomial (a view, not the model): N = {fit['order']}, c0..cN N/(m/s)^i: "
+                     + ", ".join(f"{c:.4g}" for c in fit["coefficients"]))
+    return lines

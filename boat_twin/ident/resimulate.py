@@ -37,8 +37,8 @@ class Resimulation:
     """GNSS speed noise estimated from the trial itself: robust spread of the second differences / √6, m/s."""
     effective_mass_kg: float
     """Surge mass with added mass the re-simulation used, kg."""
-    mass_identified: bool
-    """False when the model had no mass (transients gave none) and the default boat's was used."""
+    mass_source: str
+    """Where the effective mass came from: ``identified``, ``boat file``, or why it is not identified."""
 
     @property
     def error_mps(self) -> np.ndarray:
@@ -61,7 +61,7 @@ class Resimulation:
             "duration_s": float(self.t_s[-1] - self.t_s[0]),
             "initial_speed_mps": float(self.measured_mps[0]),
             "effective_mass_kg": self.effective_mass_kg,
-            "mass_identified": self.mass_identified,
+            "mass_source": self.mass_source,
             "conditions": "calm water and air; vessel parameters other than the identified ones: the identified twin's "
                           "(twin.yaml), else the default boat",
         }
@@ -82,8 +82,10 @@ def _held_commands(trial: Trial, first: int) -> np.ndarray:
     return commands
 
 
-def resimulate(trial: Trial, model: dict[str, Any], base: VesselParams | None = None) -> Resimulation:
-    """Simulate ``trial``'s commands with ``model`` (identified model dict) over ``base`` (default boat).
+def resimulate(trial: Trial, model: dict[str, Any], base: VesselParams | None = None,
+               mass_source: str = "identified") -> Resimulation:
+    """Simulate ``trial``'s commands with ``model`` (identified model dict) over ``base`` (default boat);
+    ``mass_source`` says where the model's effective mass came from (reported with the error).
 
     Starts at the first sample with a measured speed, heading straight ahead at that speed, in calm water.
     """
@@ -106,7 +108,7 @@ def resimulate(trial: Trial, model: dict[str, Any], base: VesselParams | None = 
         simulated_mps=simulated[keep],
         speed_noise_mps=white_noise_stdev(speed[first:]),
         effective_mass_kg=params.mass_kg * (1.0 + params.surge_added_mass_ratio),
-        mass_identified="effective_mass_kg" in model,
+        mass_source=mass_source if "effective_mass_kg" in model else "the base boat's (none identified)",
     )
 
 

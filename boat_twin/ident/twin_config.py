@@ -98,11 +98,11 @@ def identified_vessel(model: dict[str, Any], given: dict[str, float], seen: dict
     """
     base_ratio = given.get("surge_added_mass_ratio", VesselParams().surge_added_mass_ratio)
     if "effective_mass_kg" in model:
-        mass, mass_from = float(model["effective_mass_kg"]) / (1.0 + base_ratio), "identified (transients)"
+        mass, mass_from = float(model["effective_mass_kg"]) / (1.0 + base_ratio), "identified (output-error fit)"
     elif "mass_kg" in given:
         mass, mass_from = given["mass_kg"], "boat file"
     else:
-        raise InputError("no mass: the transients gave none and no boat file (--boat) states mass_kg")
+        raise InputError("no mass: the data do not identify it and no boat file (--boat) states mass_kg")
     resistance = resistance_from_dict(model["resistance"], "identified model: resistance")
     facts = {k: v for k, v in given.items() if k != "mass_kg"}
     similar = similar_boat(resistance, mass, facts)
@@ -115,7 +115,7 @@ def identified_vessel(model: dict[str, Any], given: dict[str, float], seen: dict
     if "engine_power_W" not in given:
         limits["engine_power_W"] = max(similar.engine_power_W, seen["power_W"] / similar.propulsive_efficiency)
     vessel = similar_boat(resistance, mass, {**facts, **limits})
-    sources = {"resistance": "identified (steady points)", "mass_kg": mass_from}
+    sources = {"resistance": "identified (output-error fit)", "mass_kg": mass_from}
     sources.update({k: "boat file" for k in facts})
     sources.update({k: "seen in the trials" if v > getattr(similar, k) else "similar boat"
                     for k, v in limits.items()})

@@ -104,6 +104,10 @@ class Trial:
     accel_x_mps2: np.ndarray
     accel_y_mps2: np.ndarray
     metadata: TrialMetadata
+    actual_angle_rad: np.ndarray | None = None
+    """The outboards' actual steering angle (mean of the two), rad, where the recording has it (a rudder-angle
+    indicator; the simulator's actuator state, :func:`~boat_twin.twin.sea_trial.actual_angle_on_grid`): it trails
+    the commanded angle at the steering rate and differs from it by the steering offset. None: not recorded."""
 
     @property
     def speed_mps(self) -> np.ndarray:

@@ -152,8 +152,14 @@ def cut_windows(trial: Trial, window_s: float = 20.0) -> Windows:
             i0 += 1
     if len(starts) < MIN_WINDOWS:
         absent = [r for r in ("thrust_left", "thrust_right") if r in trial.metadata.missing]
+        blank = [what for what, values in (("GNSS velocity (gnss_vel)", trial.vel_east_mps),
+                                           ("yaw rate (imu angular velocity)", trial.yaw_rate_radps),
+                                           ("heading (imu orientation)", trial.heading_rad))
+                 if not np.any(np.isfinite(values))]
         why = (f": the trial has no {' or '.join(absent)} command (a MAVLink log needs --calibration to map its "
-               "servo or RC channels)") if absent else ""
+               "servo or RC channels)") if absent else (
+            f": the trial has no {' and no '.join(blank)}; the replay compares every window's velocity, yaw rate "
+            "and heading" if blank else "")
         raise InputError(f"{trial.metadata.source}: only {len(starts)} windows of {window_s:g} s with commands "
                          f"and sensors; the diagnosis needs at least {MIN_WINDOWS}{why}")
     start = np.array(starts)

@@ -138,6 +138,14 @@ def trial_messages(trial: SeaTrial, truth: bool = True) -> Iterator[messages.Mes
                    record.truth() if truth else None)
 
 
+def actual_angle_on_grid(record: SimulationRecord, boat: int, trial: Trial) -> np.ndarray:
+    """Boat ``boat``'s outboards' actual steering angle (mean of the two, the actuator state the simulator
+    integrates) on the grid of ``trial`` (a recording of that run: its t = 0 is the record's time
+    ``trial.metadata.start_time_s``), linearly interpolated, NaN outside the run, rad."""
+    angle = record.steering_rad[:, boat].mean(axis=1)
+    return np.interp(trial.t_s + trial.metadata.start_time_s, record.t_s, angle, left=np.nan, right=np.nan)
+
+
 def measured_trial(record: SimulationRecord, boat: int, config: TwinConfig, rng: np.random.Generator,
                    noise: bool = True) -> Trial:
     """Boat ``boat`` of ``record`` as a recorded trial, without a bag: its truth measured by the GNSS and UM7
@@ -146,7 +154,8 @@ def measured_trial(record: SimulationRecord, boat: int, config: TwinConfig, rng:
     :func:`~boat_twin.io.trial.build_trial` from the values and stamps (ns-rounded) the bag would carry: equal
     to :func:`run_sea_trial` → bag → ``read_trial`` for the same seed, up to rounding (stamps read back from
     sec + nanosec differ by picoseconds). For the many trials of a training set,
-    where the bag's serialisation would cost more than the simulation."""
+    where the bag's serialisation would cost more than the simulation. The trial carries the outboards' actual
+    angle (:func:`actual_angle_on_grid`), which a bag does not."""
     truth = record.truth(boat)
     gnss = GnssModel(config.gnss, rng, noise=noise).measure(truth)
     imu = Um7Model(config.um7, rng, noise=noise).measure(truth)
@@ -163,7 +172,9 @@ def measured_trial(record: SimulationRecord, boat: int, config: TwinConfig, rng:
     streams["imu"] = stamped(imu.stamp_s, yaw, imu.gyro_radps[:, 2], imu.accel_mps2[:, 0], imu.accel_mps2[:, 1])
     topics = {"gnss_fix": messages.TOPIC_GNSS_FIX, "gnss_vel": messages.TOPIC_GNSS_VEL,
               "imu": messages.TOPIC_IMU_DATA}
-    return build_trial(streams, f"simulated boat {boat}", topics, release=True)
+    trial = build_trial(streams, f"simulated boat {boat}", topics, release=True)
+    trial.actual_angle_rad = actual_angle_on_grid(record, boat, trial)
+    return trial
 
 
 def compact_trial_messages(trial: CompactTrial, truth: bool = True,

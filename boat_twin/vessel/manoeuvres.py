@@ -10,6 +10,9 @@ the instant the steering order is given:
 - **steady turning diameter**: the diameter of the circle the track settles to (a least-squares circle through
   the last 90° of a track that has turned at least 360°), and the **speed loss**: 1 − steady speed / approach
   speed, speed through water;
+- **full-astern stopping** (crash stop): from the order for full astern until the boat is dead in the water
+  (its speed ahead through the water gone), the **time** that takes, the **track reach** (the distance along the
+  path), the **head reach** (along the original course) and the **lateral deviation** (perpendicular to it);
 - **zigzag δ/ψ**: steering ±δ reversed whenever the heading deviation from the original heading reaches ±ψ
   (the 1st execute at the start, the 2nd at the first ±ψ, ...); the **first (second) overshoot** is the
   additional heading deviation after the 2nd (3rd) execute; **initial turning time**: from the 1st to the 2nd
@@ -19,7 +22,8 @@ the instant the steering order is given:
 Criteria (MSC.137(76) §5.2, for ships; a 6 m planing boat is far outside their scope, they are reported as the
 usual yardstick): advance ≤ 4.5 L and tactical diameter ≤ 5 L; 10°/10° zigzag: first overshoot ≤ 10° if
 L/V < 10 s, ≤ 5 + L/(2V) below 30 s, else 20°, second ≤ 25° / 17.5 + 0.75·L/V / 40°, and no more than 2.5 L
-travelled by the 10° heading change; 20°/20° zigzag: first overshoot ≤ 25°.
+travelled by the 10° heading change; 20°/20° zigzag: first overshoot ≤ 25°; full-astern stopping: track reach
+≤ 15 L (§5.3.1.4; up to 20 L for large ships at the Administration's discretion).
 """
 
 from __future__ import annotations
@@ -30,13 +34,15 @@ from typing import Any
 
 import numpy as np
 
-from boat_twin.vessel.scenarios import Scenario, TurningCircle, Zigzag
+from boat_twin.vessel.scenarios import CrashStop, EngineTurningCircle, Scenario, TurningCircle, Zigzag
 from boat_twin.vessel.truth import TruthSeries
 
 ADVANCE_LIMIT_L = 4.5
 """IMO criterion: advance at most 4.5 ship lengths (MSC.137(76) §5.2.1)."""
 TACTICAL_DIAMETER_LIMIT_L = 5.0
 """IMO criterion: tactical diameter at most 5 ship lengths (MSC.137(76) §5.2.1)."""
+TRACK_REACH_LIMIT_L = 15.0
+"""IMO criterion: track reach of the full-astern stopping test at most 15 ship lengths (MSC.137(76) §5.3.1.4)."""
 STEADY_ARC_RAD = math.pi / 2
 """The steady turning circle is fitted to the last quarter turn of the track, rad."""
 STEADY_AFTER_RAD = 2 * math.pi
@@ -115,6 +121,55 @@ class ZigzagFigures:
             "initial_turning_distance_L": None if distance is None else distance / self.length_m,
             "initial_turning_distance_limit_L": distance_limit,
         }
+
+
+@dataclass(frozen=True)
+class StoppingFigures:
+    """Full-astern stopping figures (s, m), None where the record ends before the boat stops."""
+
+    length_m: float
+    approach_speed_mps: float
+    time_to_stop_s: float | None
+    track_reach_m: float | None
+    head_reach_m: float | None
+    lateral_deviation_m: float | None
+
+    def as_dict(self) -> dict[str, Any]:
+        """The figures, the track reach in ship lengths too, with the IMO criterion beside it."""
+        reach = self.track_reach_m
+        return {
+            "manoeuvre": "full astern stopping", "length_m": self.length_m,
+            "approach_speed_mps": self.approach_speed_mps, "time_to_stop_s": self.time_to_stop_s,
+            "track_reach_m": reach, "track_reach_L": None if reach is None else reach / self.length_m,
+            "track_reach_limit_L": TRACK_REACH_LIMIT_L, "head_reach_m": self.head_reach_m,
+            "lateral_deviation_m": self.lateral_deviation_m,
+        }
+
+
+def stopping_figures(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray, yaw_rad: np.ndarray,
+                     surge_mps: np.ndarray, execute_t_s: float, length_m: float) -> StoppingFigures:
+    """Full-astern stopping figures of a track (ENU position, yaw, surge speed through water; samples at ``t_s``)
+    whose full-astern order was given at ``execute_t_s``: the boat is dead in the water where its surge first
+    falls to zero (interpolated); the track reach is the path length to there (the polyline through the
+    samples), the head reach and lateral deviation its displacement along and across the heading at the
+    order."""
+    start = int(np.searchsorted(t_s, execute_t_s))
+    x0, y0, psi0 = (_at(t_s, v, execute_t_s) for v in (east_m, north_m, np.unwrap(yaw_rad)))
+    approach = _at(t_s, surge_mps, execute_t_s)
+    hit = level_crossing(t_s, surge_mps, 0.0, start)
+    if hit is None or approach <= 0.0:
+        return StoppingFigures(length_m, approach, None, None, None, None)
+    t_stop, i_stop = hit
+    t_path = np.concatenate([[execute_t_s], t_s[start:i_stop], [t_stop]])
+    east = np.array([_at(t_s, east_m, t) for t in t_path])
+    north = np.array([_at(t_s, north_m, t) for t in t_path])
+    d = np.array([east[-1] - x0, north[-1] - y0])
+    return StoppingFigures(
+        length_m=length_m, approach_speed_mps=approach, time_to_stop_s=t_stop - execute_t_s,
+        track_reach_m=float(np.sum(np.hypot(np.diff(east), np.diff(north)))),
+        head_reach_m=float(d @ np.array([math.cos(psi0), math.sin(psi0)])),
+        lateral_deviation_m=float(d @ np.array([-math.sin(psi0), math.cos(psi0)])),
+    )
 
 
 def level_crossing(t_s: np.ndarray, values: np.ndarray, level: float, start: int) -> tuple[float, int] | None:
@@ -242,23 +297,33 @@ def zigzag_figures(t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray, yaw
 
 
 def execute_time_s(scenario: Scenario) -> float | None:
-    """When a turning circle or zigzag gives its (first) steering order, s; None for any other scenario."""
+    """When a turning circle or zigzag gives its (first) steering order, or a crash stop its full-astern order,
+    s; None for any other scenario."""
     if isinstance(scenario, Zigzag):
         return scenario.approach_s
-    if isinstance(scenario, TurningCircle):
+    if isinstance(scenario, TurningCircle | EngineTurningCircle | CrashStop):
         return scenario.execute_s
     return None
 
 
 def manoeuvre_figures(scenario: Scenario, truth: TruthSeries, length_m: float) -> dict[str, Any] | None:
-    """The IMO figures of a simulated turning circle or zigzag (by the scenario that steered it), as plain data;
-    None for any other scenario."""
+    """The IMO figures of a simulated turning circle (at constant thrust or engine setting), zigzag or full-astern
+    stop (by the scenario that steered it), as plain data; None for any other scenario."""
     speed = np.hypot(truth.surge_mps, truth.sway_mps)
     track = (truth.t_s, truth.east_m, truth.north_m, truth.yaw_rad, speed)
     execute = execute_time_s(scenario)
     if isinstance(scenario, Zigzag) and execute is not None:
         return zigzag_figures(*track, execute, scenario.steering_rad, scenario.heading_change_rad,
                               length_m).as_dict()
-    if isinstance(scenario, TurningCircle) and execute is not None:
-        return turning_figures(*track, execute, length_m).as_dict()
+    if isinstance(scenario, TurningCircle | EngineTurningCircle) and execute is not None:
+        figures = turning_figures(*track, execute, length_m).as_dict()
+        if isinstance(scenario, EngineTurningCircle):
+            figures["engine_setting"] = {"shaft_power_W": scenario.shaft_power_W,
+                                         "held": "shaft power per outboard (constant engine setting)"}
+        else:
+            figures["engine_setting"] = {"held": "thrust per outboard (constant thrust command)"}
+        return figures
+    if isinstance(scenario, CrashStop) and execute is not None:
+        return stopping_figures(truth.t_s, truth.east_m, truth.north_m, truth.yaw_rad, truth.surge_mps, execute,
+                                length_m).as_dict()
     return None

@@ -411,7 +411,7 @@ def save_params(params: VesselParams, path: Path) -> None:
 def describe(params: VesselParams) -> dict[str, float | list[float]]:
     """Derived figures a reader checks for plausibility (docs/model.md)."""
     coeff = derive_coefficients(params)
-    top = _top_speed_mps(params)
+    top = top_speed_mps(params)
     return {
         **{k: float(v) for k, v in asdict(coeff).items()},
         "reference_turn_thrust_per_engine_N": reference_turn_thrust_N(params),
@@ -422,7 +422,7 @@ def describe(params: VesselParams) -> dict[str, float | list[float]]:
     }
 
 
-def _top_speed_mps(params: VesselParams) -> float:
+def top_speed_mps(params: VesselParams) -> float:
     """Speed where two outboards' available thrust equals the resistance, m/s (bisection on a monotone gap)."""
     lo, hi = 0.1, 60.0
     for _ in range(60):

@@ -35,7 +35,7 @@ from boat_twin.errors import InputError
 from boat_twin.files import regular_input
 from boat_twin.units import KGF_N
 from boat_twin.validation import THRUST_LIMIT_N
-from boat_twin.vessel.params import VesselParams, max_thrust_N, surge_time_constant_s
+from boat_twin.vessel.params import VesselParams, max_thrust_N, surge_time_constant_s, top_speed_mps
 from boat_twin.vessel.scenario_names import SCENARIO_NAMES
 
 SETTLED_RECORD_S = 30.0
@@ -111,16 +111,29 @@ def steady_speed_mps(params: VesselParams, total_thrust_N: float) -> float:
     return float(brentq(lambda u: float(params.resistance.force_N(u)) - total_thrust_N, 0.0, hi, xtol=1e-10))
 
 
+def top_thrust_N(params: VesselParams) -> float:
+    """Total thrust that holds the boat's top speed straight ahead (both outboards at their limit), N."""
+    return float(params.resistance.force_N(top_speed_mps(params)))
+
+
+def staircase_levels_N(params: VesselParams) -> tuple[float, ...]:
+    """The paper's staircase (:data:`THRUST_STEP_LEVELS_KGF`) carried to ``params``' boat: each level the same
+    share of the thrust that holds the top speed as on the default boat (exactly the paper's levels there)."""
+    scale = top_thrust_N(params) / top_thrust_N(VesselParams())
+    return tuple(f * KGF_N * scale for f in THRUST_STEP_LEVELS_KGF)
+
+
 def thrust_steps(
     params: VesselParams, levels_N: tuple[float, ...] | None = None, settle_time_constants: float = 6.0
 ) -> CommandProfile:
-    """The paper's experiment: a staircase of total thrust levels, split equally between the outboards.
+    """The paper's experiment: a staircase of total thrust levels, split equally between the outboards; by
+    default the paper's levels carried to the boat (:func:`staircase_levels_N`).
 
     Each level is held for ``settle_time_constants`` local surge time constants m11/(dFc/du) at its steady
     speed (6 → within 0.25 % of the final speed; at least 30 s, at most 150 s), plus
     :data:`SETTLED_RECORD_S` of settled speed for the steady-state detector to average; then 60 s at idle.
     """
-    levels = levels_N or tuple(f * KGF_N for f in THRUST_STEP_LEVELS_KGF)
+    levels = levels_N or staircase_levels_N(params)
     times, rows, t = [], [], 0.0
     for level in levels:
         tau = surge_time_constant_s(params, steady_speed_mps(params, level))
@@ -226,11 +239,79 @@ def turning_circle(params: VesselParams, speed_mps: float = 6.0, approach_s: flo
                          execute_s=approach_s)
 
 
+@dataclass(frozen=True)
+class EngineTurningCircle:
+    """A turning circle at a constant engine setting (IMO MSC.137(76): the approach's engine setting held):
+    straight approach at ``speed_mps``, full steering to starboard from ``execute_s``, s; each outboard held at the
+    shaft power that holds the approach speed, so its thrust grows as the turn slows the boat
+    (:func:`engine_setting_thrust_N`; docs/model.md, "engine setting"). Closed loop: the thrust follows each boat's
+    speed through water at every integration step."""
+
+    params: VesselParams
+    speed_mps: float = 6.0
+    execute_s: float = 10.0
+    duration_s: float = 130.0
+    name: str = "turning-circle-engine"
+
+    @property
+    def initial_surge_mps(self) -> float:
+        """The boat starts at the approach speed, m/s."""
+        return self.speed_mps
+
+    @property
+    def shaft_power_W(self) -> float:
+        """Shaft power per outboard of the engine setting that holds the approach speed straight ahead, W."""
+        return _approach_thrust_N(self.params, self.speed_mps) * self.speed_mps / self.params.propulsive_efficiency
+
+    def helm(self, n_boats: int) -> EngineTurningCircle:
+        """Stateless: the engine setting and the steering follow the time and each boat's speed."""
+        return self
+
+    def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
+        """Thrust of the engine setting at each boat's surge speed; full steering from the execute."""
+        out = np.zeros((states.shape[0], 4))
+        out[:, 0] = out[:, 1] = engine_setting_thrust_N(self.params, self.shaft_power_W, states[:, 3])
+        if t_s >= self.execute_s - 1e-9:
+            out[:, 2:] = self.params.max_steering_rad
+        return out
+
+
+def engine_setting_thrust_N(params: VesselParams, shaft_power_W: float, speed_mps: np.ndarray) -> np.ndarray:
+    """Thrust per outboard at a constant engine setting (throttle) that delivers ``shaft_power_W``, at speed
+    through water ``speed_mps``, N: η·P/|u| (the power branch of the engine envelope at that power, with its
+    propulsive efficiency η), within the full-throttle envelope (the bollard thrust at low speed)."""
+    speed = np.abs(np.asarray(speed_mps, dtype=float))
+    power_limited = params.propulsive_efficiency * shaft_power_W / np.maximum(speed, 1e-9)
+    return np.minimum(max_thrust_N(params, speed), power_limited)
+
+
+@dataclass(frozen=True)
+class CrashStop(CommandProfile):
+    """The full-astern stopping test (IMO MSC.137(76) §5.3, MSC/Circ.1053): straight approach, then full astern
+    on both outboards from ``execute_s``, s (the engine envelope limits astern thrust to the reverse ratio of the
+    bollard thrust)."""
+
+    execute_s: float = 0.0
+
+
+def crash_stop(params: VesselParams, speed_mps: float = 6.0, approach_s: float = 10.0,
+               stop_s: float = 30.0) -> CrashStop:
+    """Start at ``speed_mps`` at the thrust that holds it, then full astern (the astern share of the bollard
+    thrust commanded on both outboards, steering amidships) from ``approach_s`` for ``stop_s``, s; the boat is dead
+    in the water within seconds and then backs (the figures end at the stop)."""
+    thrust = _approach_thrust_N(params, speed_mps)
+    astern = -params.reverse_thrust_ratio * params.bollard_thrust_N  # full astern: what the engine gives astern
+    rows = np.array([[thrust, thrust, 0.0, 0.0], [astern, astern, 0.0, 0.0]])
+    return CrashStop("crash-stop", np.array([0.0, approach_s]), rows, approach_s + stop_s, speed_mps,
+                     execute_s=approach_s)
+
+
 def random_commands(params: VesselParams, rng: np.random.Generator, duration_s: float = 600.0,
                     min_hold_s: float = 5.0, max_hold_s: float = 25.0) -> CommandProfile:
     """Random piecewise-constant commands: total thrust, differential thrust and steering, each held 5-25 s.
 
-    Total thrust is uniform in [0.2, 1.0] of the bollard thrust per engine, differential up to ±15 %,
+    Total thrust is uniform in [0.2, 1.0] of the bollard thrust per engine, differential up to ±15 % (an engine
+    never commanded beyond its bollard thrust),
     steering uniform within ±0.6 of the steering limit: a rich excitation of surge, sway and yaw.
     """
     times, rows, t = [], [], 0.0
@@ -239,7 +320,8 @@ def random_commands(params: VesselParams, rng: np.random.Generator, duration_s: 
         split = rng.uniform(-0.15, 0.15)
         angle = rng.uniform(-0.6, 0.6) * params.max_steering_rad
         times.append(t)
-        rows.append([base * (1 + split), base * (1 - split), angle, angle])
+        left, right = min(base * (1 + split), params.bollard_thrust_N), min(base * (1 - split), params.bollard_thrust_N)
+        rows.append([left, right, angle, angle])
         t += rng.uniform(min_hold_s, max_hold_s)
     return CommandProfile("random", np.array(times), np.array(rows), duration_s)
 
@@ -253,7 +335,7 @@ def _zigzag(name: str, angle_deg: float) -> ScenarioFactory:
 
     def make(params: VesselParams, rng: np.random.Generator) -> Scenario:
         angle = math.radians(angle_deg)
-        return Zigzag(params, angle, angle, name=name)
+        return Zigzag(params, angle, angle, speed_mps=params.turn_speed_mps, name=name)
 
     return make
 
@@ -263,7 +345,9 @@ SCENARIOS: Mapping[str, ScenarioFactory] = MappingProxyType({
     "accel-stop": lambda params, rng: accel_stop(params),
     "zigzag-20-20": _zigzag("zigzag-20-20", 20.0),
     "zigzag-10-10": _zigzag("zigzag-10-10", 10.0),
-    "turning-circle": lambda params, rng: turning_circle(params),
+    "turning-circle": lambda params, rng: turning_circle(params, params.turn_speed_mps),
+    "turning-circle-engine": lambda params, rng: EngineTurningCircle(params, speed_mps=params.turn_speed_mps),
+    "crash-stop": lambda params, rng: crash_stop(params, params.turn_speed_mps),
     "random": lambda params, rng: random_commands(params, rng),
 })
 """Every named scenario: name (as the command line takes it) → factory."""
@@ -333,3 +417,20 @@ def read_command_csv(path: Path) -> CommandProfile:
         raise InputError(f"{path}:2: time must not be negative")
     table = np.array(rows)
     return CommandProfile(path.name, table[:, 0], table[:, 1:], float(max(table[-1, 0], 0.1)))
+
+
+def scenario_warnings(params: VesselParams, scenario: Scenario) -> list[str]:
+    """What in ``scenario`` the boat cannot do: commands beyond its engines' thrust (ahead: the bollard thrust;
+    astern: its share), or a start above its top speed. Empty when it fits the boat."""
+    warnings = []
+    top = top_speed_mps(params)
+    if scenario.initial_surge_mps > top * 1.001:
+        warnings.append(f"{scenario.name} starts at {scenario.initial_surge_mps:.3g} m/s, above this boat's top "
+                        f"speed {top:.3g} m/s")
+    if isinstance(scenario, CommandProfile) and scenario.values.size:
+        thrust = scenario.values[:, :2]
+        ahead, astern = params.bollard_thrust_N, params.reverse_thrust_ratio * params.bollard_thrust_N
+        if np.max(thrust) > ahead * 1.001 or np.min(thrust) < -astern * 1.001:
+            warnings.append(f"{scenario.name} commands {np.min(thrust):.4g} to {np.max(thrust):.4g} N per engine; "
+                            f"this boat's engines give {-astern:.4g} to {ahead:.4g} N: they saturate")
+    return warnings

@@ -1,0 +1,586 @@
+"""Output-error identification of the surge model over whole recordings, physical by construction.
+
+Model (Dyda & Chumakova 2021, eq. 1, in the form Fossen 2011 writes surge)::
+
+    m·du/dt = T(t) − Fc(u),   measured: E|(u, 0) + e| (GNSS speed over ground; calm water)
+
+with m the effective surge mass (hull plus added mass), T the surge thrust Σ T_i·cos δ_i held from one sample
+to the next (the commands' zero-order hold), e the GNSS velocity noise (σ per axis, estimated from the speeds):
+a speed over ground is the norm of a noisy velocity, whose mean is the Rice distribution's (σ·√(π/2) at rest,
+never 0; :func:`rice_mean`) — the fit must not read that floor as motion —, and the resistance a non-negative
+combination of increasing terms::
+
+    Fc(u) = sign(u)·[a·|u| + b·u² + Σ_k w_k·I_k(|u|)],   a, b, w_k ≥ 0
+
+a: laminar/skin-friction-like linear damping, b: the quadratic (form and wave) drag of the simplest physical
+model (Fossen 2011, §6.4), I_k: quadratic I-splines (Ramsay 1988: integrals of non-negative B-splines, each
+rising monotonically from 0), so Fc(0) = 0 and Fc never decreases with speed whatever the data (a steady speed
+is unique for every thrust); going astern meets the mirrored resistance (odd extension: astern data are usually
+too few to fit a curve of their own). Knots sit at quantiles of the measured speeds.
+
+Fit: the model is simulated through every sample of every segment (RK4, thrust held) and the squared
+difference to the measured speed is minimised over (w, m, and each segment's initial speed), bounded least
+squares (scipy.optimize.least_squares, trust-region reflective) with the Jacobian from forward sensitivity
+equations integrated with the state (numba). Transients, steps down, reversing and closed-loop stretches all
+count; no steady points needed.
+
+Complexity: the baseline (a, b only) and I-spline sets of 3, 5, 8 and 12 terms are compared by cross-validated
+multi-step prediction — leave one recording out when there are three or more, else leave one of four
+consecutive time blocks of every recording out; each held-out stretch is simulated open loop from its measured
+initial speed. The smallest set within 1 % of the best held-out error is taken, and only if it predicts every
+recording's held-out data at least as well as the baseline; else the baseline.
+
+Uncertainty: residuals of an output-error fit are correlated in time (waves, gusts, model error integrate), so
+the covariance is cluster-robust (the sandwich (JᵀJ)⁻¹·Σ_g J_gᵀ r_g r_gᵀ J_g·(JᵀJ)⁻¹ over consecutive blocks
+of five integrated residual-correlation times, at least 10 s; Cameron & Miller 2015) with Student-t intervals
+on G − 1 degrees of freedom. Parameters at their bound (a term switched off) are held fixed in it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numba
+import numpy as np
+from scipy import optimize, special, stats
+from scipy.interpolate import BSpline
+
+from boat_twin.errors import InputError
+from boat_twin.signal_noise import white_noise_stdev
+from boat_twin.vessel.resistance import TableResistance
+
+SPLINE_SIZES = (3, 5, 8, 12)
+"""I-spline terms tried beside the baseline (complexity chosen by cross-validation)."""
+CV_BLOCKS = 4
+"""Consecutive time blocks a recording is split into for cross-validation when there are fewer than three."""
+CV_TOLERANCE = 0.01
+"""A smaller model within this share of the best held-out mean squared error is preferred, -."""
+MAX_STEP_S = 0.05
+"""Longest RK4 step inside a sample interval, s."""
+GRID_POINTS = 1201
+"""Uniform speed grid (0 to twice the top speed) on which the basis is tabulated for the compiled simulation."""
+MAX_GAP_S = 1.0
+"""A sampling gap longer than this starts a new segment (its own initial speed), s."""
+MIN_SEGMENT_SAMPLES = 20
+"""Segments shorter than this are left out of the fit."""
+MIN_CLUSTER_S = 10.0
+"""Shortest block of the cluster-robust covariance, s."""
+MASS_RELATIVE_LIMIT = 0.5
+"""A 95 % mass interval wider than ± this share of the estimate: the mass is not identified by the data, -."""
+TABLE_POINTS = 41
+"""Points of the table the fitted curve is written as (monotone cubic through them: TableResistance)."""
+
+
+@dataclass(frozen=True)
+class SurgeRecord:
+    """One recording's known samples: time s, surge thrust N (Σ T_i·cos δ_i), measured speed over ground m/s."""
+
+    t_s: np.ndarray
+    thrust_N: np.ndarray
+    speed_mps: np.ndarray
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A stretch of samples without a gap: the unit simulated from one initial speed."""
+
+    record: int
+    start: int
+    stop: int
+
+
+@dataclass(frozen=True)
+class ResistanceBasis:
+    """The terms of Fc: a·|u|, b·u², then ``len(knots) − 3`` quadratic I-splines on the clamped knot vector."""
+
+    knots_mps: tuple[float, ...] = ()
+    """Clamped knot vector of the I-splines' B-spline derivatives (degree 2), m/s; empty: the baseline."""
+
+    @property
+    def size(self) -> int:
+        """Number of terms (coefficients), -."""
+        return 2 + max(len(self.knots_mps) - 3, 0)
+
+    @property
+    def name(self) -> str:
+        """``baseline`` or ``spline-K`` (K I-spline terms)."""
+        return "baseline" if self.size == 2 else f"spline-{self.size - 2}"
+
+    def design(self, speed_mps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Terms and their speed derivatives at |u|, shapes (n, size): φ_j(|u|) in N per unit coefficient."""
+        a = np.abs(np.asarray(speed_mps, dtype=float))
+        values, slopes = [a, a**2], [np.ones_like(a), 2.0 * a]
+        knots = np.asarray(self.knots_mps)
+        for k in range(self.size - 2):
+            element = BSpline(knots, np.eye(self.size - 2)[k], 2, extrapolate=False)
+            integral = element.antiderivative()
+            top = float(integral(knots[-1]))
+            values.append(np.where(a >= knots[-1], top, np.nan_to_num(integral(np.minimum(a, knots[-1])))))
+            slopes.append(np.nan_to_num(element(a)))
+        return np.column_stack(values), np.column_stack(slopes)
+
+
+def spline_basis(speeds_mps: np.ndarray, terms: int) -> ResistanceBasis:
+    """``terms`` I-splines with interior knots at quantiles of ``speeds_mps`` over [0, max |speed|]."""
+    top = float(np.max(np.abs(speeds_mps)))
+    inner = np.quantile(np.abs(speeds_mps), np.linspace(0.0, 1.0, terms - 1)[1:-1]) if terms > 3 else np.array([])
+    inner = np.unique(np.clip(inner, 0.02 * top, 0.98 * top))
+    knots = np.concatenate([[0.0] * 3, inner, [top] * 3])
+    return ResistanceBasis(tuple(float(k) for k in knots))
+
+
+@numba.njit(cache=True)
+def _interp_row(table: np.ndarray, step: float, speed: float, out: np.ndarray) -> None:
+    """Linear interpolation of every column of ``table`` (uniform speed grid) at |speed|, into ``out``."""
+    a = abs(speed) / step
+    i = min(int(a), table.shape[0] - 2)
+    frac = a - i
+    for j in range(table.shape[1]):
+        out[j] = table[i, j] + frac * (table[i + 1, j] - table[i, j])
+
+
+@numba.njit(cache=True)
+def _derivative(state: np.ndarray, thrust: float, mass: float, coeffs: np.ndarray, table: np.ndarray,
+                step: float, row: np.ndarray, out: np.ndarray) -> None:
+    """d/dt of [u, ∂u/∂w_j..., ∂u/∂m, ∂u/∂u0] for m·du/dt = T − Fc(u)."""
+    u = state[0]
+    _interp_row(table, step, u, row)
+    p = coeffs.shape[0]
+    sign = 1.0 if u >= 0.0 else -1.0
+    force = 0.0
+    slope = 0.0
+    for j in range(p):
+        force += coeffs[j] * row[j]
+        slope += coeffs[j] * row[p + j]
+    force *= sign
+    out[0] = (thrust - force) / mass
+    for j in range(p):
+        out[1 + j] = (-sign * row[j] - slope * state[1 + j]) / mass
+    out[1 + p] = -(thrust - force) / mass**2 - slope * state[1 + p] / mass
+    out[2 + p] = -slope * state[2 + p] / mass
+
+
+@numba.njit(cache=True)
+def _simulate(t_s: np.ndarray, thrust: np.ndarray, u0: float, mass: float, coeffs: np.ndarray,
+              table: np.ndarray, step: float, max_step: float) -> np.ndarray:
+    """Speed and its sensitivities at every sample, shape (n, p + 3): [u, ∂u/∂w_j..., ∂u/∂m, ∂u/∂u0]."""
+    n = t_s.shape[0]
+    p = coeffs.shape[0]
+    width = p + 3
+    out = np.empty((n, width))
+    state = np.zeros(width)
+    state[0] = u0
+    state[width - 1] = 1.0
+    row = np.empty(2 * p)
+    k1, k2, k3, k4, tmp = np.empty(width), np.empty(width), np.empty(width), np.empty(width), np.empty(width)
+    out[0] = state
+    for i in range(n - 1):
+        interval = t_s[i + 1] - t_s[i]
+        sub = max(1, int(np.ceil(interval / max_step - 1e-9)))
+        h = interval / sub
+        for _ in range(sub):
+            _derivative(state, thrust[i], mass, coeffs, table, step, row, k1)
+            tmp[:] = state + 0.5 * h * k1
+            _derivative(tmp, thrust[i], mass, coeffs, table, step, row, k2)
+            tmp[:] = state + 0.5 * h * k2
+            _derivative(tmp, thrust[i], mass, coeffs, table, step, row, k3)
+            tmp[:] = state + h * k3
+            _derivative(tmp, thrust[i], mass, coeffs, table, step, row, k4)
+            state += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        out[i + 1] = state
+    return out
+
+
+@dataclass
+class SurgeFit:
+    """One output-error fit (SI): coefficients, effective mass, covariance and what the fit left."""
+
+    basis: ResistanceBasis
+    coefficients: np.ndarray
+    """a (N·s/m), b (N·s²/m²), then the I-spline weights (N), each ≥ 0."""
+    mass_kg: float
+    """Effective surge mass m (hull plus added mass), kg."""
+    mass_fixed: bool
+    """True when the mass was given, not fitted."""
+    initial_speeds_mps: np.ndarray
+    """Each segment's fitted initial speed (nuisance), m/s."""
+    residual_mps: np.ndarray
+    """Simulated minus measured speed at every fitted sample, m/s."""
+    covariance: np.ndarray
+    """Cluster-robust covariance of [coefficients, mass] (zero rows/columns for parameters held at a bound)."""
+    clusters: int
+    """Blocks of the cluster-robust covariance, -."""
+    cluster_s: float
+    """Their length, s."""
+    top_speed_mps: float
+    """Highest measured speed the fit saw, m/s (the curve is data up to here)."""
+    evaluations: int = 0
+
+    @property
+    def rmse_mps(self) -> float:
+        """RMS of the fit's residuals, m/s."""
+        return float(np.sqrt(np.mean(self.residual_mps**2)))
+
+    def t_quantile(self) -> float:
+        """Student-t 97.5 % quantile on clusters − 1 degrees of freedom."""
+        return float(stats.t.ppf(0.975, max(self.clusters - 1, 1)))
+
+    @property
+    def mass_ci95_kg(self) -> tuple[float, float]:
+        """95 % interval of the effective mass, kg (a point when the mass was given)."""
+        half = self.t_quantile() * float(np.sqrt(max(self.covariance[-1, -1], 0.0)))
+        return self.mass_kg - half, self.mass_kg + half
+
+    def resistance_N(self, speed_mps: np.ndarray) -> np.ndarray:
+        """Fc(u), N."""
+        values, _ = self.basis.design(speed_mps)
+        return np.sign(speed_mps) * (values @ self.coefficients)
+
+    def resistance_ci95_N(self, speed_mps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pointwise 95 % interval of Fc(u) (delta method over the coefficients' covariance), N."""
+        values, _ = self.basis.design(speed_mps)
+        p = self.coefficients.size
+        sd = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", values, self.covariance[:p, :p], values), 0.0))
+        centre = values @ self.coefficients
+        return centre - self.t_quantile() * sd, centre + self.t_quantile() * sd
+
+    def resistance_model(self) -> TableResistance:
+        """The fitted curve as a monotone table from 0 to the top measured speed (quadratic law beyond)."""
+        speeds = np.linspace(0.0, self.top_speed_mps, TABLE_POINTS)
+        forces = np.maximum.accumulate(self.resistance_N(speeds))
+        forces[0] = 0.0
+        return TableResistance(tuple(float(u) for u in speeds), tuple(float(f) for f in forces))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (SI)."""
+        speeds = np.linspace(0.0, self.top_speed_mps, 11)
+        lo, hi = self.resistance_ci95_N(speeds)
+        return {
+            "model": self.basis.name,
+            "terms": self.basis.size,
+            "coefficients": self.coefficients.tolist(),
+            "coefficient_units": ["N·s/m", "N·s²/m²"] + ["N"] * (self.basis.size - 2),
+            "knots_mps": list(self.basis.knots_mps),
+            "mass_kg": self.mass_kg,
+            "mass_ci95_kg": list(self.mass_ci95_kg),
+            "mass_fixed": self.mass_fixed,
+            "rmse_mps": self.rmse_mps,
+            "clusters": self.clusters,
+            "cluster_s": self.cluster_s,
+            "top_speed_mps": self.top_speed_mps,
+            "resistance_table": {"speed_mps": speeds.tolist(), "force_N": self.resistance_N(speeds).tolist(),
+                                 "ci95_low_N": lo.tolist(), "ci95_high_N": hi.tolist()},
+        }
+
+
+def speed_noise_mps(speed_mps: np.ndarray) -> float:
+    """White noise σ of each GNSS velocity axis, m/s, estimated from the speeds (second differences); 0 if unknown."""
+    sigma = white_noise_stdev(speed_mps)
+    return float(sigma) if np.isfinite(sigma) else 0.0
+
+
+def rice_mean(u_mps: np.ndarray, sigma_mps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Mean GNSS speed over ground |(u, 0) + e| with e ~ N(0, σ²) per axis (the Rice distribution's mean) and its
+    derivative in u: σ·√(π/2)·[(1 + 2z)·I0e(z) + 2z·I1e(z)] with z = u²/(4σ²) (I0e, I1e: exponentially scaled
+    Bessel functions); its z-derivative is I0e + I1e. At rest σ·√(π/2), far from rest |u| + σ²/(2|u|)."""
+    if sigma_mps <= 0.0:
+        return np.abs(u_mps), np.sign(u_mps)
+    z = u_mps**2 / (4.0 * sigma_mps**2)
+    i0, i1 = special.i0e(z), special.i1e(z)
+    scale = sigma_mps * np.sqrt(np.pi / 2.0)
+    return scale * ((1.0 + 2.0 * z) * i0 + 2.0 * z * i1), scale * (i0 + i1) * u_mps / (2.0 * sigma_mps**2)
+
+
+def split_segments(records: list[SurgeRecord], max_gap_s: float = MAX_GAP_S) -> list[Segment]:
+    """Every recording cut at sampling gaps longer than ``max_gap_s``; segments shorter than
+    :data:`MIN_SEGMENT_SAMPLES` dropped."""
+    segments = []
+    for r, rec in enumerate(records):
+        cuts = np.concatenate([[0], np.flatnonzero(np.diff(rec.t_s) > max_gap_s) + 1, [rec.t_s.size]])
+        segments += [Segment(r, int(a), int(b)) for a, b in zip(cuts[:-1], cuts[1:], strict=True)
+                     if b - a >= MIN_SEGMENT_SAMPLES]
+    return segments
+
+
+class _Problem:
+    """The stacked output-error residuals of a set of segments for one basis, mass free or given."""
+
+    def __init__(self, records: list[SurgeRecord], segments: list[Segment], basis: ResistanceBasis,
+                 top_speed_mps: float, mass_kg: float | None) -> None:
+        self.records, self.segments, self.basis, self.mass_given = records, segments, basis, mass_kg
+        self.grid = np.linspace(0.0, 2.0 * top_speed_mps, GRID_POINTS)
+        values, slopes = basis.design(self.grid)
+        self.table = np.ascontiguousarray(np.hstack([values, slopes]))
+        self.step = float(self.grid[1])
+        self.p = basis.size
+        self.evaluations = 0
+        self.noise_mps = [speed_noise_mps(rec.speed_mps) for rec in records]
+
+    def unpack(self, x: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+        """(coefficients, mass, initial speeds) from the optimiser's vector."""
+        if self.mass_given is None:
+            return x[: self.p], float(x[self.p]), x[self.p + 1:]
+        return x[: self.p], float(self.mass_given), x[self.p:]
+
+    def simulate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Residuals (simulated |u| − measured) and their Jacobian with respect to ``x``."""
+        coeffs, mass, u0 = self.unpack(x)
+        self.evaluations += 1
+        n_free = self.p + (self.mass_given is None)
+        rows, jac_rows = [], []
+        for s, seg in enumerate(self.segments):
+            rec = self.records[seg.record]
+            out = _simulate(rec.t_s[seg.start:seg.stop], rec.thrust_N[seg.start:seg.stop], float(u0[s]), mass,
+                            np.ascontiguousarray(coeffs, dtype=float), self.table, self.step, MAX_STEP_S)
+            speed, slope = rice_mean(out[:, 0], self.noise_mps[seg.record])
+            sign = slope[:, None]
+            rows.append(speed - rec.speed_mps[seg.start:seg.stop])
+            jac = np.zeros((out.shape[0], n_free + len(self.segments)))
+            jac[:, : n_free] = (sign * out[:, 1: 1 + n_free])
+            jac[:, n_free + s] = sign[:, 0] * out[:, -1]
+            jac_rows.append(jac)
+        return np.concatenate(rows), np.vstack(jac_rows)
+
+    def measured(self) -> np.ndarray:
+        """Measured speeds of the fitted samples, in residual order, m/s."""
+        return np.concatenate([self.records[g.record].speed_mps[g.start:g.stop] for g in self.segments])
+
+    def times(self) -> np.ndarray:
+        """Sample times in residual order, s (each recording's own clock)."""
+        return np.concatenate([self.records[g.record].t_s[g.start:g.stop] for g in self.segments])
+
+
+def _initial_guess(problem: _Problem) -> np.ndarray:
+    """Coefficients from the quasi-steady balance T ≈ Fc(speed) (NNLS over all samples), then the mass from a
+    scan of time constants 0.3-300 s at the median speed; initial speeds: each segment's first measurement."""
+    speeds = problem.measured()
+    thrust = np.concatenate([problem.records[g.record].thrust_N[g.start:g.stop] for g in problem.segments])
+    values, slopes = problem.basis.design(speeds)
+    sign = np.where(thrust >= 0.0, 1.0, -1.0)
+    coeffs, _ = optimize.nnls(values * sign[:, None], thrust, maxiter=50 * values.shape[1])
+    if not np.any(coeffs > 0):
+        coeffs = np.full(problem.p, 1.0)
+    coeffs = np.maximum(coeffs, 1e-6 * float(np.max(coeffs)))
+    u0 = np.array([problem.records[g.record].speed_mps[g.start] for g in problem.segments])
+    if problem.mass_given is not None:
+        return np.concatenate([coeffs, u0])
+    slope = float(np.median(slopes @ coeffs)) or 1.0
+    best = None
+    for tau_s in np.geomspace(0.3, 300.0, 13):
+        x = np.concatenate([coeffs, [tau_s * slope], u0])
+        cost = float(np.sum(problem.simulate(x)[0] ** 2))
+        if np.isfinite(cost) and (best is None or cost < best[0]):
+            best = (cost, x)
+    if best is None:
+        raise InputError("the surge model diverges for every trial mass: check the thrust and speed units")
+    return best[1]
+
+
+def _cluster_covariance(problem: _Problem, residual: np.ndarray, jac: np.ndarray, free: np.ndarray
+                        ) -> tuple[np.ndarray, int, float]:
+    """Cluster-robust covariance of the free parameters, the number of clusters and their length (s)."""
+    times = problem.times()
+    dt = float(np.median(np.diff(times))) if times.size > 1 else 1.0
+    centred = residual - residual.mean()
+    acf = np.correlate(centred, centred, "full")[residual.size - 1:] / max(float(centred @ centred), 1e-300)
+    negative = np.flatnonzero(acf[1:] <= 0.0)
+    lags = acf[1: 1 + (int(negative[0]) if negative.size else acf.size - 1)]
+    correlation_s = dt * (1.0 + 2.0 * float(np.sum(lags)))
+    cluster_s = max(MIN_CLUSTER_S, 5.0 * correlation_s)
+    labels = np.empty(residual.size, dtype=int)
+    offset, label = 0, 0
+    for seg in problem.segments:
+        t = problem.records[seg.record].t_s[seg.start:seg.stop]
+        block = np.floor((t - t[0]) / cluster_s).astype(int)
+        labels[offset: offset + t.size] = label + block
+        label += int(block[-1]) + 1
+        offset += t.size
+    j = jac[:, free]
+    bread = np.linalg.pinv(j.T @ j)
+    scores = np.zeros((label, j.shape[1]))
+    np.add.at(scores, labels, j * residual[:, None])
+    n, q = residual.size, j.shape[1]
+    correction = label / max(label - 1, 1) * (n - 1) / max(n - q, 1)
+    return correction * bread @ (scores.T @ scores) @ bread, label, cluster_s
+
+
+def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: list[Segment] | None = None,
+              mass_kg: float | None = None, top_speed_mps: float | None = None) -> SurgeFit:
+    """Fit ``basis`` and the effective mass (or hold ``mass_kg``) by output error over ``segments`` (default: all
+    of ``records`` cut at gaps). Returns the fit with its cluster-robust covariance."""
+    segments = segments if segments is not None else split_segments(records)
+    if not segments:
+        raise InputError(f"no stretch of {MIN_SEGMENT_SAMPLES} samples without a gap over {MAX_GAP_S:g} s: "
+                         "nothing to simulate")
+    top = top_speed_mps or float(max(np.max(np.abs(r.speed_mps)) for r in records))
+    problem = _Problem(records, segments, basis, top, mass_kg)
+    x0 = _initial_guess(problem)
+    n_free = problem.p + (mass_kg is None)
+    lower = np.concatenate([np.zeros(problem.p), [1e-6 * x0[problem.p]] if mass_kg is None else [],
+                            np.full(len(segments), -np.inf)])
+    upper = np.full(x0.size, np.inf)
+    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def evaluate(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        key = x.tobytes()
+        if key not in cache:
+            cache.clear()
+            cache[key] = problem.simulate(x)
+        return cache[key]
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        result = optimize.least_squares(lambda x: evaluate(x)[0], np.clip(x0, lower, upper),
+                                        jac=lambda x: evaluate(x)[1], bounds=(lower, upper), x_scale="jac",
+                                        method="trf", max_nfev=200)
+    residual, jac = evaluate(result.x)
+    if not np.all(np.isfinite(residual)):
+        raise InputError("the surge model diverged while fitting (non-finite speeds): check the recording's units")
+    coeffs, mass, u0 = problem.unpack(result.x)
+    free = np.ones(result.x.size, dtype=bool)
+    free[: problem.p] = result.active_mask[: problem.p] == 0
+    cov_free, clusters, cluster_s = _cluster_covariance(problem, residual, jac, free)
+    cov = np.zeros((result.x.size, result.x.size))
+    cov[np.ix_(free, free)] = cov_free
+    param_cov = np.zeros((problem.p + 1, problem.p + 1))
+    param_cov[:n_free, :n_free] = cov[:n_free, :n_free]
+    return SurgeFit(basis, np.array(coeffs), mass, mass_kg is not None, np.array(u0), residual, param_cov, clusters,
+                    cluster_s, top, problem.evaluations)
+
+
+def predict(fit: SurgeFit, record: SurgeRecord, segment: Segment) -> np.ndarray:
+    """Speed over ground the fitted model predicts over ``segment``, open loop from its first measured speed
+    (the mean of its first five samples), m/s."""
+    problem = _Problem([record], [Segment(0, segment.start, segment.stop)], fit.basis, fit.top_speed_mps,
+                       fit.mass_kg)
+    u0 = float(np.mean(record.speed_mps[segment.start: segment.start + 5]))
+    residual, _ = problem.simulate(np.concatenate([fit.coefficients, [u0]]))
+    return residual + record.speed_mps[segment.start:segment.stop]
+
+
+@dataclass
+class OutputErrorResult:
+    """The output-error identification: every candidate's held-out error, the selected fit and the baseline."""
+
+    selected: SurgeFit
+    baseline: SurgeFit
+    candidates: list[dict[str, Any]]
+    """Per candidate: model, terms, cv_mse_mps2 (pooled held-out), cv_rmse_per_record_mps."""
+    folds: str
+    reason: str
+    mass_identified: bool
+    mass_note: str
+    warnings: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``output_error`` entry of ``identify --json`` (SI)."""
+        return {"selected": self.selected.to_dict(), "baseline": self.baseline.to_dict(),
+                "candidates": self.candidates, "folds": self.folds, "selection_reason": self.reason,
+                "mass_identified": self.mass_identified, "mass_note": self.mass_note, "warnings": self.warnings}
+
+
+def _folds(records: list[SurgeRecord], segments: list[Segment]) -> tuple[list[tuple[list[Segment],
+                                                                                    list[Segment]]], str]:
+    """(training segments, held-out segments) per fold, and how the folds were made."""
+    if len(records) >= 3:
+        return [([g for g in segments if g.record != r], [g for g in segments if g.record == r])
+                for r in range(len(records))], f"leave one recording out ({len(records)} folds)"
+    folds = []
+    for b in range(CV_BLOCKS):
+        train, held = [], []
+        for g in segments:
+            t = records[g.record].t_s
+            edges = np.linspace(t[0], t[-1], CV_BLOCKS + 1)
+            lo = int(np.searchsorted(t, edges[b], "left"))
+            hi = int(np.searchsorted(t, edges[b + 1], "right")) if b == CV_BLOCKS - 1 \
+                else int(np.searchsorted(t, edges[b + 1], "left"))
+            lo, hi = max(lo, g.start), min(hi, g.stop)
+            if hi - lo >= MIN_SEGMENT_SAMPLES:
+                held.append(Segment(g.record, lo, hi))
+            train += [Segment(g.record, a, c) for a, c in ((g.start, min(lo, g.stop)), (max(hi, g.start), g.stop))
+                      if c - a >= MIN_SEGMENT_SAMPLES]
+        if held and train:
+            folds.append((train, held))
+    return folds, f"leave one of {CV_BLOCKS} consecutive time blocks out ({len(folds)} folds)"
+
+
+def _cross_validate(records: list[SurgeRecord], basis: ResistanceBasis, folds: list[tuple[list[Segment],
+                    list[Segment]]], top: float, mass_kg: float | None) -> tuple[float, np.ndarray]:
+    """Pooled held-out mean squared error (m²/s²) and each record's held-out RMSE (m/s; NaN where none held)."""
+    sq = np.zeros(len(records))
+    count = np.zeros(len(records))
+    for train, held in folds:
+        try:
+            fit = fit_surge(records, basis, segments=train, mass_kg=mass_kg, top_speed_mps=top)
+        except InputError:
+            return float("inf"), np.full(len(records), np.inf)
+        for g in held:
+            error = predict(fit, records[g.record], g) - records[g.record].speed_mps[g.start:g.stop]
+            sq[g.record] += float(np.sum(error**2)) if np.all(np.isfinite(error)) else np.inf
+            count[g.record] += error.size
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return float(np.sum(sq) / max(np.sum(count), 1)), np.sqrt(sq / count)
+
+
+def identify_surge(records: list[SurgeRecord], *, mass_kg: float | None = None,
+                   spline_sizes: tuple[int, ...] = SPLINE_SIZES) -> OutputErrorResult:
+    """Output-error identification of mass and resistance over ``records`` (module docstring): the baseline
+    and the I-spline candidates cross-validated, the selected one refitted on everything. ``mass_kg`` holds the
+    effective mass (not fitted); otherwise it is fitted and judged identified when its 95 % interval is within
+    ± :data:`MASS_RELATIVE_LIMIT` of it."""
+    segments = split_segments(records)
+    if not segments:
+        raise InputError(f"no stretch of {MIN_SEGMENT_SAMPLES} samples without a gap over {MAX_GAP_S:g} s: "
+                         "nothing to simulate")
+    speeds = np.concatenate([r.speed_mps[g.start:g.stop] for g in segments for r in [records[g.record]]])
+    top = float(np.max(np.abs(speeds)))
+    if not top > 0.0:
+        raise InputError("the boat never moved (every measured speed is 0): no resistance to identify")
+    bases = [ResistanceBasis()] + [spline_basis(speeds, k) for k in spline_sizes]
+    folds, how = _folds(records, segments)
+    candidates = []
+    for basis in bases:
+        mse, per_record = _cross_validate(records, basis, folds, top, mass_kg) if folds else (np.nan, None)
+        candidates.append({"model": basis.name, "terms": basis.size, "cv_mse_mps2": mse,
+                           "cv_rmse_mps": float(np.sqrt(mse)),
+                           "cv_rmse_per_record_mps": None if per_record is None else per_record.tolist()})
+    chosen, reason = _choose(candidates)
+    baseline = fit_surge(records, bases[0], segments=segments, mass_kg=mass_kg, top_speed_mps=top)
+    selected = baseline if chosen == 0 else fit_surge(records, bases[chosen], segments=segments, mass_kg=mass_kg,
+                                                      top_speed_mps=top)
+    identified, note = _mass_verdict(selected, mass_kg)
+    return OutputErrorResult(selected, baseline, candidates, how, reason, identified, note)
+
+
+def _choose(candidates: list[dict[str, Any]]) -> tuple[int, str]:
+    """Index of the selected candidate (0: the baseline) and why."""
+    mse = np.array([c["cv_mse_mps2"] for c in candidates], dtype=float)
+    if not np.all(np.isfinite(mse)):
+        if np.isfinite(mse[0]):
+            return 0, "baseline: a candidate could not be cross-validated"
+        return 0, "baseline: no held-out data to compare the candidates on"
+    best = float(np.min(mse))
+    index = int(np.flatnonzero(mse <= best * (1.0 + CV_TOLERANCE))[0])
+    if index == 0:
+        return 0, (f"baseline: no richer resistance curve predicts held-out data better by more than "
+                   f"{CV_TOLERANCE:.0%} (held-out RMSE {np.sqrt(mse[0]):.4g} m/s)")
+    worse = [i for i, (own, base) in enumerate(zip(candidates[index]["cv_rmse_per_record_mps"],
+                                                   candidates[0]["cv_rmse_per_record_mps"], strict=True))
+             if np.isfinite(own) and own > base]
+    if worse:
+        return 0, (f"baseline: {candidates[index]['model']} predicts held-out data better overall but worse on "
+                   f"recording(s) {', '.join(str(i + 1) for i in worse)}")
+    return index, (f"{candidates[index]['model']}: held-out RMSE {np.sqrt(mse[index]):.4g} m/s against the "
+                   f"baseline's {np.sqrt(mse[0]):.4g} m/s (smallest model within {CV_TOLERANCE:.0%} of the best)")
+
+
+def _mass_verdict(fit: SurgeFit, given_kg: float | None) -> tuple[bool, str]:
+    """Whether the data identify the mass, and the sentence that says so."""
+    if given_kg is not None:
+        return False, f"effective mass held at {given_kg:.4g} kg (given, not fitted)"
+    lo, hi = fit.mass_ci95_kg
+    if not (np.isfinite(lo) and np.isfinite(hi)) or hi - fit.mass_kg > MASS_RELATIVE_LIMIT * fit.mass_kg \
+            or lo <= 0.0:
+        return False, (f"the data do not identify the mass (estimate {fit.mass_kg:.4g} kg, 95 % interval "
+                       f"[{lo:.4g}, {hi:.4g}] kg): record thrust steps up and down")
+    return True, f"effective mass {fit.mass_kg:.4g} kg, 95 % interval [{lo:.4g}, {hi:.4g}] kg"

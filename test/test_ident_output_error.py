@@ -1,0 +1,186 @@
+"""The output-error surge identification on boats the twin did not make (test/independent.py's plain RK4): a small
+boat with short holds and a reversing stretch, a closed-loop speed controller, slow ramps that leave the mass
+unidentified; the physical checks; interval coverage over a handful of seeds (the full study:
+benchmarks/bench_ident_coverage.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from independent import rk4_held
+
+from boat_twin.ident import pipeline
+from boat_twin.ident.output_error import (
+    ResistanceBasis,
+    SurgeRecord,
+    fit_surge,
+    identify_surge,
+    predict,
+    rice_mean,
+    speed_noise_mps,
+    spline_basis,
+    split_segments,
+)
+
+DT_S = 0.1
+NOISE_MPS = 0.05
+
+
+def small_boat_resistance_N(u: np.ndarray | float) -> np.ndarray:
+    """A 20 kg survey boat's Fc: linear + quadratic + a plateau near 1 m/s (N); odd in u."""
+    a = np.abs(np.asarray(u, dtype=float))
+    return np.sign(u) * (4.0 * a + 3.0 * (np.tanh((a - 1.0) / 0.35) + np.tanh(1.0 / 0.35)) + 5.0 * a**2)
+
+
+def run_boat(thrust_N: np.ndarray, mass_kg: float, rng: np.random.Generator,
+             controller=None) -> tuple[SurgeRecord, np.ndarray]:
+    """10 Hz samples of m·du/dt = T − Fc(u) (RK4, 10 substeps), T held per sample (or from ``controller(t,
+    measured speed)``); GNSS speed over ground |(u, 0) + white noise per axis|. Returns the record and the true
+    speed."""
+    n = thrust_N.size if controller is None else int(controller.duration_s / DT_S)
+    t = np.arange(n) * DT_S
+    thrust = np.empty(n)
+    u = np.empty(n)
+    measured = np.empty(n)
+    state = np.array([0.0])
+    for k in range(n):
+        u[k] = state[0]
+        measured[k] = np.hypot(state[0] + rng.normal(0.0, NOISE_MPS), rng.normal(0.0, NOISE_MPS))
+        thrust[k] = thrust_N[k] if controller is None else controller(t[k], measured[k])
+        state = _step(state, thrust[k], mass_kg)
+    return SurgeRecord(t, thrust, measured), u
+
+
+def _step(state: np.ndarray, force_N: float, mass_kg: float) -> np.ndarray:
+    """One 0.1 s sample interval of the independent RK4 (10 substeps)."""
+    deriv = lambda s, f: np.array([(f - float(small_boat_resistance_N(s[0]))) / mass_kg])  # noqa: E731
+    rows = rk4_held(deriv, state, np.array([force_N, force_N]), DT_S / 10, 10)
+    return rows[-1]
+
+
+def short_holds(rng: np.random.Generator, duration_s: float = 400.0) -> np.ndarray:
+    """Random thrust levels -20..45 N held 5-20 s, one reversing hold at -25 N in the middle."""
+    levels, t = [], 0.0
+    while t < duration_s:
+        hold = rng.uniform(5.0, 20.0)
+        level = -25.0 if abs(t - duration_s / 2) < 10.0 else rng.uniform(0.0, 45.0)
+        levels += [level] * int(hold / DT_S)
+        t += hold
+    return np.array(levels[: int(duration_s / DT_S)])
+
+
+def rmse(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((a - b) ** 2)))
+
+
+@pytest.fixture(scope="module")
+def small_boat() -> tuple[SurgeRecord, np.ndarray, object]:
+    rng = np.random.default_rng(3)
+    record, truth = run_boat(short_holds(rng), 20.0, rng)
+    return record, truth, identify_surge([record])
+
+
+def test_small_boat_with_short_holds_and_reversing_resimulates_like_the_truth(small_boat) -> None:
+    record, truth, result = small_boat
+    segment = split_segments([record])[0]
+    expected, _ = rice_mean(truth, speed_noise_mps(record.speed_mps))  # the true model's expected measurement
+    truth_error = rmse(expected, record.speed_mps)
+    selected = rmse(predict(result.selected, record, segment), record.speed_mps)
+    baseline = rmse(predict(result.baseline, record, segment), record.speed_mps)
+    assert np.min(truth) < -0.3  # the boat went astern
+    assert selected <= 1.1 * truth_error and selected <= baseline
+    assert result.selected.mass_kg == pytest.approx(20.0, rel=0.1)
+    lo, hi = result.selected.mass_ci95_kg
+    assert lo < 20.0 < hi and result.mass_identified
+
+
+def test_small_boat_curve_is_physical_and_close_to_the_truth(small_boat) -> None:
+    record, truth, result = small_boat
+    model = result.selected.resistance_model()
+    grid = np.linspace(0.0, float(np.max(np.abs(truth))), 100)
+    force = model.force_N(grid)
+    assert force[0] == 0.0 and np.all(np.diff(force) >= 0.0)
+    assert rmse(force, small_boat_resistance_N(grid)) < 0.05 * float(small_boat_resistance_N(grid[-1]))
+    assert model.force_N(-1.0) == -model.force_N(1.0)
+
+
+class SpeedController:
+    """A PI speed controller (as an autopilot's cruise control) stepping its set-point every 40 s."""
+
+    duration_s = 400.0
+
+    def __init__(self) -> None:
+        self.integral = 0.0
+        self.setpoints = (0.6, 1.5, 0.9, 2.0, 1.2, 0.4, 1.8, 1.0, 2.2, 0.8)
+
+    def __call__(self, t_s: float, speed_mps: float) -> float:
+        error = self.setpoints[int(t_s // 40.0) % len(self.setpoints)] - speed_mps
+        self.integral += error * DT_S
+        return float(np.clip(40.0 * error + 15.0 * self.integral, -20.0, 60.0))
+
+
+def test_closed_loop_speed_controller_trial() -> None:
+    rng = np.random.default_rng(5)
+    record, truth = run_boat(np.empty(0), 20.0, rng, SpeedController())
+    result = identify_surge([record])
+    assert result.selected.mass_kg == pytest.approx(20.0, rel=0.1)
+    grid = np.linspace(0.3, 2.0, 30)
+    assert rmse(result.selected.resistance_N(grid), small_boat_resistance_N(grid)) < 1.0  # N, of 13-35 N
+    assert pipeline.physical_problems(result.selected, [], [(record.t_s, record.thrust_N, record.speed_mps)]) == []
+
+
+def test_slow_ramps_leave_the_mass_unidentified_and_say_so() -> None:
+    rng = np.random.default_rng(2)
+    ramp = 40.0 * (0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, 6000)))  # 0 to 40 N over 10 min, τ ≈ 1 s
+    record, _ = run_boat(ramp, 20.0, rng)
+    result = identify_surge([record])
+    assert not result.mass_identified and "do not identify the mass" in result.mass_note
+    held = identify_surge([record], mass_kg=20.0)
+    assert held.selected.mass_fixed and held.selected.mass_kg == 20.0
+    samples = pipeline.identify_arrays(record.t_s, record.thrust_N, record.speed_mps)
+    assert "effective_mass_kg" not in samples["model"]
+    assert any("do not identify the mass" in w for w in samples["warnings"])
+
+
+def test_a_resistance_above_the_thrust_that_held_a_speed_is_not_physical() -> None:
+    t = np.arange(0.0, 60.0, DT_S)
+    record = SurgeRecord(t, np.full(t.size, 41.0), np.full(t.size, 1.5))
+    fit = fit_surge([SurgeRecord(t, np.where(t < 30, 20.0, 60.0), np.where(t < 30, 1.0, 1.5))],
+                    ResistanceBasis(), mass_kg=20.0)
+    fit.coefficients[:] = (45.0, 0.0)  # Fc(1.0 m/s) = 45 N
+    problems = pipeline.physical_problems(fit, [{"speed_mps": 1.0, "thrust_N": 20.0}],
+                                          [(record.t_s, record.thrust_N, record.speed_mps)])
+    assert any("above the 20 N that held that speed" in p for p in problems)
+    assert any("exceeds the largest thrust commanded (41 N), yet the boat sustained 1.50 m/s" in p for p in problems)
+
+
+def test_interval_coverage_over_seeds() -> None:
+    """Mass intervals of the richest candidate (12 I-splines) hold the truth on at least 5 of 6 independent boats
+    (95 % nominal: P(≤ 4 of 6) = 3 %; measured 5 of 6, the sixth 0.7 % off: the basis' approximation of the
+    plateau biases the mass of a clean, precise trial by a few tenths of a percent — docs/identification.md)."""
+    held = 0
+    for seed in range(6):
+        rng = np.random.default_rng(100 + seed)
+        mass = float(rng.uniform(15.0, 60.0))
+        record, _ = run_boat(short_holds(rng, 300.0), mass, rng)
+        lo, hi = fit_surge([record], spline_basis(record.speed_mps, 12)).mass_ci95_kg
+        held += lo <= mass <= hi
+    assert held >= 5
+
+
+def test_scenarios_are_carried_to_a_30_kg_boat() -> None:
+    """The built-in scenarios derive their levels and speeds from the configured boat: on a 30 kg boat with 25 N
+    per engine no command saturates it and no manoeuvre starts above its top speed; the 6 m boat's own
+    staircase on it gets the warning."""
+    from boat_twin.vessel.params import VesselParams, similar_boat, top_speed_mps
+    from boat_twin.vessel.resistance import PowerSeriesResistance
+    from boat_twin.vessel.scenarios import SCENARIOS, scenario_warnings, thrust_steps
+
+    boat = similar_boat(PowerSeriesResistance((0.0, 4.0, 6.0), 2.5), 30.0, {"bollard_thrust_N": 25.0})
+    for name, factory in SCENARIOS.items():
+        scenario = factory(boat, np.random.default_rng(0))
+        assert scenario_warnings(boat, scenario) == [], name
+        assert scenario.initial_surge_mps <= top_speed_mps(boat), name
+    levels = thrust_steps(boat).values[:, :2].sum(axis=1)
+    assert 0.0 < levels.max() <= 2 * 25.0 and len(set(levels)) == 11  # ten levels and the idle
+    assert any("saturate" in w for w in scenario_warnings(boat, thrust_steps(VesselParams())))
