@@ -13,12 +13,15 @@ Every output (a bag, a bag file, a .tlog, a report file) is written through an :
 
 from __future__ import annotations
 
+import errno
 import fcntl
 import json
 import math
 import os
 import re
 import shutil
+import signal
+import stat
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -59,6 +62,7 @@ REPLACEABLE: dict[str, tuple[str, Callable[[Path], bool]]] = {
             lambda p: _is_bag_dir(p) if p.is_dir() else _starts_with(p, lambda h: h == MCAP_MAGIC, 8)),
     "tlog": ("MAVLink telemetry log", lambda p: _starts_with(p, lambda h: h[8] in MAVLINK_MAGICS, 9)),
     "file": ("file", lambda p: p.is_file()),
+    "reports": ("directory of reports", lambda p: p.is_dir()),
 }
 """Kind of output → (what it is, whether an existing path is one): --force replaces nothing else (an empty file
 is always replaceable)."""
@@ -86,6 +90,14 @@ def _probe_lock(path: Path) -> None:
         os.close(fd)
 
 
+def resolved_path(path: Path) -> Path:
+    """``path`` with its symlinks resolved; a symlink loop is an :class:`InputError` naming it."""
+    try:
+        return path.resolve()
+    except (RuntimeError, OSError) as err:  # Python < 3.13 raises RuntimeError for a loop
+        raise InputError(f"{path}: cannot resolve it (a symlink loop?): {err}") from None
+
+
 def prepare_output(path: Path, force: bool, kind: str = "file") -> None:
     """Check that ``path`` may be written, before any work; nothing is deleted here.
 
@@ -93,7 +105,7 @@ def prepare_output(path: Path, force: bool, kind: str = "file") -> None:
     a path that is not an output of this ``kind`` (:data:`REPLACEABLE`), and an output another run is writing
     now. :class:`OutputClaim` checks again under the lock when the output is written.
     """
-    resolved = path.resolve()
+    resolved = resolved_path(path)
     cwd = Path.cwd().resolve()
     if str(path) in ("", ".") or resolved == cwd or resolved in cwd.parents:
         raise InputError(f"{path or '.'}: is the current directory or contains it; refusing to write over it "
@@ -113,9 +125,9 @@ def refuse_input_as_output(out: Path | None, *inputs: Path | None) -> None:
     log, a config or a bag being read."""
     if out is None:
         return
-    target = out.resolve()
+    target = resolved_path(out)
     for item in inputs:
-        if item is not None and (item.resolve() == target or target in item.resolve().parents):
+        if item is not None and (resolved_path(item) == target or target in resolved_path(item).parents):
             raise InputError(f"{out}: is also an input of this command ({item}); refusing to write over it")
 
 
@@ -205,8 +217,13 @@ class OutputClaim:
                 sys.stderr.write(f"boat-twin: removed {item} (left by a run killed while writing {self.path})\n")
 
     def commit(self, new: Path) -> None:
-        """Move the complete new output ``new`` (inside :attr:`scratch`) to ``path``."""
-        replace_output(new, self.path)
+        """Move the complete new output ``new`` (inside :attr:`scratch`) to ``path``. SIGINT and SIGTERM are
+        held back during the renames (and acted on right after): a signal never lands between them."""
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+        try:
+            replace_output(new, self.path)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
     def _unlock(self) -> None:
         if self._fd is not None:
@@ -223,24 +240,133 @@ class OutputClaim:
     def __enter__(self) -> OutputClaim:
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: object) -> None:
         self.release()
+        if exc is not None and is_write_failure(exc):
+            raise InputError(f"{self.path}: cannot write it ({write_failure(exc)}); nothing was replaced") from None
+
+
+WRITE_FAILURES = (errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS)
+"""errno of a write that failed for lack of room (full disk, file-size limit, quota) or a read-only file system."""
+
+
+def is_write_failure(exc: BaseException) -> bool:
+    """A full disk, a file-size limit or a quota met while writing (OSError, or sqlite3's "disk is full")."""
+    if isinstance(exc, OSError):
+        return exc.errno in WRITE_FAILURES
+    return type(exc).__name__ == "OperationalError" and any(
+        word in str(exc).lower() for word in ("disk is full", "disk i/o error", "too big"))
+
+
+def write_failure(exc: BaseException) -> str:
+    """The reason of a :func:`is_write_failure` in words."""
+    return exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+
+
+class ReportSet:
+    """The report files a verb writes into ``--out DIR``, replaced all at once or not at all.
+
+    ``DIR`` is claimed as one output (:class:`OutputClaim`: one writer, leftovers of killed runs restored or
+    removed). The new set is written into :attr:`staging`, a copy of ``DIR`` beside it (hard links: other files
+    of ``DIR`` are kept, the verb's own ``names`` left out), and swapped in by :meth:`commit`; until then ``DIR``
+    holds the old set untouched, and an error or an interrupt drops the new one whole. Without ``force`` a
+    ``DIR`` already holding one of ``names`` is refused; ``DIR`` itself may exist (it is locked for the run).
+    """
+
+    def __init__(self, path: Path, names: tuple[str, ...], force: bool) -> None:
+        if path.is_symlink() and resolved_path(path).is_dir():
+            path = resolved_path(path)  # write into the directory the link names, keep the link
+        self._check(path, names, force)
+        self.path = path
+        self._dir_lock = _lock_directory(path) if path.is_dir() else None
+        try:
+            self._claim = OutputClaim(path, force=True, kind="reports")
+        except BaseException:
+            self._unlock_dir()
+            raise
+        try:
+            self._check(path, names, force)  # again: the claim may have restored a set a killed run moved aside
+            self.staging = self._claim.scratch / path.name
+            if path.is_dir():
+                _link_tree(path, self.staging)
+                for name in names:
+                    if (self.staging / name).exists() or (self.staging / name).is_symlink():
+                        _remove(self.staging / name)
+            else:
+                self.staging.mkdir()
+        except OSError as err:
+            self.release()
+            raise InputError(f"{path}: cannot prepare the new report set beside it ({err.strerror})") from None
+        except BaseException:
+            self.release()
+            raise
+
+    @staticmethod
+    def _check(path: Path, names: tuple[str, ...], force: bool) -> None:
+        if path.exists() and not path.is_dir():
+            raise InputError(f"{path}: --out must be a directory for the reports, and this is a file")
+        if not force:
+            for name in names:
+                if (path / name).exists() or (path / name).is_symlink():
+                    raise InputError(f"{path / name} exists; use --force to overwrite it")
+
+    def commit(self) -> None:
+        """Swap the complete new set in place of ``DIR``."""
+        self._claim.commit(self.staging)
+
+    def _unlock_dir(self) -> None:
+        if self._dir_lock is not None:
+            os.close(self._dir_lock)
+            self._dir_lock = None
+
+    def release(self) -> None:
+        """Drop an uncommitted new set and the locks (idempotent)."""
+        if hasattr(self, "_claim"):
+            self._claim.release()
+        self._unlock_dir()
+
+    def __enter__(self) -> ReportSet:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: object) -> None:
+        if hasattr(self, "_claim"):
+            self._claim.__exit__(kind, exc, tb)
+        self._unlock_dir()
+
+
+def _link_tree(source: Path, target: Path) -> None:
+    """``target``: a copy of the directory ``source`` made of hard links (a plain copy where links fail)."""
+
+    def link(src: str, dst: str) -> None:
+        try:
+            os.link(src, dst, follow_symlinks=False)
+        except OSError:
+            shutil.copy2(src, dst, follow_symlinks=False)
+
+    shutil.copytree(source, target, symlinks=True, copy_function=link)
 
 
 @contextmanager
 def locked_directory(path: Path) -> Iterator[Path]:
     """Hold an exclusive lock (``flock`` on the directory itself) while a run writes its reports into ``path``:
     a second run writing there is refused at once; the kernel drops the lock when the holder dies."""
-    fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    fd = _lock_directory(path)
     try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise InputError(f"{path}: another run is writing its reports into it now; refusing to write there "
-                             "too") from None
         yield path
     finally:
         os.close(fd)
+
+
+def _lock_directory(path: Path) -> int:
+    """An open descriptor of the directory ``path`` holding its exclusive ``flock``; refused if held."""
+    fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        raise InputError(f"{path}: another run is writing its reports into it now; refusing to write there "
+                         "too") from None
+    return fd
 
 
 def ensure_out_dir(path: Path) -> Path:
@@ -284,20 +410,138 @@ def atomic_save_figure(path: Path, figure: Any, title: str | None = None) -> Non
         claim.commit(new)
 
 
-def load_yaml(path: Path) -> Any:
-    """Read a YAML file; a missing, binary or malformed file is an :class:`InputError` naming it."""
+MAX_YAML_BYTES = 4 << 20
+"""Largest YAML input file, bytes (the shipped configs and calibrations are a few kB)."""
+MAX_YAML_DEPTH = 64
+"""Deepest nesting of a YAML input (the configs nest 4 levels)."""
+MAX_YAML_NODES = 1_000_000
+"""Most nodes a YAML input may stand for with its aliases expanded (an alias bomb stands for billions)."""
+MAX_YAML_INT_DIGITS = 30
+"""Longest integer literal in a YAML input (beyond int64 and float64's exact integers, no quantity needs more)."""
+
+
+class _YamlBound(yaml.YAMLError):
+    """A YAML input beyond a bound, or with a duplicate key: its message is the reason."""
+
+    def __init__(self, reason: str, mark: Any = None) -> None:
+        super().__init__(reason)
+        self.problem, self.problem_mark = reason, mark
+
+
+class BoundedLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` with bounds checked before anything is built: nesting depth (:data:`MAX_YAML_DEPTH`),
+    nodes with aliases expanded (:data:`MAX_YAML_NODES`), integer length (:data:`MAX_YAML_INT_DIGITS`); a key
+    given twice in one mapping is refused (the last would silently win)."""
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self._depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        self._depth += 1
+        try:
+            if self._depth > MAX_YAML_DEPTH:
+                raise _YamlBound(f"nested deeper than {MAX_YAML_DEPTH} levels", self.peek_event().start_mark)
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+    def get_single_node(self) -> Any:
+        node = super().get_single_node()
+        if node is not None:
+            _check_expanded_size(node)
+        return node
+
+    def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+        if isinstance(node, yaml.MappingNode):
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    duplicate = key in seen
+                    seen.add(key)
+                except TypeError:  # an unhashable key: refused by the constructor below
+                    continue
+                if duplicate:
+                    raise _YamlBound(f"key {key!r} given twice (the first would be silently dropped)",
+                                     key_node.start_mark)
+        return super().construct_mapping(node, deep)
+
+    def construct_yaml_int(self, node: Any) -> Any:
+        digits = sum(ch.isdigit() for ch in str(node.value))
+        if digits > MAX_YAML_INT_DIGITS:
+            raise _YamlBound(f"an integer of {digits} digits (at most {MAX_YAML_INT_DIGITS})", node.start_mark)
+        return super().construct_yaml_int(node)
+
+
+BoundedLoader.add_constructor("tag:yaml.org,2002:int", BoundedLoader.construct_yaml_int)
+
+
+def _check_expanded_size(root: Any) -> None:
+    """Count the nodes ``root`` stands for with every alias expanded, without expanding (each node's count is
+    computed once); beyond :data:`MAX_YAML_NODES`, or a node that contains itself, is a :class:`_YamlBound`."""
+    sizes: dict[int, int] = {}
+    stack: list[tuple[Any, bool]] = [(root, False)]
+    open_nodes: set[int] = set()
+    while stack:
+        node, done = stack.pop()
+        if id(node) in sizes:
+            continue
+        children = ([item for pair in node.value for item in pair] if isinstance(node, yaml.MappingNode)
+                    else node.value if isinstance(node, yaml.SequenceNode) else [])
+        if done:
+            open_nodes.discard(id(node))
+            sizes[id(node)] = size = 1 + sum(sizes[id(child)] for child in children)
+            if size > MAX_YAML_NODES:
+                raise _YamlBound(f"stands for more than {MAX_YAML_NODES:,} values with its aliases expanded (an "
+                                 "alias bomb?)", node.start_mark)
+            continue
+        if id(node) in open_nodes:
+            raise _YamlBound("an alias refers to a node that contains it", node.start_mark)
+        open_nodes.add(id(node))
+        stack.append((node, True))
+        stack.extend((child, False) for child in children if id(child) not in sizes)
+
+
+def regular_input(path: Path, what: str = "input file") -> Path:
+    """``path`` if it is a regular file (or a directory); a FIFO, a device or a socket is refused: reading one
+    could block forever or never end."""
     try:
-        text = path.read_bytes().decode("utf-8")
+        mode = os.stat(path).st_mode
     except OSError as err:
         raise InputError(f"{path}: cannot read ({err.strerror})") from None
+    if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+        raise InputError(f"{path}: not a regular file (a FIFO, device or socket); expected a {what}")
+    return path
+
+
+def load_yaml(path: Path) -> Any:
+    """Read a YAML file; a missing, binary, malformed or oversized file is an :class:`InputError` naming it.
+
+    Bounded before parsing (every YAML reader comes here): a regular file of at most :data:`MAX_YAML_BYTES`,
+    then :class:`BoundedLoader`'s depth, alias-expansion and integer bounds; duplicate keys refused."""
+    if regular_input(path, "YAML file").is_dir():
+        raise InputError(f"{path}: is a directory; expected a YAML file")
+    try:
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_YAML_BYTES + 1)
+    except OSError as err:
+        raise InputError(f"{path}: cannot read ({err.strerror})") from None
+    if len(raw) > MAX_YAML_BYTES:
+        raise InputError(f"{path}: larger than {MAX_YAML_BYTES >> 20} MiB; not a configuration file")
+    try:
+        text = raw.decode("utf-8")
     except UnicodeDecodeError as err:
         raise InputError(f"{path}: not a UTF-8 text file (byte {err.start}); expected YAML") from None
     try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as err:
+        return yaml.load(text, Loader=BoundedLoader)  # noqa: S506 - a SafeLoader with bounds
+    except (yaml.YAMLError, RecursionError) as err:
         mark = getattr(err, "problem_mark", None)
         where = f" at line {mark.line + 1}" if mark is not None else ""
-        raise InputError(f"{path}: malformed YAML{where}") from None
+        reason = f": {err.problem}" if isinstance(err, _YamlBound) else ""
+        raise InputError(f"{path}: malformed YAML{where}{reason}") from None
 
 
 def to_json(data: Any) -> str:

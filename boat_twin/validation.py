@@ -15,7 +15,12 @@ from boat_twin.errors import InputError
 
 C = TypeVar("C")
 
-__all__ = ["config_from_mapping", "integer", "number", "number_list", "vector3"]
+THRUST_LIMIT_N = 1e6
+"""Largest thrust magnitude any input may hold, N: 500 times the seed boat's bollard thrust. One bound for every
+reader (bags, MAVLink logs, CSV trials and command files, the live identifier, vessel.bollard_thrust_N): beyond
+is a decoding or unit error."""
+
+__all__ = ["THRUST_LIMIT_N", "config_from_mapping", "integer", "number", "number_list", "vector3"]
 
 
 def number(where: str, value: Any, *, minimum: float | None = None, maximum: float | None = None,

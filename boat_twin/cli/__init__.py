@@ -80,6 +80,7 @@ def _terminate(signum: int, frame: object) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``boat-twin`` console script. Exit codes: 0 done, 2 bad input (one line on stderr),
     130 Ctrl-C, 143 SIGTERM (an output being written is dropped; an old one stays as it was)."""
+    process = argv is None  # the console script: this process ends when main returns
     argv = sys.argv[1:] if argv is None else argv
     verb = next((a for a in argv if not a.startswith("-")), None)
     try:
@@ -98,6 +99,19 @@ def main(argv: list[str] | None = None) -> int:
     except Terminated:
         sys.stderr.write("boat-twin: terminated\n")
         return 143
+    except Exception as err:
+        from boat_twin.files import is_write_failure, write_failure
+
+        if not is_write_failure(err):
+            raise
+        where = f"{err.filename}: " if isinstance(err, OSError) and err.filename else ""
+        sys.stderr.write(f"boat-twin {verb}: error: {where}cannot write ({write_failure(err)})\n")
+        return 2
     finally:
-        if previous is not None:
+        if process and previous is not None:
+            # The run is over, its outputs complete: a SIGTERM from now on cannot be acted on by Python (the
+            # interpreter shuts down) and would kill the process by the signal; the process exits with the
+            # run's own status instead.
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        elif previous is not None:
             signal.signal(signal.SIGTERM, previous)

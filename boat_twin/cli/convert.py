@@ -18,7 +18,7 @@ from typing import Any
 from boat_twin.cli import verb_help
 from boat_twin.cli.options import add_trial_options, parse_remap
 from boat_twin.errors import InputError
-from boat_twin.files import refuse_input_as_output, to_json
+from boat_twin.files import refuse_input_as_output, regular_input, to_json
 from boat_twin.io.roles import COMMAND_ROLES
 
 
@@ -32,6 +32,8 @@ def run(args: argparse.Namespace) -> int:
     refuse_input_as_output(args.out, log_path, args.calibration)
     if not is_mavlink_log(log_path):
         raise InputError(f"{log_path}: convert reads MAVLink logs (.tlog telemetry or .BIN DataFlash)")
+    if log_path.exists():
+        regular_input(log_path, "MAVLink log")
     sys.stderr.write(f"reading {log_path} ...\n")
     log = read_mavlink_log(log_path, args.calibration, remap=parse_remap(args.topic))
     trial = trial_from_log(log)

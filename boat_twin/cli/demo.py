@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 from boat_twin.cli import verb_help
 from boat_twin.errors import InputError
-from boat_twin.files import ensure_out_dir, to_json
+from boat_twin.files import ReportSet, refuse_input_as_output, to_json
 from boat_twin.units import KGF_N, KNOT_MPS
 
 if TYPE_CHECKING:
@@ -19,6 +19,8 @@ SAMPLE_BAG = Path("bags/thrust_steps_sample")
 """The shipped sample trial (regenerate: ``make sample``)."""
 SAMPLE_SEED = 1
 """Seed the sample was made with."""
+OUTPUTS = ("thrust_steps", "sample_trial.png", "identify")
+"""What ``demo --out DIR`` writes: the regenerated bag, the plot, the identification report."""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -30,7 +32,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help=f"sample bag (default {SAMPLE_BAG})")
     p.add_argument("--out", type=Path, default=Path("out/demo"), metavar="DIR",
                    help="report directory (default out/demo)")
-    p.add_argument("--force", action="store_true", help="overwrite the regenerated bag in --out")
+    p.add_argument("--force", action="store_true",
+                   help=f"overwrite an earlier demo's outputs in --out ({', '.join(OUTPUTS)})")
     p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")
     p.set_defaults(handler=run)
 
@@ -57,7 +60,19 @@ def thrust_levels(trial: Trial) -> list[dict[str, float]]:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Handler of ``demo`` (the libraries are imported here, so that ``--help`` answers at once)."""
+    """Handler of ``demo`` (the libraries are imported in :func:`_run`, so that ``--help`` answers at once): the
+    report set (:data:`OUTPUTS`) is written whole beside --out and swapped in, or not at all."""
+    if not args.sample.exists():
+        raise InputError(f"{args.sample}: sample bag not found (run from the repository root, or 'make sample')")
+    refuse_input_as_output(args.out, args.sample)
+    with ReportSet(args.out, OUTPUTS, args.force) as reports:
+        code = _run(args, args.out, reports.staging)
+        reports.commit()
+    return code
+
+
+def _run(args: argparse.Namespace, out: Path, staging: Path) -> int:
+    """The tour, writing into ``staging`` (swapped in as ``out`` when complete)."""
     import numpy as np
 
     from boat_twin.config import TwinConfig
@@ -66,20 +81,17 @@ def run(args: argparse.Namespace) -> int:
     from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
     from boat_twin.vessel.scenarios import make_scenario
 
-    if not args.sample.exists():
-        raise InputError(f"{args.sample}: sample bag not found (run from the repository root, or 'make sample')")
-    out = ensure_out_dir(args.out)
     print(f"[1/4] regenerating the sample: thrust-steps, seed {SAMPLE_SEED} ...", file=sys.stderr)
     config = TwinConfig()
     scenario = make_scenario("thrust-steps", config.vessel, np.random.default_rng(SAMPLE_SEED))
     regenerated = out / "thrust_steps"
-    write_bag(regenerated, trial_messages(run_sea_trial(config, scenario, SAMPLE_SEED)), force=args.force)
+    write_bag(staging / "thrust_steps", trial_messages(run_sea_trial(config, scenario, SAMPLE_SEED)))
     print("[2/4] reading both bags back ...", file=sys.stderr)
-    sample, again = read_trial(args.sample), read_trial(regenerated)
+    sample, again = read_trial(args.sample), read_trial(staging / "thrust_steps")
     identical = len(sample) == len(again) and bool(np.array_equal(sample.speed_mps, again.speed_mps, equal_nan=True))
     levels = thrust_levels(sample)
     print("[3/4] plotting ...", file=sys.stderr)
-    plot_trial(sample, out / "sample_trial.png", f"{args.sample}: thrust steps")
+    plot_trial(sample, staging / "sample_trial.png", f"{args.sample}: thrust steps")
     result = {"sample": str(args.sample), "regenerated": str(regenerated), "identical": identical,
               "metadata": sample.metadata.summary_line(), "levels": levels,
               "plots": [str(out / "sample_trial.png")]}
@@ -95,12 +107,13 @@ def run(args: argparse.Namespace) -> int:
               f"{speed:16.3f} ± {lv['final_speed_stdev_mps']:.3f} {speed / KNOT_MPS:6.2f}")
     print(f"plot: {out / 'sample_trial.png'}")
     print("[4/4] identifying the sample and the paper's table ...", file=sys.stderr)
-    print(identification_summary(sample, out))
+    print(identification_summary(sample, out, staging))
     return 0
 
 
-def identification_summary(sample: Trial, out: Path) -> str:
-    """Identify the sample trial (report + plots into ``out/identify``) and reproduce Dyda & Chumakova (2021)."""
+def identification_summary(sample: Trial, out: Path, staging: Path | None = None) -> str:
+    """Identify the sample trial (report + plots into ``staging/identify``, named ``out/identify``; ``staging``
+    defaults to ``out``) and reproduce Dyda & Chumakova (2021)."""
     import numpy as np
 
     from boat_twin.config import TwinConfig
@@ -111,7 +124,7 @@ def identification_summary(sample: Trial, out: Path) -> str:
     keep = np.isfinite(sample.surge_thrust_N) & np.isfinite(sample.speed_mps)
     t_s, thrust, speed = sample.t_s[keep], sample.surge_thrust_N[keep], sample.speed_mps[keep]
     result = identify_arrays(t_s, thrust, speed)
-    write_trial_report(out / "identify", result, t_s, thrust, speed,
+    write_trial_report((staging or out) / "identify", result, t_s, thrust, speed,
                        true_resistance_N=TwinConfig().vessel.resistance.force_N,  # the sample's own boat
                        title=f"demo: identify {sample.metadata.source}")
     oe = result["output_error"]

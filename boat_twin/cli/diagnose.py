@@ -21,6 +21,7 @@ from boat_twin.cli.options import (
     parse_remap,
     run_each,
     trial_from_args,
+    trial_inputs,
     twin_config_from_args,
 )
 from boat_twin.diagnose.defaults import EXTENDED_MODEL_NAME, WINDOW_S
@@ -44,14 +45,19 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     from boat_twin.diagnose.pipeline import diagnose_trial
     from boat_twin.diagnose.report import text_report
     from boat_twin.fleet.reports import write_diagnosis_report
+    from boat_twin.io.trial import thrust_outliers
 
     trial = trial_from_args(args.trial, args)
-    done = diagnose_trial(trial, twin_config_from_args(args), args.window, None if args.json else _progress)
+    config = twin_config_from_args(args)
+    summary = trial.metadata.summary_line()  # what identify prints of a trial
+    warnings = [w for w in [thrust_outliers(trial, config.vessel.bollard_thrust_N)] if w]
+    sys.stderr.write("".join(f"{line}\n" for line in [summary, *(f"warning: {w}" for w in warnings)]))
+    done = diagnose_trial(trial, config, args.window, None if args.json else _progress)
     if not args.json:
         sys.stderr.write("\r" + " " * 72 + "\r")
     result = done.result
     if out is not None:
-        write_diagnosis_report(out, done, str(args.trial))
+        write_diagnosis_report(out, done, str(args.trial), args.out)
     print(to_json(result) if args.json else text_report(result))
     return 0
 
@@ -64,7 +70,7 @@ def _run_table(args: argparse.Namespace, out: Path | None) -> int:
     result["extended_model"] = None
     if out is not None and resistance is not None:
         atomic_write_yaml(out / EXTENDED_MODEL_NAME, {"vessel": {"resistance": resistance.to_dict()}})
-        result["extended_model"] = str(out / EXTENDED_MODEL_NAME)
+        result["extended_model"] = str(args.out / EXTENDED_MODEL_NAME)  # its final name (out: the staging copy)
     if out is not None:
         atomic_save_figure(out / "diagnosis_table.png", table_figure(diag),
                            f"diagnose --table dyda2021 (the paper's N = {args.model_order} fit)")
@@ -79,8 +85,8 @@ def run(args: argparse.Namespace) -> int:
     if args.table is not None:
         if args.trial:
             raise InputError("give either a TRIAL or --table, not both")
-        with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as out:
-            return _run_table(args, out)
+        with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as reports:
+            return _run_table(args, reports.staging if reports else None)
     if not args.trial:
         raise InputError("give a TRIAL (bag, .mcap, .tlog, .BIN, .csv) or --table dyda2021")
     number("--window", args.window, above=0.0)
@@ -94,8 +100,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"{len(args.trial)} trials given: diagnose reads one trial, or each of several with "
                          "--each --out DIR")
     args.trial = args.trial[0]
-    with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force) as out:
-        return _run_trial(args, out)
+    with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force, trial_inputs(args)) as reports:
+        return _run_trial(args, reports.staging if reports else None)
 
 
 def register(subparsers: Any) -> None:

@@ -20,6 +20,7 @@ from boat_twin.cli.options import (
     parse_remap,
     run_each,
     trial_from_args,
+    trial_inputs,
     twin_config_from_args,
 )
 from boat_twin.errors import InputError
@@ -61,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"{len(args.trial)} trials given: follow reads one trial, or each of several with "
                          "--each --out DIR")
     trial_path = args.trial[0]
-    with claim_out_dir(args.out, OUTPUTS, args.force) as out:
+    with claim_out_dir(args.out, OUTPUTS, args.force, trial_inputs(args)) as reports:
+        out = reports.staging if reports else None  # the whole set is swapped in when complete
         from boat_twin.fleet.reports import write_follow_report
         from boat_twin.shadow.follow import follow_trial
 

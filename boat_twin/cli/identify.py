@@ -22,10 +22,11 @@ from boat_twin.cli.options import (
     parse_remap,
     run_each,
     trial_from_args,
+    trial_inputs,
     twin_config_from_args,
 )
 from boat_twin.errors import InputError
-from boat_twin.files import atomic_save_figure, atomic_write_text, refuse_input_as_output, to_json
+from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
 
 TABLE_OUTPUTS = ("identify.json", "report.txt", "model.yaml", "fits.png", "residuals.png")
 """What ``identify --table --out DIR`` writes."""
@@ -72,19 +73,18 @@ def run(args: argparse.Namespace) -> int:
     if args.each:
         return _run_each(args)
     if args.table is not None:
-        with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as out:
-            return _run_table(args, out)
+        with claim_out_dir(args.out, TABLE_OUTPUTS, args.force) as reports:
+            return _run_table(args, reports.staging if reports else None)
     if not args.trial:
         raise InputError("nothing to identify: give a TRIAL (bag, .mcap, .tlog, .BIN, .csv) or --table dyda2021")
     if args.manoeuvring:
-        refuse_input_as_output(args.out, *args.trial, *args.validate, args.config, args.model)
-        with claim_out_dir(args.out, MANOEUVRING_OUTPUTS, args.force) as out:
-            return _run_manoeuvring(args, out)
+        with claim_out_dir(args.out, MANOEUVRING_OUTPUTS, args.force, trial_inputs(args)) as reports:
+            return _run_manoeuvring(args, reports.staging if reports else None)
     for name in ("validate", "window", "config", "model"):
         if getattr(args, name):
             raise InputError(f"--{name} needs --manoeuvring")
-    with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force):
-        return _run_trial(args)
+    with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force, trial_inputs(args)) as reports:
+        return _run_trial(args, reports.staging if reports else None)
 
 
 def _boat_facts(args: argparse.Namespace) -> dict[str, float] | None:
@@ -185,7 +185,7 @@ def rejected_summary(rejected: list[dict[str, Any]]) -> str:
     return f"rejected segments: {counts} (each with its reason in --json / identify.json)"
 
 
-def _run_trial(args: argparse.Namespace) -> int:
+def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     """Recorded trials, pooled: replay through the online identifier, batch fits, dynamic mass, re-simulation of
     each with the identified model (closing the loop), report (into --out, claimed by the caller)."""
     from boat_twin.fleet.reports import write_identify_report
@@ -202,9 +202,9 @@ def _run_trial(args: argparse.Namespace) -> int:
     result, resims, vessel = identify_trials(trials, order=args.order, max_order=min(args.max_order, 6),
                                              monotone=args.monotone, window_s=args.steady_window,
                                              thrust_tolerance_N=args.thrust_tolerance, boat=boat)
-    if args.out is not None:
-        write_identify_report(args.out, result, trials, resims, vessel, ", ".join(map(str, args.trial)),
-                              str(args.boat) if args.boat is not None else None)
+    if out is not None:
+        write_identify_report(out, result, trials, resims, vessel, ", ".join(map(str, args.trial)),
+                              str(args.boat) if args.boat is not None else None, args.out)
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0

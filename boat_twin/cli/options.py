@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from boat_twin.errors import InputError
-from boat_twin.files import ensure_out_dir, locked_directory, to_json
+from boat_twin.files import ReportSet, refuse_input_as_output, to_json
 from boat_twin.io.roles import TRIAL_ROLES
 
 if TYPE_CHECKING:
@@ -80,21 +80,34 @@ def twin_config_from_args(args: argparse.Namespace) -> TwinConfig:
     return load_twin_config(args.config, args.model, tuple(current) if current else None)
 
 
+def trial_inputs(args: argparse.Namespace) -> list[Path]:
+    """The files a verb reading trials takes in (trials, --calibration, a --columns YAML, --config, --model,
+    --boat, --validate): none may lie inside its --out."""
+    trials = getattr(args, "trial", None)
+    paths = list(trials) if isinstance(trials, list) else [trials]
+    paths += list(getattr(args, "validate", None) or [])
+    columns = getattr(args, "columns", None)
+    if columns and str(columns).endswith((".yaml", ".yml")):
+        paths.append(Path(columns))
+    paths += [getattr(args, name, None) for name in ("calibration", "config", "model", "boat")]
+    return [Path(p) for p in paths if p is not None]
+
+
 @contextmanager
-def claim_out_dir(out: Path | None, names: tuple[str, ...], force: bool) -> Iterator[Path | None]:
-    """--out DIR checked before any work and held for the run: the report files ``names`` already there are
-    refused without --force (with it they are replaced one by one, atomically), a file given as --out is refused,
-    and a second run writing reports into DIR at the same time is refused (:func:`locked_directory`)."""
+def claim_out_dir(out: Path | None, names: tuple[str, ...], force: bool,
+                  inputs: list[Path] | tuple[Path, ...] = ()) -> Iterator[ReportSet | None]:
+    """--out DIR checked before any work and held for the run, as one output (:class:`~boat_twin.files.ReportSet`):
+    the report files ``names`` already there are refused without --force, a file given as --out is refused, an
+    input inside DIR is refused, a second run writing reports into DIR at the same time is refused. The caller
+    writes into ``.staging``; leaving the ``with`` normally swaps the whole new set in, an error or an interrupt
+    keeps the old one."""
     if out is None:
         yield None
         return
-    if out.exists() and not out.is_dir():
-        raise InputError(f"{out}: --out must be a directory for the reports, and this is a file")
-    with locked_directory(ensure_out_dir(out)):
-        for name in names:
-            if (out / name).exists() and not force:
-                raise InputError(f"{out / name} exists; use --force to overwrite it")
-        yield out
+    refuse_input_as_output(out, *inputs)
+    with ReportSet(out, names, force) as reports:
+        yield reports
+        reports.commit()
 
 
 def add_fleet_options(parser: argparse.ArgumentParser, what: str) -> None:

@@ -5,6 +5,7 @@ The simulator is imported by the handler, so that ``--help`` answers at once."""
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -86,7 +87,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _scenario(args: argparse.Namespace, config: TwinConfig) -> Scenario:
     import numpy as np
 
-    from boat_twin.vessel.scenarios import CommandProfile, make_scenario, read_command_csv
+    from boat_twin.vessel.scenarios import MAX_DURATION_S, CommandProfile, make_scenario, read_command_csv
 
     if args.commands and args.scenario:
         raise InputError("give a scenario or --commands, not both")
@@ -102,6 +103,9 @@ def _scenario(args: argparse.Namespace, config: TwinConfig) -> Scenario:
             profile = read_command_csv(args.commands)
         if args.duration is not None:
             return make_scenario_with_duration(profile, args.duration)
+        if not profile.duration_s <= MAX_DURATION_S:
+            raise InputError(f"{args.commands}: its commands run to {profile.duration_s:g} s, beyond "
+                             f"{MAX_DURATION_S:g} s (7 days, the longest simulation); give --duration")
         return profile
     if not args.scenario:
         raise InputError(f"name a scenario ({', '.join(SCENARIO_NAMES)}) or give --commands FILE")
@@ -144,6 +148,12 @@ def run(args: argparse.Namespace) -> int:
     from boat_twin.vessel.scenarios import scenario_warnings
 
     integer("--seed", args.seed, minimum=0, maximum=SEED_MAX)
+    if args.duration is not None:  # every path: a scenario, --commands, --mavlink, --tlog, --ensemble
+        from boat_twin.vessel.scenarios import MAX_DURATION_S
+
+        if not (math.isfinite(args.duration) and 0.0 < args.duration <= MAX_DURATION_S):
+            raise InputError(f"--duration must be a positive number of seconds up to {MAX_DURATION_S:g} (7 days), "
+                             f"got {args.duration!r}")
     if args.ensemble is not None:
         return _run_ensemble(args)
     if args.out is not None and args.out.suffix.lower() in (".tlog", ".bin", ".csv"):

@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from boat_twin.config import TwinConfig
 from boat_twin.data import dyda2021_table1
 from boat_twin.data.dyda2021 import PAPER_COEFFICIENTS, PAPER_ORDERS
@@ -42,6 +44,9 @@ class TrialDiagnosis:
 def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
                    progress: Any = None) -> TrialDiagnosis:
     """Diagnose ``trial`` against the model ``base``: the library entry point of ``diagnose TRIAL``."""
+    if not np.any(np.isfinite(trial.speed_mps)):
+        raise InputError(f"{trial.metadata.source}: the speed over ground is unknown throughout (a GNSS velocity "
+                         "component NaN in every sample, or no velocity or fix): nothing to diagnose")
     windows = cut_windows(trial, window_s)
     diagnosis = Diagnosis(windows, base, progress)
     selection = forward_select(diagnosis, catalogue(base, trial.speed_mps))

@@ -23,31 +23,33 @@ from boat_twin.vessel.params import VesselParams
 
 def write_identify_report(out: Path, result: TrialIdentifyResult, trials: Sequence[Trial],
                           resims: Sequence[Resimulation | None], vessel: VesselParams | None,
-                          sources: str, boat_file: str | None) -> None:
+                          sources: str, boat_file: str | None, named: Path | None = None) -> None:
     """The report of :func:`~boat_twin.ident.pipeline.identify_trials` on ``trials`` (read from ``sources``) into
     ``out``: twin.yaml (when a mass is known; geometry from ``boat_file`` or the default boat), identify.json,
-    model.yaml and the figures (resimulation.png for a single trial)."""
+    model.yaml and the figures (resimulation.png for a single trial). ``named``: the directory the texts name
+    (default ``out``; a report set's final name when ``out`` is its staging copy)."""
     if vessel is not None:
         save_config(TwinConfig(vessel=vessel), out / "twin.yaml",
                     f"boat_twin twin of the boat identified from {sources}\n"
                     f"geometry: {boat_file or 'the default boat carried to the identified mass'}; where each fact "
                     "came from: identify.json 'twin'\n"
-                    f"load with: boat-twin simulate ... --config {out / 'twin.yaml'}")
+                    f"load with: boat-twin simulate ... --config {(named or out) / 'twin.yaml'}")
     t_s, thrust, speed = (np.concatenate(column) for column in zip(*pool([trial_samples(tr) for tr in trials]),
                                                                    strict=True))
     write_trial_report(out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None,
                        title=f"identify {sources}")
 
 
-def write_diagnosis_report(out: Path, done: TrialDiagnosis, source: str) -> None:
+def write_diagnosis_report(out: Path, done: TrialDiagnosis, source: str, named: Path | None = None) -> None:
     """The report of a :func:`~boat_twin.diagnose.pipeline.diagnose_trial` of ``source`` into ``out``: the
-    extended model (its path set in ``done.result["extended_model"]``), three figures and diagnosis.json."""
+    extended model (its path set in ``done.result["extended_model"]``), three figures and diagnosis.json.
+    ``named``: the directory the texts name (default ``out``; a report set's final name)."""
     result = done.result
     names = ", ".join(v["effect"] for v in result["verdict"]) or "none"
     save_config(done.extended, out / EXTENDED_MODEL_NAME,
                 f"boat_twin extended model: diagnose {source} (named: {names})\n"
-                f"load with: boat-twin simulate ... --config {out / EXTENDED_MODEL_NAME}")
-    result["extended_model"] = str(out / EXTENDED_MODEL_NAME)
+                f"load with: boat-twin simulate ... --config {(named or out) / EXTENDED_MODEL_NAME}")
+    result["extended_model"] = str((named or out) / EXTENDED_MODEL_NAME)
     concerned = concerned_signals(result)
     before, after = done.baseline_prediction, done.extended_prediction
     title = f"diagnose {source}"

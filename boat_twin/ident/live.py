@@ -13,7 +13,13 @@ from typing import Any
 import numpy as np
 
 from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadyCriteria, SteadySegment
+from boat_twin.validation import THRUST_LIMIT_N
 from boat_twin.vessel.resistance import PowerSeriesResistance
+
+COMMAND_LIMITS = (THRUST_LIMIT_N, THRUST_LIMIT_N, math.pi, math.pi)
+"""Largest magnitude of each held command (thrust N, steering rad): the bounds every trial reader applies."""
+SPEED_LIMIT_MPS = 343.0
+"""Largest GNSS speed taken in, m/s (the speed of sound in air, as the trial readers)."""
 
 
 class LiveIdentifier:
@@ -32,23 +38,45 @@ class LiveIdentifier:
         self.commands = np.array([math.nan, math.nan, 0.0, 0.0])
         self.max_speed_mps = 0.0
         self.first_stamp_ns: int | None = None
+        self.rejected = 0
+        """Samples refused (non-finite, or beyond :data:`COMMAND_LIMITS` / :data:`SPEED_LIMIT_MPS`)."""
+        self.recoveries = 0
+        """Times the fit became non-finite and was restarted from the held commands."""
 
     def set_command(self, index: int, value: float) -> None:
-        """Command 0 thrust_left_N, 1 thrust_right_N, 2 angle_left_rad, 3 angle_right_rad (held)."""
+        """Command 0 thrust_left_N, 1 thrust_right_N, 2 angle_left_rad, 3 angle_right_rad (held). A value that
+        is not finite or beyond :data:`COMMAND_LIMITS` is refused (counted in :attr:`rejected`; the last valid
+        command stays held)."""
+        if not (math.isfinite(value) and abs(value) <= COMMAND_LIMITS[index]):
+            self.rejected += 1
+            return
         self.commands[index] = value
 
     def on_velocity(self, stamp_ns: int, vel_east_mps: float, vel_north_mps: float) -> SteadySegment | None:
         """One GNSS velocity sample (header stamp in integer ns): surge thrust Σ T·cos δ of the held commands
         against speed over ground. Time runs from the first sample, so seconds are exact to the ns.
         Returns the constant-thrust segment this sample closed, if any (accepted or not)."""
+        speed = math.hypot(vel_east_mps, vel_north_mps)
+        if not (math.isfinite(speed) and speed <= SPEED_LIMIT_MPS):
+            self.rejected += 1
+            return None
         if self.first_stamp_ns is None:
             self.first_stamp_ns = stamp_ns
         stamp_s = (stamp_ns - self.first_stamp_ns) * 1e-9
         left, right, angle_left, angle_right = self.commands
         thrust = float(left * math.cos(angle_left) + right * math.cos(angle_right))
-        speed = math.hypot(vel_east_mps, vel_north_mps)
         self.max_speed_mps = max(self.max_speed_mps, speed)
-        return self.core.update(stamp_s, thrust, speed)
+        segment = self.core.update(stamp_s, thrust, speed)
+        if not self._finite():  # never publish NaN forever: start the fit again from here
+            self.core = OnlineThrustSpeedIdentifier(self.order, memory_s=self.memory_s, criteria=self.criteria)
+            self.recoveries += 1
+        return segment
+
+    def _finite(self) -> bool:
+        resistance = self.core.resistance()
+        dynamic = self.core.dynamic()
+        return (resistance is None or bool(np.all(np.isfinite(resistance[0])))) and (
+            dynamic is None or math.isfinite(float(dynamic["mass_kg"])))
 
     def coefficients(self) -> tuple[list[str], list[float]]:
         """Labels and values to publish: c_0..c_N of Fc in N/(m/s)^i, then the effective mass, kg (NaN: not yet)."""
@@ -62,7 +90,8 @@ class LiveIdentifier:
         """Fit quality and counters, for diagnostics (``steady_points_needed``: N + 2 for a curve of order N;
         ``held_commands``: thrust left/right N, angle left/right rad, null before the first)."""
         held = [float(c) if math.isfinite(c) else None for c in self.commands]
-        return {**self.core.snapshot(), "steady_points_needed": self.order + 2, "held_commands": held}
+        return {**self.core.snapshot(), "steady_points_needed": self.order + 2, "held_commands": held,
+                "rejected_samples": self.rejected, "recoveries": self.recoveries}
 
     def model(self) -> dict[str, Any] | None:
         """The identified model as the simulator loads it (``--model``); None before N + 2 steady points."""

@@ -25,6 +25,7 @@ from boat_twin.files import OutputClaim
 from boat_twin.frames import quaternion_yaw_rad
 from boat_twin.io.mcap_crc import check_chunk_crcs, fill_chunk_crcs
 from boat_twin.io.messages import TOPIC_ODOM_TRUTH, TOPICS, TS
+from boat_twin.io.sources import check_trial_path
 from boat_twin.io.trial import Stream, Trial, build_trial
 
 ROLE_TOPICS = {
@@ -278,6 +279,7 @@ def read_trial(
     source = str(path)
     if not path.exists():
         raise InputError(f"{source}: no such bag")
+    check_trial_path(path)
     unknown = sorted(set(remap or {}) - set(ROLE_TOPICS))
     if unknown:
         raise InputError(f"--topic: unknown role '{unknown[0]}' (roles: {', '.join(ROLE_TOPICS)})")
@@ -302,7 +304,8 @@ def read_trial(
     except Exception as err:  # rosbags raises several types for corrupt or truncated files
         for mcap_file in [path] if path.is_file() else sorted(path.glob("*.mcap")):
             check_chunk_crcs(mcap_file)  # names the corrupt chunk's byte offset
-        raise InputError(f"{source}: cannot read bag ({type(err).__name__}: {err})") from None
+        reason = " ".join(str(err).split())  # rosbags' YAML errors span several lines
+        raise InputError(f"{source}: cannot read bag ({type(err).__name__}: {reason})") from None
     streams = {role: rows.pop(role).stream() for role in topics}
     trial = build_trial(streams, source, topics, origin, release=True)
     trial.metadata.stream_choices += notes

@@ -61,6 +61,9 @@ def parse_columns(spec: str | Path) -> tuple[dict[str, str], dict[str, np.ndarra
         if unknown:
             raise InputError(f"{where}: unknown key '{unknown[0]}' (allowed: columns, calibration, origin)")
         columns = {str(k): str(v) for k, v in data["columns"].items()}
+        if not isinstance(data.get("calibration") or {}, dict):
+            raise InputError(f"{where}: calibration: expected a mapping of command role: table, got "
+                             f"{type(data['calibration']).__name__}")
         for role, table in (data.get("calibration") or {}).items():
             calibration[str(role)] = _table(table, f"{where}: calibration.{role}")
         if "origin" in data:

@@ -101,6 +101,9 @@ UNIX_USEC_MIN = 1e15
 """A 64-bit time_usec at least this large is Unix time (µs), not time since boot."""
 DELAY_OUTLIER_S = 1.0
 """A .tlog receive delay this much below the median is a corrupt receive time, not a fast link, s."""
+LATEST_RECEIVE_S = 4_102_444_800.0
+"""Latest plausible .tlog receive stamp, Unix s (2100-01-01): beyond (2^64 - 1 us is 5.8e5 years) it is unset or
+corrupt."""
 VEHICLE_SEARCH_MESSAGES = 5000
 """How many messages of a .tlog are searched for the first vehicle HEARTBEAT."""
 IMU_COLUMNS = ("yaw_rad", "yaw_rate_radps", "accel_x_mps2", "accel_y_mps2", "roll_rad", "pitch_rad",
@@ -567,7 +570,7 @@ def _read_tlog(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[str, 
         indexed = False
         info["notes"].append(f"pymavlink could not index the file ({type(err).__name__}): read sequentially")
     counts: dict[str, int] = {}
-    total = corrupt = odd = 0
+    total = corrupt = odd = unset = 0
     first = last = math.nan
     try:
         while True:
@@ -583,10 +586,14 @@ def _read_tlog(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[str, 
                 continue
             counts[name] = counts.get(name, 0) + 1
             recv = msg._timestamp
-            if not first <= recv:  # also true while first is NaN
-                first = recv
-            if not last >= recv:
-                last = recv
+            if not 0.0 < recv <= LATEST_RECEIVE_S:  # e.g. 2^64 - 1 us: an unset or corrupt receive stamp
+                unset += 1
+                recv = math.nan  # no receive delay from it; a message timed by it alone is dropped
+            else:
+                if not first <= recv:  # also true while first is NaN
+                    first = recv
+                if not last >= recv:
+                    last = recv
             handler = handlers.get(name)
             if handler is None:
                 continue
@@ -604,6 +611,11 @@ def _read_tlog(path: Path, plan: _Plan, rows: dict[str, _Rows], info: dict[str, 
         conn.close()
     if odd:
         info["notes"].append(f"{odd} message(s) with unexpected fields skipped")
+    if unset:
+        info["notes"].append(f"WARNING: {unset} of {sum(counts.values())} .tlog receive stamp(s) are no Unix time "
+                             "(0, or beyond the year 2100, e.g. 2^64-1 us: unset or corrupt): ignored; "
+                             + ("the stamps are the autopilot's boot time only" if unset == sum(counts.values())
+                                else "their messages timed by the autopilot's boot time"))
     info.update(message_counts=counts, corrupt=corrupt, log_span_s=(first, last), reboots=clock.reboots)
     info["time_base"] = "Unix time: autopilot boot time + the smallest tlog receive delay, per boot"
 

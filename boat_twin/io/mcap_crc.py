@@ -11,6 +11,7 @@ uncompressed_crc u32, compression (u32 length + UTF-8), records (u64 length + by
 
 from __future__ import annotations
 
+import os
 import struct
 from binascii import crc32
 from collections.abc import Iterator
@@ -44,11 +45,15 @@ def _chunks(fh: BinaryIO, path: Path) -> Iterator[tuple[int, int, bytes | None]]
     that does not decompress, or overruns the file, is an :class:`InputError` naming it."""
     if fh.read(len(MAGIC)) != MAGIC:
         raise InputError(f"{path}: not an MCAP file")
+    file_size = os.fstat(fh.fileno()).st_size
     pos = len(MAGIC)
     while len(header := fh.read(9)) == 9:
         opcode, length = header[0], struct.unpack_from("<Q", header, 1)[0]
         if opcode == FOOTER_OPCODE:
             break
+        if pos + 9 + length > file_size:  # a corrupt length: never read or seek by it
+            raise InputError(f"{path}: MCAP record at byte {pos} claims {length} bytes, past the end of the file "
+                             f"({file_size} bytes): corrupt or truncated")
         if opcode == CHUNK_OPCODE:
             try:
                 body = fh.read(length)

@@ -17,6 +17,7 @@ import pymap3d
 
 from boat_twin.errors import InputError
 from boat_twin.io.roles import COMMAND_ROLES, SENSOR_ROLES
+from boat_twin.validation import THRUST_LIMIT_N
 
 GAP_TOLERANCE_PERIODS = 2.5
 """A sensor stream is interpolated only between samples at most this many nominal periods apart."""
@@ -213,7 +214,7 @@ def _interpolate_block(stamps_s: np.ndarray, values: np.ndarray, grid_s: np.ndar
     return out
 
 
-_THRUST_LIMIT = (-1e6, 1e6, "N")
+_THRUST_LIMIT = (-THRUST_LIMIT_N, THRUST_LIMIT_N, "N")
 _ANGLE_LIMIT = (-np.pi, np.pi, "rad")
 VALUE_LIMITS: dict[str, tuple[tuple[str, float, float, str], ...]] = {
     "thrust_left": (("thrust", *_THRUST_LIMIT),),
@@ -470,3 +471,18 @@ def build_trial(
         command_switch_s=switch if switch is not None and np.any(switch != 0.0) else None,
         gnss_bridged=bridged if bridged is not None and bridged.any() else None,
     )
+
+
+def thrust_outliers(trial: Trial, bollard_thrust_N: float, factor: float = 5.0) -> str | None:
+    """A warning naming the thrust samples beyond ``factor`` times the boat's bollard thrust (physically
+    possible by :data:`VALUE_LIMITS`, yet no command this boat can give: a unit or logging error that would pull
+    a fit), with their count, the largest and the first time; None if there are none."""
+    limit = factor * bollard_thrust_N
+    named = []
+    for role, thrust in (("thrust_left", trial.thrust_left_N), ("thrust_right", trial.thrust_right_N)):
+        beyond = np.flatnonzero(np.abs(np.nan_to_num(thrust)) > limit)
+        if beyond.size:
+            named.append(f"{role}: {beyond.size} sample(s) beyond {limit:.4g} N ({factor:g} x the model's bollard "
+                         f"thrust), up to {np.max(np.abs(thrust[beyond])):.4g} N, first at t = "
+                         f"{trial.t_s[beyond[0]]:.1f} s")
+    return "; ".join(named) or None

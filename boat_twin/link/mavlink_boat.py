@@ -114,6 +114,10 @@ ROVER_MODE_MANUAL = 0
 """ArduPilot Rover custom_mode number of MANUAL: the twin obeys thrust and steering as commanded."""
 MAX_DATAGRAMS_PER_POLL = 1000
 """At most this many datagrams are taken in per poll (a flood cannot starve the simulation)."""
+MAX_PACKETS_PER_POLL = 1000
+"""At most this many MAVLink packets are taken in per poll, however many each datagram holds (a datagram of a few
+hundred packets each would otherwise multiply the work, and the .tlog, per tick): further datagrams wait in the
+socket, and the packets of the datagram that crosses the cap beyond it are dropped (``LinkStats.flood_dropped``)."""
 UDP_MAX_DATAGRAM = 65535
 
 COMMAND_MAPPING = (
@@ -155,6 +159,8 @@ class LinkStats:
     """Datagrams that ended inside a packet (the partial packet is dropped)."""
     rejected_sender: int = 0
     """Datagrams from a host other than the ground station's (udpout mode)."""
+    flood_dropped: int = 0
+    """Well-formed packets beyond :data:`MAX_PACKETS_PER_POLL` in one poll, dropped unread (a flood)."""
     packets_sent: int = 0
     """Packets handed to the network."""
     send_errors: int = 0
@@ -432,16 +438,16 @@ class MavlinkBoat:
         if self._sock is not None:
             self._sock.close()
             self._sock = None
-        if self._tlog is not None:
-            self._tlog.close()
-            self._tlog = None
-        if self._tlog_claim is not None:
-            try:
-                if complete:
-                    self._tlog_claim.commit(self._tlog_claim.scratch / self._tlog_claim.path.name)
-            finally:
-                self._tlog_claim.release()
-                self._tlog_claim = None
+        tlog, self._tlog = self._tlog, None
+        claim, self._tlog_claim = self._tlog_claim, None
+        try:
+            if tlog is not None:
+                tlog.close()  # flushes: a full disk fails here too
+            if claim is not None and complete:
+                claim.commit(claim.scratch / claim.path.name)
+        finally:
+            if claim is not None:
+                claim.release()  # the scratch and the lock go, whatever failed
 
     def __enter__(self) -> MavlinkBoat:
         return self
@@ -459,8 +465,10 @@ class MavlinkBoat:
             readable, _, _ = select.select([self._sock], [], [], timeout_s)
             if not readable:
                 return 0
-        count = 0
+        count = packets = 0
         for _ in range(MAX_DATAGRAMS_PER_POLL):
+            if packets >= MAX_PACKETS_PER_POLL:
+                break
             try:
                 data, sender = self._sock.recvfrom(UDP_MAX_DATAGRAM)
             except (BlockingIOError, InterruptedError):
@@ -471,25 +479,28 @@ class MavlinkBoat:
                 break
             count += 1
             self.stats.datagrams_received += 1
-            self._receive_datagram(data, sender)
+            packets += max(1, self._receive_datagram(data, sender, MAX_PACKETS_PER_POLL - packets))
         return count
 
-    def _receive_datagram(self, data: bytes, sender: tuple[Any, ...]) -> None:
+    def _receive_datagram(self, data: bytes, sender: tuple[Any, ...], budget: int) -> int:
+        """Parse one datagram and act on at most ``budget`` of its packets (the rest are counted as dropped);
+        returns how many packets it held."""
         assert self.endpoint is not None
         if self.endpoint.mode == "udpout" and sender[0] != self.endpoint.sockaddr[0]:
             self.stats.rejected_sender += 1
-            return
+            return 1
         parser = mavlink2.MAVLink(None)  # one parser per datagram: a bad datagram cannot spoil the next
         parser.robust_parsing = True
         try:
             packets = parser.parse_buffer(data) or []
         except Exception:  # noqa: BLE001 (pymavlink may raise other errors on hostile input)
             self.stats.bad_data += 1
-            return
+            return 1
         if parser.buf_len() > 0:
             self.stats.truncated += 1
         accepted = False
-        for msg in packets:
+        self.stats.flood_dropped += max(0, len(packets) - budget)
+        for msg in packets[:budget]:
             if isinstance(msg, mavlink2.MAVLink_bad_data):
                 self.stats.bad_data += 1
             elif isinstance(msg, mavlink2.MAVLink_unknown):
@@ -501,6 +512,7 @@ class MavlinkBoat:
                 self._handle(msg)
         if accepted and self.endpoint.mode == "udpin":
             self._peer = sender
+        return len(packets)
 
     def _for_us(self, system: int, component: int | None = None) -> bool:
         return system in (0, self.system_id) and (component is None or component in (0, self.component_id))

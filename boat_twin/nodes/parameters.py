@@ -56,3 +56,15 @@ def string(node: Node, name: str, default: str, description: str) -> str:
     if not isinstance(value, str):
         raise InputError(f"parameter {name}: expected a string, got {value!r}")
     return value
+
+
+def refuse_undeclared(node: Node) -> None:
+    """Refuse a parameter given to ``node`` (``-p sead:=5``, a params file) that it does not declare: a
+    misspelt name would otherwise be ignored without a word. Called once the node has declared all of its own."""
+    declared = node.get_parameters_by_prefix("")
+    given = getattr(node, "_parameter_overrides", {})  # rclpy keeps the overrides for this node here
+    unknown = sorted(name for name in given if name not in declared)
+    if unknown:
+        listed = ", ".join(sorted(name for name in declared if name != "use_sim_time"))
+        raise InputError(f"parameter {unknown[0]}: not a parameter of node {node.get_name()} (its parameters: "
+                         f"{listed}, use_sim_time)")

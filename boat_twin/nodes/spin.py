@@ -19,6 +19,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from boat_twin.errors import InputError
+from boat_twin.nodes.parameters import refuse_undeclared
 
 
 class StopRequest:
@@ -44,6 +45,11 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = factory()
+        try:
+            refuse_undeclared(node)
+        except InputError:
+            node.destroy_node()
+            raise
     except (InputError, ParameterException) as err:
         sys.stderr.write(f"{name}: error: {' '.join(str(err).split())}\n")
         rclpy.try_shutdown()

@@ -18,6 +18,7 @@ import numpy as np
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_write_yaml, load_yaml
 from boat_twin.units import SEAWATER_DENSITY_KGPM3
+from boat_twin.validation import THRUST_LIMIT_N
 from boat_twin.vessel.resistance import ResistanceModel, dyda2021_resistance, resistance_from_dict
 
 WINDAGE_DRAG_COEFFICIENT = 0.8
@@ -30,6 +31,23 @@ NON_NEGATIVE_FIELDS = ("frontal_windage_area_m2", "lateral_windage_area_m2", "st
                        "thrust_time_constant_s", "command_delay_s")
 """Parameters that may be zero (0 m² of windage: no wind force; a steering rate of 0: outboards that swing
 instantly); all others must be positive."""
+UPPER_LIMITS = {
+    "mass_kg": (1e9, "kg", "a million tonnes: beyond the largest ships"),
+    "length_m": (500.0, "m", "beyond the longest ship, 458 m"),
+    "beam_m": (500.0, "m", "beyond any ship"),
+    "draft_m": (500.0, "m", "beyond any ship"),
+    "radius_of_gyration_yaw_m": (500.0, "m", "beyond any ship"),
+    "bollard_thrust_N": (THRUST_LIMIT_N, "N", "the thrust bound of every reader"),
+    "engine_power_W": (1e9, "W", "a gigawatt: beyond any ship's engine"),
+    "turn_speed_mps": (343.0, "m/s", "the speed of sound in air"),
+    "turn_diameter_m": (1e5, "m", "100 km: no turning circle"),
+    "frontal_windage_area_m2": (1e5, "m²", "beyond any ship"),
+    "lateral_windage_area_m2": (1e5, "m²", "beyond any ship"),
+}
+"""Vessel parameter → (largest value, unit, why): beyond is a unit error (and would overflow the inertia)."""
+HULL_POSITIONS = ("engine_x_m", "lateral_centre_x_m", "windage_centre_x_m", "engine_y_m")
+"""Positions on the boat (FLU body frame, m): within ±500 m, the bound of ``length_m`` (a point on a boat no longer
+than that; checked on its own, since a boat file may give a position before the length it goes with)."""
 MANOEUVRING_KEYS = ("m22_kg", "m33_kgm2", "sway_damping_Nspm2", "yaw_damping_Nms", "sway_quadratic_Ns2pm2",
                     "yaw_quadratic_Nms2")
 """Coefficients (:class:`ModelCoefficients` fields) that ``VesselParams.manoeuvring`` may set from trials."""
@@ -132,6 +150,13 @@ class VesselParams:
                 raise InputError(f"vessel parameter '{f.name}' must not be negative, got {value!r}")
             if f.name not in SIGNED_FIELDS + NON_NEGATIVE_FIELDS and value <= 0.0:
                 raise InputError(f"vessel parameter '{f.name}' must be positive, got {value!r}")
+            if f.name in UPPER_LIMITS and value > UPPER_LIMITS[f.name][0]:
+                limit, unit, why = UPPER_LIMITS[f.name]
+                raise InputError(f"vessel parameter '{f.name}' must be <= {limit:g} {unit} ({why}), got {value!r}")
+        for name in HULL_POSITIONS:
+            if abs(getattr(self, name)) > UPPER_LIMITS["length_m"][0]:
+                raise InputError(f"vessel parameter '{name}' must be within ±{UPPER_LIMITS['length_m'][0]:g} m (a "
+                                 f"point on a boat no longer than the longest ship), got {getattr(self, name)!r}")
         for name in ("max_steering_rad", "steering_offset_rad"):
             if abs(getattr(self, name)) > math.pi / 2:
                 raise InputError(f"vessel parameter '{name}' must be within ±π/2 rad (an outboard turns at most "
@@ -369,12 +394,22 @@ def _number(value: Any, where: str, key: str) -> float:
     return float(value)
 
 
+def vessel_section(data: Any, where: str) -> Any:
+    """The vessel fields of a model or boat file: the mapping itself, or its ``vessel:`` section; a key beside
+    ``vessel:`` is refused (it would be dropped without a word: a twin configuration goes to --config)."""
+    if isinstance(data, dict) and "vessel" in data:
+        beside = sorted(str(key) for key in data if key != "vessel")
+        if beside:
+            raise InputError(f"{where}: '{beside[0]}' beside 'vessel:' would be ignored: a model or boat file holds "
+                             "vessel fields only (put it under vessel:, or give a whole twin configuration as "
+                             "--config)")
+        return data["vessel"]
+    return data
+
+
 def load_params(path: Path, base: VesselParams | None = None) -> VesselParams:
     """Read vessel parameters (or an identified model's overrides) from a YAML file."""
-    data = load_yaml(path)
-    if isinstance(data, dict) and "vessel" in data:
-        data = data["vessel"]
-    return params_from_dict(data, str(path), base)
+    return params_from_dict(vessel_section(load_yaml(path), str(path)), str(path), base)
 
 
 def save_params(params: VesselParams, path: Path) -> None:

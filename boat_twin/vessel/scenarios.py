@@ -32,7 +32,9 @@ import numpy as np
 from scipy.optimize import brentq
 
 from boat_twin.errors import InputError
+from boat_twin.files import regular_input
 from boat_twin.units import KGF_N
+from boat_twin.validation import THRUST_LIMIT_N
 from boat_twin.vessel.params import VesselParams, max_thrust_N, surge_time_constant_s, top_speed_mps
 from boat_twin.vessel.scenario_names import SCENARIO_NAMES
 
@@ -372,6 +374,7 @@ def read_command_csv(path: Path) -> CommandProfile:
     Times must increase strictly; the simulation runs until the last row's time (the last row is held
     only if a longer ``--duration`` is given).
     """
+    regular_input(path, "command CSV file")
     try:
         with path.open(newline="") as fh:
             reader = csv.reader(fh)
@@ -390,6 +393,12 @@ def read_command_csv(path: Path) -> CommandProfile:
                     raise InputError(f"{path}:{line_no}: not a number in {row!r}") from None
                 if not all(math.isfinite(v) for v in values):
                     raise InputError(f"{path}:{line_no}: values must be finite, got {row!r}")
+                if any(abs(f) > THRUST_LIMIT_N for f in values[1:3]):
+                    raise InputError(f"{path}:{line_no}: thrust beyond ±{THRUST_LIMIT_N:g} N (the bound of every "
+                                     f"reader: a unit or decoding error), got {row!r}")
+                if values[0] > MAX_DURATION_S:
+                    raise InputError(f"{path}:{line_no}: time {values[0]:g} s beyond {MAX_DURATION_S:g} s (7 days, "
+                                     "the longest simulation)")
                 if any(abs(a) > math.pi / 2 for a in values[3:]):
                     raise InputError(f"{path}:{line_no}: steering angle beyond ±π/2 rad (an outboard turns at "
                                      f"most 90° either way), got {row!r}")
@@ -400,6 +409,8 @@ def read_command_csv(path: Path) -> CommandProfile:
         raise InputError(f"{path}: cannot read ({err.strerror})") from None
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text CSV file") from None
+    except csv.Error as err:  # e.g. a field beyond csv.field_size_limit()
+        raise InputError(f"{path}: malformed CSV ({err})") from None
     if not rows:
         raise InputError(f"{path}: no command rows")
     if rows[0][0] < 0.0:
