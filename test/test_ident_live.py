@@ -70,7 +70,7 @@ def test_identify_cli_on_a_simulated_bag(tmp_path, capsys) -> None:
     for point in result["steady_points"]:
         truth = float(TwinConfig().vessel.resistance.force_N(point["speed_mps"]))
         assert point["thrust_N"] == pytest.approx(truth, rel=0.02)
-    assert load_params(tmp_path / "report" / "model.yaml").resistance.order == result["selected_order"]
+    assert load_params(tmp_path / "report" / "model.yaml").resistance.to_dict() == result["model"]["resistance"]
     assert main(["identify", str(bag), "--topic", "gnss_vel=/nowhere"]) == 2
     assert "not in the bag" in capsys.readouterr().err
     assert main(["identify", str(bag)]) == 0

@@ -59,27 +59,32 @@ def test_unvisited_bands_are_the_wide_gaps_between_steady_speeds() -> None:
     assert unvisited_bands(np.linspace(1.0, 9.0, 9)) == []
 
 
-def _result(online_same: bool) -> dict:
+def _result() -> dict:
+    """An identify result whose model, steady polynomial and truth are one curve: 100·v + 5·v² N."""
     speeds = np.array([0.5, 1.0, 1.5, 2.0, 6.0, 6.5, 7.0])
-    coefficients = [0.0, 100.0, 5.0]
+    grid = np.linspace(0.0, 7.0, 11)
+    table = {"speed_mps": grid.tolist(), "force_N": (100 * grid + 5 * grid**2).tolist(),
+             "ci95_low_N": (95 * grid).tolist(), "ci95_high_N": (105 * grid + 6 * grid**2).tolist()}
+    selected = {"model": "spline-5", "top_speed_mps": 7.0, "resistance_table": table}
     return {"steady_points": [{"speed_mps": v, "thrust_N": 100 * v + 5 * v * v} for v in speeds],
-            "fits": [{"order": 2, "coefficients": coefficients}], "selected_order": 2, "dynamic": {},
-            "online": {"coefficients": coefficients if online_same else [0.0, 90.0, 6.0]}}
+            "fits": [{"order": 2, "coefficients": [0.0, 100.0, 5.0]}], "selected_order": 2,
+            "output_error": {"selected": selected, "baseline": {"coefficients": [100.0, 5.0]}},
+            "model": {"resistance": {"model": "table", "speed_mps": table["speed_mps"], "force_N": table["force_N"]}}}
 
 
 def test_resistance_figure_draws_the_truth_the_band_and_coinciding_curves_visibly() -> None:
-    fig = resistance_figure(_result(online_same=True), lambda v: 100 * v + 5 * v * v)
+    fig = resistance_figure(_result(), lambda v: 100 * v + 5 * v * v)  # type: ignore[arg-type]
     ax = fig.axes[0]
     labels = [ln.get_label() for ln in ax.get_lines()]
     assert "true Fc (the simulated boat)" in labels
     assert any(p.get_label().startswith("no steady point") for p in ax.patches)
-    lsq = next(ln for ln in ax.get_lines() if ln.get_label().startswith("steady least squares"))
-    online = next(ln for ln in ax.get_lines() if ln.get_label().startswith("online"))
-    # the same curve twice: the later one is thinner and of another colour and dash, so both show
-    assert lsq.get_linewidth() > online.get_linewidth() and online.get_linestyle() != "-"
-    assert to_rgba(lsq.get_color()) != to_rgba(online.get_color())
-    without_truth = resistance_figure(_result(online_same=False))
-    assert "true Fc (the simulated boat)" not in [ln.get_label() for ln in without_truth.axes[0].get_lines()]
+    assert any(c.get_label().startswith("95 % interval") for c in ax.collections)
+    model = next(ln for ln in ax.get_lines() if ln.get_label().startswith("output error"))
+    baseline = next(ln for ln in ax.get_lines() if ln.get_label().startswith("baseline"))
+    steady = next(ln for ln in ax.get_lines() if ln.get_label().startswith("steady points' polynomial"))
+    # the same curve three times: each in its own colour and dash, so all show
+    styles = {(to_rgba(ln.get_color()), ln.get_linestyle()) for ln in (model, baseline, steady)}
+    assert len(styles) == 3
 
 
 def _candidate(effect: str, delta_bic: float, gain: float | None, named: bool = False) -> dict:
