@@ -68,3 +68,20 @@ def own_tlog(tmp_path_factory: pytest.TempPathFactory) -> Path:
     with MavlinkBoat(LiveTwin(TwinConfig(), seed=0, epoch_s=1.7e9), None, tlog=path) as link:
         link.step(500)
     return path
+
+
+@pytest.fixture(scope="session")
+def accel_stop_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 40 s accel-stop trial of the default twin (seed 0) as an MCAP bag without truth topics: the small valid
+    input the hostile-input tests start from."""
+    import numpy as np
+
+    from boat_twin.config import TwinConfig
+    from boat_twin.io.bags import write_bag
+    from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
+    from boat_twin.vessel.scenarios import make_scenario
+
+    scenario = make_scenario("accel-stop", TwinConfig().vessel, np.random.default_rng(0), duration_s=40.0)
+    path = tmp_path_factory.mktemp("bags") / "trial.mcap"
+    write_bag(path, trial_messages(run_sea_trial(TwinConfig(), scenario, seed=0), truth=False))
+    return path

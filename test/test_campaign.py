@@ -28,10 +28,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from boat_twin.cli import main
-from boat_twin.config import TwinConfig
-from boat_twin.io.bags import write_bag
-from boat_twin.twin import run_sea_trial, trial_messages
-from boat_twin.vessel import make_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "config" / "cable" / "default.yaml"
@@ -139,15 +135,6 @@ def command_lines(draw: st.DrawFn) -> list[str]:
 
 
 @pytest.fixture(scope="module")
-def bag(tmp_path_factory) -> Path:
-    trial = run_sea_trial(TwinConfig(), make_scenario("accel-stop", TwinConfig().vessel, np.random.default_rng(0),
-                                                      duration_s=40.0), seed=0)
-    path = tmp_path_factory.mktemp("campaign") / "trial.mcap"
-    write_bag(path, trial_messages(trial, truth=False))
-    return path
-
-
-@pytest.fixture(scope="module")
 def old_reports(tmp_path_factory) -> Path:
     """Yesterday's ``identify --table dyda2021 --out rep`` and ``demo``'s plot name, beside a user's notes."""
     rep = tmp_path_factory.mktemp("old") / "rep"
@@ -183,12 +170,12 @@ def _check_after(base: Path, before: dict[str, bytes], code: int, argv: list[str
 @settings(max_examples=150, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(argv=command_lines())
-def test_generated_hostile_command_lines(argv, bag, old_reports, own_tlog, capsys) -> None:
+def test_generated_hostile_command_lines(argv, accel_stop_bag, old_reports, own_tlog, capsys) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         base = Path(tmp)
-        _world(base, bag, own_tlog)
+        _world(base, accel_stop_bag, own_tlog)
         shutil.copytree(old_reports, base / "rep")
-        shutil.copy(bag, base / "own.mcap")
+        shutil.copy(accel_stop_bag, base / "own.mcap")
         names = {p.name: str(p) for p in base.iterdir()}
         names.update({"rep": str(base / "rep"), "new": str(base / "new"), "missing.mcap": str(base / "no.mcap"),
                       "missing.yaml": str(base / "no.yaml")})
@@ -215,11 +202,11 @@ SIGNALLED = [
 
 
 @pytest.mark.parametrize(("argv", "signum", "seed"), SIGNALLED)
-def test_a_real_process_signalled_at_a_seeded_moment(tmp_path, bag, old_reports, argv, signum, seed) -> None:
+def test_a_real_process_signalled_at_a_seeded_moment(tmp_path, accel_stop_bag, old_reports, argv, signum, seed) -> None:
     """Exit 0 (the signal came after the work) or 130/143 (before it): the old outputs whole unless exit 0, and
     then a complete new set beside the user's notes; nothing left behind either way."""
     shutil.copytree(old_reports, tmp_path / "rep")
-    shutil.copy(bag, tmp_path / "own.mcap")
+    shutil.copy(accel_stop_bag, tmp_path / "own.mcap")
     shutil.copytree(ROOT / "bags" / "thrust_steps_sample", tmp_path / "trial")  # a trial identify can fit
     before = _snapshot(tmp_path)
     line = [a.format(rep=tmp_path / "rep", trial=tmp_path / "trial", own=tmp_path / "own.mcap") for a in argv]
@@ -229,6 +216,9 @@ def test_a_real_process_signalled_at_a_seeded_moment(tmp_path, bag, old_reports,
     run.send_signal(signum)
     code = run.wait(timeout=120)
     err = run.stderr.read() if run.stderr else ""
+    if code == -signum and not err:  # a loaded machine: the signal came before Python reached boat_twin's handlers
+        assert _snapshot(tmp_path) == before  # killed before it started: nothing touched
+        return
     assert code in (0, 130, 143), (line, code, err)
     assert "Traceback" not in err, err
     if code:

@@ -1,5 +1,6 @@
 """What the diagnosis says when it cannot judge or finds no cause: the missing signal named in the refusal, and a
-text verdict that never reads like an all-clear while structure is left unexplained."""
+text verdict that never reads like an all-clear while structure is left unexplained; a validation without
+positions that says so."""
 
 from __future__ import annotations
 
@@ -42,3 +43,18 @@ def test_an_unexplained_result_never_reads_like_an_all_clear() -> None:
     named = [{"effect": "gyro_bias", "parameters": {"bias_radps": 0.01}, "ci95": {"bias_radps": [0.009, 0.011]},
               "gain": {"yaw_rate_radps": 0.5}}]
     assert "PARTLY UNEXPLAINED" in text_report(_result(named, True))  # type: ignore[arg-type]
+
+
+def test_a_manoeuvring_validation_without_positions_says_so_without_numpy_warnings(tmp_path: Path) -> None:
+    """`identify --manoeuvring --validate` on a trial whose GNSS gave velocity but no position: no track figure
+    (None, printed as "no GNSS positions"), no RuntimeWarning from a mean of nothing."""
+    import warnings
+
+    from boat_twin.ident.manoeuvring import validate
+
+    trial = read_trial(hidden.write_trial(tmp_path / "z.mcap", TwinConfig(), "zigzag", 4, 120.0))
+    blank = np.full(trial.t_s.size, np.nan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check = validate(replace(trial, east_m=blank, north_m=blank), TwinConfig())
+    assert check["track_rmse_m"] is None and np.isfinite(check["heading_rmse_deg"])

@@ -51,15 +51,6 @@ def _one_error_line(err: str) -> str:
     return lines[-1]
 
 
-@pytest.fixture(scope="module")
-def small_bag(tmp_path_factory) -> Path:
-    trial = run_sea_trial(TwinConfig(), make_scenario("accel-stop", TwinConfig().vessel, np.random.default_rng(0),
-                                                      duration_s=40.0), seed=0)
-    path = tmp_path_factory.mktemp("bags") / "trial.mcap"
-    write_bag(path, trial_messages(trial, truth=False))
-    return path
-
-
 BOMB = "a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
     f"{b}: &{b} [{', '.join([f'*{a}'] * 9)}]\n" for a, b in zip("abcdefgh", "bcdefghi", strict=True))
 YAML_FILES = {
@@ -76,7 +67,7 @@ YAML_FILES = {
 
 
 @pytest.fixture()
-def hostile(tmp_path, small_bag) -> dict[str, str]:
+def hostile(tmp_path, accel_stop_bag) -> dict[str, str]:
     files = {}
     for name, text in YAML_FILES.items():
         (tmp_path / f"{name}.yaml").write_text(text)
@@ -102,7 +93,7 @@ def hostile(tmp_path, small_bag) -> dict[str, str]:
     (bad_meta / "metadata.yaml").write_text(  # rosbags' YAML error spans several lines
         "rosbag2_bagfile_information:\n  version: 8\n  storage_identifier: mcap\n  relative_file_paths: [trial.mcap\n"
         "  duration: {nanoseconds: 1}\n")
-    shutil.copy(small_bag, bad_meta / "trial.mcap")
+    shutil.copy(accel_stop_bag, bad_meta / "trial.mcap")
     return {**files, **{p.stem: str(p) for p in tmp_path.iterdir() if p.suffix != ".yaml" and p.stem not in files},
             "fifo": str(tmp_path / "fifo.yaml"), "huge": str(tmp_path / "huge.yaml"), "tmp": str(tmp_path)}
 
@@ -146,8 +137,9 @@ def hostile(tmp_path, small_bag) -> dict[str, str]:
     (["convert", "{loop}", "--out", "{tmp}/x.mcap"], "symlink loop"),
     (["identify", "--table", "dyda2021", "--out", "{loop}"], "loop"),
 ])
-def test_hostile_input_is_one_line_and_exit_2(hostile, small_bag, own_tlog, capsys, argv, message) -> None:
-    names = {**{k.replace(".", "_"): v for k, v in hostile.items()}, "small_bag": str(small_bag), "tlog": str(own_tlog),
+def test_hostile_input_is_one_line_and_exit_2(hostile, accel_stop_bag, own_tlog, capsys, argv, message) -> None:
+    names = {**{k.replace(".", "_"): v for k, v in hostile.items()}, "small_bag": str(accel_stop_bag),
+             "tlog": str(own_tlog),
              "fifo_mcap": hostile["tmp"] + "/fifo.mcap", "fifo_tlog": hostile["tmp"] + "/fifo.tlog",
              "fifo_csv": hostile["tmp"] + "/fifo.csv", "trial": hostile["tmp"] + "/trial.csv"}
     done: list[int] = []
@@ -181,11 +173,11 @@ def _chunk_offsets(data: bytes) -> list[int]:
 
 
 @pytest.mark.parametrize("where", ["chunk_length", "after_chunks"])
-def test_an_mcap_record_claiming_a_tebibyte_is_named_by_the_crc_pass(small_bag, tmp_path, where) -> None:
+def test_an_mcap_record_claiming_a_tebibyte_is_named_by_the_crc_pass(accel_stop_bag, tmp_path, where) -> None:
     """A chunk whose length field claims 1 TiB (the CRC pass, run when a read fails, would allocate it), and a
     length flipped in a record after the chunks (a seek to an absurd offset): an InputError naming the file and
     the record's offset, not a MemoryError or an OSError."""
-    data = bytearray(small_bag.read_bytes())
+    data = bytearray(accel_stop_bag.read_bytes())
     chunks = _chunk_offsets(bytes(data))
     at = chunks[0] if where == "chunk_length" else chunks[-1] + 9 + struct.unpack_from("<Q", data, chunks[-1] + 1)[0]
     struct.pack_into("<Q", data, at + 1, (1 << 40) if where == "chunk_length" else (1 << 64) - 2)
@@ -268,7 +260,7 @@ def test_the_live_identifier_refuses_absurd_samples_and_recovers_from_a_non_fini
 # --------------------------------------------------------------------------- diagnose names what identify names
 
 
-def test_diagnose_prints_the_trial_summary_and_names_absurd_thrust(small_bag, tmp_path, capsys) -> None:
+def test_diagnose_prints_the_trial_summary_and_names_absurd_thrust(accel_stop_bag, tmp_path, capsys) -> None:
     from rosbags.highlevel import AnyReader  # noqa: F401 - the bag is rewritten through the package's writer
 
     from boat_twin.io.messages import TS
@@ -312,10 +304,10 @@ def test_diagnose_on_a_velocity_nan_throughout_is_one_line(tmp_path, capsys) -> 
     assert "nan_vel.mcap: the speed over ground is unknown throughout" in _one_error_line(capsys.readouterr().err)
 
 
-def test_an_alias_bomb_in_a_bags_metadata_is_refused_before_rosbags_parses_it(small_bag, tmp_path, capsys) -> None:
+def test_an_alias_bomb_in_a_bags_metadata_is_refused_before_rosbags_parses_it(accel_stop_bag, tmp_path, capsys) -> None:
     bag = tmp_path / "bombed"
     bag.mkdir()
-    shutil.copy(small_bag, bag / "trial.mcap")
+    shutil.copy(accel_stop_bag, bag / "trial.mcap")
     (bag / "metadata.yaml").write_text(BOMB)
     assert main(["identify", str(bag)]) == 2
     assert "metadata.yaml: malformed YAML" in _one_error_line(capsys.readouterr().err)

@@ -38,7 +38,7 @@ on G − 1 degrees of freedom. Parameters at their bound (a term switched off) a
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numba
@@ -470,13 +470,12 @@ class OutputErrorResult:
     reason: str
     mass_identified: bool
     mass_note: str
-    warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         """The ``output_error`` entry of ``identify --json`` (SI)."""
         return {"selected": self.selected.to_dict(), "baseline": self.baseline.to_dict(),
                 "candidates": self.candidates, "folds": self.folds, "selection_reason": self.reason,
-                "mass_identified": self.mass_identified, "mass_note": self.mass_note, "warnings": self.warnings}
+                "mass_identified": self.mass_identified, "mass_note": self.mass_note}
 
 
 def _folds(records: list[SurgeRecord], segments: list[Segment]) -> tuple[list[tuple[list[Segment],
