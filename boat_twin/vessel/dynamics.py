@@ -39,6 +39,7 @@ import numpy as np
 
 from boat_twin.threads import configure_openmp
 from boat_twin.units import AIR_DENSITY_KGPM3
+from boat_twin.vessel.helms import CompiledHelm, fresh_memory, helm_command
 from boat_twin.vessel.params import WINDAGE_DRAG_COEFFICIENT, VesselParams, derive_coefficients
 from boat_twin.vessel.steering import steering_target
 
@@ -515,6 +516,128 @@ def _step_all_parallel(
         _boat_step(b, states, steering, thrust, commands, coefficients, table, u_max, extra, environments, dt)
 
 
+@numba.njit(cache=True)
+def _step_time(n: int, substeps: int, output_rate: float, dt: float) -> float:
+    """Time of global integration step ``n``, s: its output tick's time plus its substeps (as the Python step loop
+    of ``vessel.simulate`` computes it, so the helms see the same floats)."""
+    return (n // substeps) / output_rate + (n % substeps) * dt
+
+
+@numba.njit(cache=True)
+def _acting_lags(first_step: int, steps: int, substeps: int, output_rate: float, dt: float, delay: float,
+                 out: np.ndarray) -> None:
+    """For each of ``steps`` integration steps from global step ``first_step``: how many steps back the command
+    acting on the outboards was issued (the last issued at least ``delay`` s before the step; 0 without a
+    delay), or -1 when none was issued that early yet (then the first command acts: the boat was held there)."""
+    for i in range(steps):
+        n = first_step + i
+        due = _step_time(n, substeps, output_rate, dt) - delay + 1e-9
+        m = n
+        while m >= 0 and not _step_time(m, substeps, output_rate, dt) <= due:
+            m -= 1
+        out[i] = n - m if m >= 0 else -1
+
+
+@numba.njit(cache=True)
+def _closed_loop_boat(
+    b: int,
+    states: np.ndarray,
+    steering: np.ndarray,
+    thrust: np.ndarray,
+    kind: int,
+    helm_parameters: np.ndarray,
+    memory: np.ndarray,
+    history: np.ndarray,
+    last: np.ndarray,
+    changed: np.ndarray,
+    first_tick: int,
+    lags: np.ndarray,
+    coefficients: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    environments: np.ndarray,
+    dt: float,
+    substeps: int,
+    output_rate: float,
+    out_states: np.ndarray,
+    out_derivatives: np.ndarray,
+    out_steering: np.ndarray,
+    out_commands: np.ndarray,
+    out_issued: np.ndarray,
+) -> None:
+    """Boat ``b`` under its compiled helm for ``out_states.shape[0]`` output ticks from ``first_tick``: at every
+    integration step the helm decides (:func:`~boat_twin.vessel.helms.helm_command`), the command issued
+    ``lags`` steps back acts (``history``: a ring of the issued commands), and one RK4 step follows; at each tick
+    the state, steering, derivative, the issued command and when it was issued (``changed``: when the helm last
+    changed it) are recorded. The arithmetic and order are those of the Python step loop of ``vessel.simulate``
+    (``test/test_helms.py`` checks them bit for bit)."""
+    k = coefficients[0] if coefficients.shape[0] == 1 else coefficients[b]  # (prange's b is unsigned)
+    ring = history.shape[1]
+    command = np.empty(4)
+    for i in range(out_states.shape[0]):
+        tick = first_tick + i
+        t = tick / output_rate
+        for j in range(substeps):
+            n = tick * substeps + j
+            now_s = t + j * dt
+            helm_command(kind, helm_parameters, now_s, states[b], memory[b], command)
+            differs = n == 0
+            for c in range(4):
+                if command[c] != last[b, c]:
+                    differs = True
+                last[b, c] = command[c]
+                history[b, n % ring, c] = command[c]
+            if differs:
+                changed[b] = now_s
+            lag = lags[i * substeps + j]
+            acting = command if lag < 0 else history[b, (n - lag) % ring]
+            if n == 0:  # the outboards and engines start where the first command holds them
+                steering[b, 0] = _steering_target(acting[2], k)
+                steering[b, 1] = _steering_target(acting[3], k)
+                thrust[b, 0] = acting[0]
+                thrust[b, 1] = acting[1]
+            _start_step(steering[b], thrust[b], acting, k)
+            if j == 0:
+                out_states[i, b] = states[b]
+                out_steering[i, b] = steering[b]
+                _derivative(states[b], thrust[b, 0], thrust[b, 1], steering[b, 0], steering[b, 1], k, table, u_max,
+                            extra, environments[b], out_derivatives[i, b])
+                out_commands[i, b] = command
+                out_issued[i, b] = changed[b] if changed[b] > t - 1.0 / output_rate + 1e-9 else t
+            _step_boat(states[b], steering[b], thrust[b], acting, k, table, u_max, extra, environments[b], dt, 1)
+
+
+@numba.njit(cache=True)
+def _closed_loop(
+    states: np.ndarray, steering: np.ndarray, thrust: np.ndarray, kind: int, helm_parameters: np.ndarray,
+    memory: np.ndarray, history: np.ndarray, last: np.ndarray, changed: np.ndarray, first_tick: int,
+    lags: np.ndarray, coefficients: np.ndarray, table: np.ndarray, u_max: float, extra: np.ndarray,
+    environments: np.ndarray, dt: float, substeps: int, output_rate: float, out_states: np.ndarray,
+    out_derivatives: np.ndarray, out_steering: np.ndarray, out_commands: np.ndarray, out_issued: np.ndarray,
+) -> None:
+    """:func:`_closed_loop_boat` of every boat, one after another."""
+    for b in range(states.shape[0]):
+        _closed_loop_boat(b, states, steering, thrust, kind, helm_parameters, memory, history, last, changed,
+                          first_tick, lags, coefficients, table, u_max, extra, environments, dt, substeps,
+                          output_rate, out_states, out_derivatives, out_steering, out_commands, out_issued)
+
+
+@numba.njit(cache=True, parallel=True)
+def _closed_loop_parallel(
+    states: np.ndarray, steering: np.ndarray, thrust: np.ndarray, kind: int, helm_parameters: np.ndarray,
+    memory: np.ndarray, history: np.ndarray, last: np.ndarray, changed: np.ndarray, first_tick: int,
+    lags: np.ndarray, coefficients: np.ndarray, table: np.ndarray, u_max: float, extra: np.ndarray,
+    environments: np.ndarray, dt: float, substeps: int, output_rate: float, out_states: np.ndarray,
+    out_derivatives: np.ndarray, out_steering: np.ndarray, out_commands: np.ndarray, out_issued: np.ndarray,
+) -> None:
+    """:func:`_closed_loop` with the boats shared among numba's threads: one parallel region for the whole run."""
+    for b in numba.prange(states.shape[0]):
+        _closed_loop_boat(b, states, steering, thrust, kind, helm_parameters, memory, history, last, changed,
+                          first_tick, lags, coefficients, table, u_max, extra, environments, dt, substeps,
+                          output_rate, out_states, out_derivatives, out_steering, out_commands, out_issued)
+
+
 PARALLEL_MIN_BOATS = 64
 """Ensembles of at least this many boats are stepped on numba's threads (one per core). Measured per RK4 step
 (benchmarks/bench_simulator.py, idle 2-core machine): 1 boat 2.3 µs threaded against 1.3 µs on one thread,
@@ -523,6 +646,24 @@ PARALLEL_MIN_BOATS = 64
 threshold at 8 the test suite on both cores (pytest-xdist) took 5:49 and twice the CPU time instead of 2:35, since
 the diagnosis replays of 8-60 boats went threaded. 64 keeps the threads to the ensembles where a call's work dwarfs
 that (training sets, a fit's batched Jacobian)."""
+
+
+@dataclass
+class ClosedLoopRun:
+    """A run of N boats under a compiled helm, carried from one :meth:`Dynamics.run_closed_loop` call to the next
+    (a long run in chunks of ticks): the helm, its per-boat memory, the outboards' angles and the engines'
+    thrust, the issued commands still to act (a ring of ``ring`` steps), each boat's last command and when it
+    changed, s. Made by :meth:`Dynamics.closed_loop`."""
+
+    helm: CompiledHelm
+    delay_s: float
+    memory: np.ndarray
+    steering_rad: np.ndarray
+    thrust_N: np.ndarray
+    history: np.ndarray
+    last_command: np.ndarray
+    changed_s: np.ndarray
+    next_tick: int = 0
 
 
 class Dynamics:
@@ -589,6 +730,44 @@ class Dynamics:
         kernel = _step_all_parallel if states.shape[0] >= PARALLEL_MIN_BOATS else _step_all
         kernel(states, steering_rad, thrust, commands, self.coefficients, m.resistance_N,
                m.resistance_max_speed_mps, m.extra_drag_N, environments, dt_s)
+
+    def closed_loop(self, helm: CompiledHelm, n_boats: int, delay_s: float, dt_s: float) -> ClosedLoopRun:
+        """A fresh run of ``n_boats`` boats under ``helm``, its commands acting ``delay_s`` late (s), stepped at
+        ``dt_s`` (s)."""
+        self._check_boats(n_boats)
+        ring = int(np.ceil(delay_s / dt_s - 1e-9)) + 2
+        return ClosedLoopRun(helm, float(delay_s), fresh_memory(n_boats), np.zeros((n_boats, 2)),
+                             np.zeros((n_boats, 2)), np.zeros((n_boats, ring, 4)), np.zeros((n_boats, 4)),
+                             np.zeros(n_boats))
+
+    def run_closed_loop(self, run: ClosedLoopRun, states: np.ndarray, environments: np.ndarray, ticks: int,
+                        dt_s: float, substeps: int, output_rate_hz: float
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The next ``ticks`` output ticks (``output_rate_hz``) of ``run``, its helm deciding at every RK4 step of
+        ``dt_s`` (``substeps`` per tick) inside the compiled kernel; ``states`` (N, 6) advanced in place.
+        Returns, at each tick (ticks, N, ...): the states, their derivatives, the real steering angles, the
+        commands issued and when each was issued, s (within the previous tick when the helm changed it between
+        ticks), as the Python step loop of ``vessel.simulate`` records them."""
+        m = self.model
+        n_boats = states.shape[0]
+        if run.memory.shape[0] != n_boats:
+            raise ValueError(f"this run steers {run.memory.shape[0]} boats, got states of {n_boats}")
+        lags = np.empty(ticks * substeps, dtype=np.int64)
+        _acting_lags(run.next_tick * substeps, lags.size, substeps, output_rate_hz, dt_s, run.delay_s, lags)
+        if lags.size and lags.max() >= run.history.shape[1]:
+            raise ValueError(f"a command delay of {run.delay_s} s needs more than the ring's steps")
+        out_states = np.empty((ticks, n_boats, 6))
+        out_derivatives = np.empty_like(out_states)
+        out_steering = np.empty((ticks, n_boats, 2))
+        out_commands = np.empty((ticks, n_boats, 4))
+        out_issued = np.empty((ticks, n_boats))
+        kernel = _closed_loop_parallel if n_boats >= PARALLEL_MIN_BOATS else _closed_loop
+        kernel(states, run.steering_rad, run.thrust_N, run.helm.kind, run.helm.parameters, run.memory, run.history,
+               run.last_command, run.changed_s, run.next_tick, lags, self.coefficients, m.resistance_N,
+               m.resistance_max_speed_mps, m.extra_drag_N, environments, dt_s, substeps, output_rate_hz,
+               out_states, out_derivatives, out_steering, out_commands, out_issued)
+        run.next_tick += ticks
+        return out_states, out_derivatives, out_steering, out_commands, out_issued
 
     def run(
         self, states: np.ndarray, commands: np.ndarray, environments: np.ndarray, dt_s: float, substeps: int,

@@ -35,6 +35,14 @@ from boat_twin.errors import InputError
 from boat_twin.files import regular_input
 from boat_twin.units import KGF_N
 from boat_twin.validation import THRUST_LIMIT_N
+from boat_twin.vessel.helms import (
+    ENGINE_TURN,
+    ZIGZAG,
+    CompiledHelm,
+    engine_setting_thrust,
+    fresh_memory,
+    helm_commands,
+)
 from boat_twin.vessel.params import VesselParams, max_thrust_N, surge_time_constant_s, top_speed_mps
 from boat_twin.vessel.scenario_names import SCENARIO_NAMES
 
@@ -188,35 +196,29 @@ class Zigzag:
         """A fresh zigzag helm for ``n_boats`` boats."""
         return ZigzagHelm(self, n_boats)
 
+    def compiled_helm(self) -> CompiledHelm:
+        """The helm as the compiled kernel runs it (:data:`~boat_twin.vessel.helms.ZIGZAG`)."""
+        return CompiledHelm(ZIGZAG, np.array([_approach_thrust_N(self.params, self.speed_mps), self.steering_rad,
+                                              self.heading_change_rad, self.approach_s, self.decision_rate_hz]))
+
 
 class ZigzagHelm:
-    """One run of a :class:`Zigzag`: each boat's initial heading (taken at the first execute) and steering side."""
+    """One run of a :class:`Zigzag`: each boat's initial heading (taken at the first execute) and steering side,
+    decided by the compiled helm (:func:`~boat_twin.vessel.helms.helm_command`, the one copy of the logic)."""
 
     def __init__(self, zigzag: Zigzag, n_boats: int) -> None:
-        self.zigzag = zigzag
-        self.sign = np.ones(n_boats)  # +1: steering to starboard (positive angle)
-        self.initial_yaw_rad: np.ndarray | None = None
-        self._out = np.zeros((n_boats, 4))
-        self._out[:, :2] = _approach_thrust_N(zigzag.params, zigzag.speed_mps)
+        self.compiled = zigzag.compiled_helm()
+        self.memory = fresh_memory(n_boats)
+        """(N, 3) each boat's steering side (+1: to starboard, a positive angle), initial heading, and 1 once
+        that heading is taken."""
 
     def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
         """Thrust held; steering flips when the heading deviation reaches the threshold (per boat)."""
-        zig = self.zigzag
-        if states.shape[0] != self.sign.size:
-            raise ValueError(f"this helm steers {self.sign.size} boats, got states of {states.shape[0]}")
-        out = self._out.copy()
-        if t_s < zig.approach_s - 1e-9:
-            return out
-        if self.initial_yaw_rad is None:
-            self.initial_yaw_rad = states[:, 2].copy()
-        rate = zig.decision_rate_hz
-        if rate > 0.0 and abs(t_s * rate - round(t_s * rate)) > 1e-6:
-            out[:, 2] = out[:, 3] = self.sign * zig.steering_rad  # between decisions: the last one holds
-            return out
-        deviation = states[:, 2] - self.initial_yaw_rad  # > 0: bow to port
-        self.sign[deviation <= -zig.heading_change_rad] = -1.0
-        self.sign[deviation >= zig.heading_change_rad] = 1.0
-        out[:, 2] = out[:, 3] = self.sign * zig.steering_rad
+        if states.shape[0] != self.memory.shape[0]:
+            raise ValueError(f"this helm steers {self.memory.shape[0]} boats, got states of {states.shape[0]}")
+        out = np.empty((states.shape[0], 4))
+        helm_commands(self.compiled.kind, self.compiled.parameters, float(t_s),
+                      np.ascontiguousarray(states, dtype=float), self.memory, out)
         return out
 
 
@@ -267,22 +269,30 @@ class EngineTurningCircle:
         """Stateless: the engine setting and the steering follow the time and each boat's speed."""
         return self
 
+    def compiled_helm(self) -> CompiledHelm:
+        """The helm as the compiled kernel runs it (:data:`~boat_twin.vessel.helms.ENGINE_TURN`)."""
+        p = self.params
+        return CompiledHelm(ENGINE_TURN, np.array([self.shaft_power_W, self.execute_s, p.max_steering_rad,
+                                                   p.propulsive_efficiency, p.bollard_thrust_N, p.engine_power_W]))
+
     def command(self, t_s: float, states: np.ndarray) -> np.ndarray:
         """Thrust of the engine setting at each boat's surge speed; full steering from the execute."""
-        out = np.zeros((states.shape[0], 4))
-        out[:, 0] = out[:, 1] = engine_setting_thrust_N(self.params, self.shaft_power_W, states[:, 3])
-        if t_s >= self.execute_s - 1e-9:
-            out[:, 2:] = self.params.max_steering_rad
+        helm = self.compiled_helm()
+        out = np.empty((states.shape[0], 4))
+        helm_commands(helm.kind, helm.parameters, float(t_s), np.ascontiguousarray(states, dtype=float),
+                      fresh_memory(states.shape[0]), out)
         return out
 
 
 def engine_setting_thrust_N(params: VesselParams, shaft_power_W: float, speed_mps: np.ndarray) -> np.ndarray:
     """Thrust per outboard at a constant engine setting (throttle) that delivers ``shaft_power_W``, at speed
     through water ``speed_mps``, N: η·P/|u| (the power branch of the engine envelope at that power, with its
-    propulsive efficiency η), within the full-throttle envelope (the bollard thrust at low speed)."""
-    speed = np.abs(np.asarray(speed_mps, dtype=float))
-    power_limited = params.propulsive_efficiency * shaft_power_W / np.maximum(speed, 1e-9)
-    return np.minimum(max_thrust_N(params, speed), power_limited)
+    propulsive efficiency η), within the full-throttle envelope (the bollard thrust at low speed); the helm's
+    own function (:func:`~boat_twin.vessel.helms.engine_setting_thrust`)."""
+    speed = np.asarray(speed_mps, dtype=float)
+    return np.array([engine_setting_thrust(shaft_power_W, params.propulsive_efficiency, params.bollard_thrust_N,
+                                           params.engine_power_W, float(u)) for u in speed.ravel()]
+                    ).reshape(speed.shape)
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,11 @@
 
 An open-loop scenario's commands change at output ticks (a 10 Hz command log); a closed-loop scenario's helm
 (zigzag) is asked at every integration step, so it reverses the steering within 1/50 s of its threshold,
-and a fresh helm is made for every run (no state carried from one run or boat to another).
+and a fresh helm is made for every run (no state carried from one run or boat to another). A registered
+closed-loop scenario (zigzag, turning circle at a constant engine setting) has a compiled helm
+(``vessel.helms``): the whole run then stays inside the compiled kernel; any other helm (a wrapped scenario, a
+test's spy) is asked from the Python step loop below, whose order and arithmetic the kernel follows bit for
+bit (``test/test_helms.py``).
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import numpy as np
 from boat_twin.errors import InputError
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.environment import Environment
+from boat_twin.vessel.helms import CompiledHelm
 from boat_twin.vessel.params import VesselParams
 from boat_twin.vessel.scenarios import CommandProfile, Scenario
 from boat_twin.vessel.truth import TruthSeries, ground_velocity_enu
@@ -130,6 +135,8 @@ def simulate_chunks(
     dt_s = 1.0 / INTEGRATION_RATE_HZ
     helm = scenario.helm(states.shape[0])
     delay_s = params.command_delay_s
+    compiled = _compiled_helm(scenario)
+    closed_loop = None if compiled is None else dynamics.closed_loop(compiled, states.shape[0], delay_s, dt_s)
     steering: np.ndarray | None = None
     thrust: np.ndarray | None = None
     issued_queue: deque[tuple[float, np.ndarray]] = deque()  # a closed-loop helm's commands not yet acting
@@ -153,6 +160,9 @@ def simulate_chunks(
                 thrust = dynamics.thrust_start(applied[0])
             out_states, derivatives, out_steering = dynamics.run(states, applied, environments, dt_s, substeps,
                                                                  steering, thrust, switch, before)
+        elif closed_loop is not None:
+            out_states, derivatives, out_steering, commands, issued = dynamics.run_closed_loop(
+                closed_loop, states, environments, t_s.size, dt_s, substeps, OUTPUT_RATE_HZ)
         else:
             commands = np.empty((t_s.size, states.shape[0], 4))
             out_states = np.empty((t_s.size,) + states.shape)
@@ -190,6 +200,15 @@ def simulate_chunks(
         start = stop
         if start >= n_ticks:
             return
+
+
+def _compiled_helm(scenario: Scenario) -> CompiledHelm | None:
+    """The scenario's helm as the compiled kernel runs it, if its class has one (a registered closed-loop
+    scenario); None: its Python helm is asked at every step (any other helm: a wrapped one, a test's spy)."""
+    if isinstance(scenario, CommandProfile):
+        return None
+    make = getattr(type(scenario), "compiled_helm", None)  # the class's, never a wrapper's delegated attribute
+    return None if make is None else make(scenario)
 
 
 def _delayed_profile(profile: CommandProfile, t_s: np.ndarray, delay_s: float, boats: int
