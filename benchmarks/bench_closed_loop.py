@@ -9,15 +9,19 @@ interleaved rounds (the other jobs' load drifts between runs). The load average 
 - single: one boat's 75 s 20°/20° zigzag (the ensembles' trial) and a 600 s one: the compiled helm against the
   same scenario asked from the Python step loop (`vessel.simulate`'s reference path), with identical records;
 - ensemble: a zigzag ensemble of --boats boats drawn as the manoeuvring study's (±30 %): the compiled helm on
-  numba's threads (prange, one parallel region per run), the same prange kernel on one thread, the serial kernel
-  (no prange) on one thread, 2 Dask worker processes of one thread each (half the boats each; the cluster started
-  and the kernels loaded before the clock), and the Python step loop (threaded, one region per 0.02 s step);
+  numba's threads (prange, one parallel region per run; dynamic chunks of 16 boats, and numba's equal shares),
+  the same prange kernel on one thread, the same loop compiled without prange on one thread, 2 Dask worker
+  processes of one thread each (half the boats each; the cluster started, the boats drawn and the kernels loaded
+  before the clock), and the Python step loop (one region per 0.02 s step) on the threads and on one thread.
+  CPU time is beside the wall time: on a machine shared with other sessions, Linux's autogroup scheduler gives
+  this session a share of the cores whatever its threads and processes, so only the CPU time compares the work;
 - load: the ensemble rows again beside --busy busy loops (`while True: pass`, one process each).
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
 import subprocess
@@ -133,15 +137,21 @@ def on_threads(threads: int, run: Callable[[], Any], kernel: Any = None, chunk_b
     return call
 
 
+@functools.cache
+def drawn(boats: int, first: int, count: int) -> tuple[TwinConfig, list[Any]]:
+    """The config and boats ``first`` .. of the bench's ensemble (drawn once per process: the warm-up's)."""
+    config = TwinConfig()
+    return config, boat_draws(EnsembleSpec("zigzag-20-20", boats, config=config), first, count)[0]
+
+
 def part_of_ensemble(boats: int, first: int, count: int) -> tuple[float, float]:
     """(A Dask task.) Boats ``first`` .. of the bench's ensemble on one numba thread: their final yaw summed, and
     the task's CPU time, s."""
     from boat_twin.threads import use_one_numba_thread
 
     use_one_numba_thread()
+    config, vessels = drawn(boats, first, count)
     cpu = time.process_time()
-    config = TwinConfig()
-    vessels, _ = boat_draws(EnsembleSpec("zigzag-20-20", boats, config=config), first, count)
     zigzag = Zigzag(config.vessel, ANGLE, ANGLE, speed_mps=config.vessel.turn_speed_mps, duration_s=DURATION_S)
     final = float(simulate(config.vessel, zigzag, boats=vessels).states[-1, :, 2].sum())
     return final, time.process_time() - cpu
@@ -171,14 +181,16 @@ def ensemble_runs(boats: int, config: TwinConfig, vessels: list[Any], client: An
             return sum(p[0] for p in parts), sum(p[1] for p in parts)
 
         runs[f"Dask, {workers} processes x 1 thread"] = dask
-    runs[f"Python step loop, {threads} threads"] = on_threads(
-        threads, lambda: simulate(params, PythonLoop(zigzag), boats=vessels))  # type: ignore[arg-type]
+    def python_loop() -> Any:
+        return simulate(params, PythonLoop(zigzag), boats=vessels)  # type: ignore[arg-type]
+
+    runs[f"Python step loop, {threads} threads"] = on_threads(threads, python_loop)
+    runs["Python step loop, 1 thread"] = on_threads(1, python_loop)
     return runs
 
 
 def ensemble(boats: int, rounds: int, client: Any, label: str) -> None:
-    config = TwinConfig()
-    vessels, _ = boat_draws(EnsembleSpec("zigzag-20-20", boats, config=config), 0, boats)
+    config, vessels = drawn(boats, 0, boats)
     runs = ensemble_runs(boats, config, vessels, client)
     for run in runs.values():  # every kernel loaded (and the workers' too) before the clock
         run()
