@@ -15,7 +15,9 @@ class with ``name``, ``duration_s``, ``initial_surge_mps`` and ``helm(n_boats)``
 takes, and that name to :data:`~boat_twin.vessel.scenario_names.SCENARIO_NAMES` (a light module, for
 ``--help``); that is all. ``boat-twin simulate``, its help and errors, the ``player`` node and
 :func:`make_scenario` (with its ``--duration`` override) read the registry.
-Give the scenario the same ``name``, which the run reports.
+Give the scenario the same ``name``, which the run reports. A closed-loop scenario whose class also has
+``compiled_helm()`` (a :class:`~boat_twin.vessel.helms.CompiledHelm`: its decision written in
+``vessel/helms.py``, which its Python helm then calls too) runs whole trials inside the compiled kernel.
 """
 
 from __future__ import annotations
