@@ -17,13 +17,15 @@ OUT ?= out
 
 setup: $(STAMP)
 
-# The package and its required dependencies; one short simulation compiles the numba kernels into their cache
-# (boat_twin/vessel/__pycache__), so that no later command pays the compilation (docs/model.md).
+# The package and its required dependencies; two short simulations (open loop, and a zigzag: the closed-loop
+# kernel with its compiled helm) compile the numba kernels into their cache (boat_twin/vessel/__pycache__), so
+# that no later command pays the compilation (docs/model.md).
 $(BASE_STAMP): setup.py setup.cfg package.xml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PIP_INSTALL) -e .
 	$(VENV)/bin/boat-twin simulate thrust-steps --duration 1 --json > /dev/null
+	$(VENV)/bin/boat-twin simulate zigzag-20-20 --duration 1 --json > /dev/null
 	touch $(BASE_STAMP)
 
 $(STAMP): $(BASE_STAMP)
