@@ -15,6 +15,8 @@ interleaved rounds (the other jobs' load drifts between runs). The load average 
   before the clock), and the Python step loop (one region per 0.02 s step) on the threads and on one thread.
   CPU time is beside the wall time: on a machine shared with other sessions, Linux's autogroup scheduler gives
   this session a share of the cores whatever its threads and processes, so only the CPU time compares the work;
+- open: the open-loop kernel on one thread in its prange form against the plain loop: a one-boat hour, and a
+  live twin's single tick (1000 calls);
 - load: the ensemble rows again beside --busy busy loops (`while True: pass`, one process each).
 """
 
@@ -37,7 +39,7 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.fleet.ensemble import EnsembleSpec, boat_draws
 from boat_twin.vessel import dynamics
-from boat_twin.vessel.scenarios import Zigzag
+from boat_twin.vessel.scenarios import Zigzag, make_scenario
 from boat_twin.vessel.simulate import SimulationRecord, simulate
 
 ANGLE = math.radians(20.0)
@@ -115,6 +117,43 @@ def serial_closed_loop(states, steering, thrust, kind, helm_parameters, memory, 
                                    changed, first_tick, lags, coefficients, table, u_max, extra, environments, dt,
                                    substeps, output_rate, out_states, out_derivatives, out_steering, out_commands,
                                    out_issued)
+
+
+def open_loop(params: Any) -> None:
+    """The open-loop kernel in its two forms on one thread: a long run, and a live twin's single tick (the
+    call :data:`~boat_twin.vessel.dynamics.PRANGE_MIN_BOAT_TICKS` keeps on the plain loop)."""
+    hour = make_scenario("random", params, np.random.default_rng(1), duration_s=3600.0)
+    model = dynamics.Dynamics(params)
+    states, steering, thrust = np.array([[0.0, 0.0, 0.0, 3.0, 0.0, 0.0]]), np.zeros((1, 2)), np.full((1, 2), 100.0)
+    tick = np.array([[[100.0, 100.0, 0.1, 0.1]]])
+
+    def below(threshold: int, run: Callable[[], Any]) -> Callable[[], Any]:
+        """``run`` with the plain loop for runs below ``threshold`` boat-ticks (0: the prange form always)."""
+        def call() -> Any:
+            keep, dynamics.PRANGE_MIN_BOAT_TICKS = dynamics.PRANGE_MIN_BOAT_TICKS, threshold
+            try:
+                return run()
+            finally:
+                dynamics.PRANGE_MIN_BOAT_TICKS = keep
+        return call
+
+    def ticks() -> None:
+        for _ in range(1000):
+            model.run(states, tick, np.zeros((1, 4)), 0.02, 5, steering, thrust)
+
+    def hour_run() -> None:
+        simulate(params, hour)
+
+    runs = {"hour, plain": below(sys.maxsize, hour_run), "hour, prange": below(0, hour_run),
+            "tick, plain": below(sys.maxsize, ticks), "tick, prange": below(0, ticks)}
+    for run in runs.values():
+        run()
+    measured = best(5, runs)
+    cpu = {k: v[1] for k, v in measured.items()}
+    print(f"open loop, one boat on one thread: 3600 s random commands, CPU {cpu['hour, plain'] * 1e3:.1f} ms plain "
+          f"loop, {cpu['hour, prange'] * 1e3:.1f} ms prange form ({cpu['hour, plain'] / cpu['hour, prange']:.2f}x); "
+          f"a single tick {cpu['tick, plain'] * 1e3:.1f} us plain, {cpu['tick, prange'] * 1e3:.1f} us prange form; "
+          f"{load()}")
 
 
 def on_threads(threads: int, run: Callable[[], Any], kernel: Any = None, chunk_boats: int | None = None
@@ -209,7 +248,7 @@ def main() -> None:
     parser.add_argument("--boats", type=int, default=2000, help="ensemble size")
     parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds of the ensemble rows")
     parser.add_argument("--busy", type=int, default=2, help="busy-loop processes beside the 'load' part")
-    parser.add_argument("--parts", default="single,ensemble,load", help="which parts, comma-separated")
+    parser.add_argument("--parts", default="single,open,ensemble,load", help="which parts, comma-separated")
     args = parser.parse_args()
     parts = args.parts.split(",")
     print(f"{os.cpu_count()} cores, numba {numba.__version__} threading layer "
@@ -217,6 +256,8 @@ def main() -> None:
     params = TwinConfig().vessel
     if "single" in parts:
         single(params)
+    if "open" in parts:
+        open_loop(params)
     if "ensemble" not in parts and "load" not in parts:
         return
     from contextlib import nullcontext

@@ -15,7 +15,7 @@ from boat_twin.vessel import dynamics
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.helms import ENGINE_TURN, ZIGZAG
 from boat_twin.vessel.params import VesselParams
-from boat_twin.vessel.scenarios import EngineTurningCircle, Zigzag
+from boat_twin.vessel.scenarios import EngineTurningCircle, Zigzag, make_scenario
 from boat_twin.vessel.simulate import SimulationRecord, simulate, simulate_chunks
 
 PARAMS = VesselParams()
@@ -93,3 +93,14 @@ def test_the_registered_closed_loop_scenarios_have_compiled_helms() -> None:
     zigzag = Zigzag(PARAMS, ANGLE, ANGLE)
     assert zigzag.compiled_helm().kind == ZIGZAG
     assert EngineTurningCircle(PARAMS).compiled_helm().kind == ENGINE_TURN
+
+
+def test_the_prange_form_on_one_thread_is_the_plain_loop_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Open-loop runs of PRANGE_MIN_BOAT_TICKS boat-ticks or more take the prange kernel (faster on one thread),
+    a live twin's tick the plain loop: the same arithmetic."""
+    scenario = make_scenario("random", PARAMS, np.random.default_rng(2), duration_s=30.0)
+    pranged = simulate(PARAMS, scenario, initial_states=np.zeros((3, 6)))
+    monkeypatch.setattr(dynamics, "PRANGE_MIN_BOAT_TICKS", 10**9)
+    plain = simulate(PARAMS, scenario, initial_states=np.zeros((3, 6)))
+    for name in ("states", "derivatives", "steering_rad"):
+        np.testing.assert_array_equal(getattr(pranged, name), getattr(plain, name), err_msg=name)

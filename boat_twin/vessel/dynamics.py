@@ -31,7 +31,8 @@ its own sway/yaw coefficients (``Dynamics(..., boats=...)``: a training set of p
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numba
@@ -654,6 +655,25 @@ class ClosedLoopRun:
     next_tick: int = 0
 
 
+PRANGE_MIN_BOAT_TICKS = 20
+"""Runs of fewer boats × output ticks than this (below :data:`PARALLEL_MIN_BOATS` boats) take the plain serial
+kernel: the parallel form, 1.5x faster per boat-tick (1.9 against 2.9 µs of CPU), costs about 6 µs more a call
+(a live twin's single tick: 12.6 against 7.0 µs). Measured with ``benchmarks/bench_closed_loop.py --parts open``
+(docs/benchmarks.md)."""
+
+
+@contextmanager
+def _threads_for(n_boats: int) -> Iterator[None]:
+    """numba's threads (its thread count for this caller) for the block if ``n_boats`` reach
+    :data:`PARALLEL_MIN_BOATS`, else one thread: the parallel kernels' one-thread form."""
+    threads = numba.get_num_threads()
+    numba.set_num_threads(threads if n_boats >= PARALLEL_MIN_BOATS else 1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(threads)
+
+
 CLOSED_LOOP_CHUNK_BOATS = 16
 """Boats a thread takes at a time from a closed-loop ensemble (numba's dynamic chunks): a thread descheduled by
 other work on the cores leaves the rest of its boats to the others, instead of a fixed share that the whole run
@@ -755,17 +775,12 @@ class Dynamics:
         out_steering = np.empty((ticks, n_boats, 2))
         out_commands = np.empty((ticks, n_boats, 4))
         out_issued = np.empty((ticks, n_boats))
-        threads = numba.get_num_threads()
-        numba.set_num_threads(threads if n_boats >= PARALLEL_MIN_BOATS else 1)
-        try:
-            with numba.parallel_chunksize(CLOSED_LOOP_CHUNK_BOATS):
-                _closed_loop_parallel(
-                    states, run.steering_rad, run.thrust_N, run.helm.kind, run.helm.parameters, run.memory,
-                    run.history, run.last_command, run.changed_s, run.next_tick, lags, self.coefficients,
-                    m.resistance_N, m.resistance_max_speed_mps, m.extra_drag_N, environments, dt_s, substeps,
-                    output_rate_hz, out_states, out_derivatives, out_steering, out_commands, out_issued)
-        finally:
-            numba.set_num_threads(threads)
+        with _threads_for(n_boats), numba.parallel_chunksize(CLOSED_LOOP_CHUNK_BOATS):
+            _closed_loop_parallel(
+                states, run.steering_rad, run.thrust_N, run.helm.kind, run.helm.parameters, run.memory,
+                run.history, run.last_command, run.changed_s, run.next_tick, lags, self.coefficients,
+                m.resistance_N, m.resistance_max_speed_mps, m.extra_drag_N, environments, dt_s, substeps,
+                output_rate_hz, out_states, out_derivatives, out_steering, out_commands, out_issued)
         run.next_tick += ticks
         return out_states, out_derivatives, out_steering, out_commands, out_issued
 
@@ -800,8 +815,12 @@ class Dynamics:
         out_states = np.empty((commands.shape[0],) + states.shape)
         out_derivatives = np.empty_like(out_states)
         out_steering = np.empty((commands.shape[0], states.shape[0], 2))
-        kernel = _run_ticks_parallel if states.shape[0] >= PARALLEL_MIN_BOATS else _run_ticks
-        kernel(states, steering_rad, thrust_N, commands, switch, np.ascontiguousarray(before, dtype=float),
-               self.coefficients, m.resistance_N, m.resistance_max_speed_mps, m.extra_drag_N, environments, dt_s,
-               substeps, out_states, out_derivatives, out_steering)
+        arguments = (states, steering_rad, thrust_N, commands, switch, np.ascontiguousarray(before, dtype=float),
+                     self.coefficients, m.resistance_N, m.resistance_max_speed_mps, m.extra_drag_N, environments,
+                     dt_s, substeps, out_states, out_derivatives, out_steering)
+        if states.shape[0] < PARALLEL_MIN_BOATS and commands.shape[0] * states.shape[0] < PRANGE_MIN_BOAT_TICKS:
+            _run_ticks(*arguments)
+        else:  # the prange form, also on one thread: 1.5x faster than the plain loop (_closed_loop_parallel)
+            with _threads_for(states.shape[0]):
+                _run_ticks_parallel(*arguments)
         return out_states, out_derivatives, out_steering
