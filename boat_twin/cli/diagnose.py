@@ -27,6 +27,7 @@ from boat_twin.cli.options import (
 from boat_twin.diagnose.defaults import EXTENDED_MODEL_NAME, WINDOW_S
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_save_figure, atomic_write_yaml, to_json
+from boat_twin.fleet.outputs import DIAGNOSE_OUTPUTS
 
 
 def _progress(message: str) -> None:
@@ -34,8 +35,7 @@ def _progress(message: str) -> None:
     sys.stderr.flush()
 
 
-TRIAL_OUTPUTS = (EXTENDED_MODEL_NAME, "diagnosis_signals.png", "diagnosis_residuals.png", "diagnosis_evidence.png",
-                 "diagnosis.json")
+TRIAL_OUTPUTS = DIAGNOSE_OUTPUTS
 """What ``diagnose TRIAL --out DIR`` writes."""
 TABLE_OUTPUTS = (EXTENDED_MODEL_NAME, "diagnosis_table.png")
 """What ``diagnose --table dyda2021 --out DIR`` writes."""
