@@ -278,6 +278,11 @@ def test_diagnose_prints_the_trial_summary_and_names_absurd_thrust(accel_stop_ba
     err = capsys.readouterr().err
     assert "absurd.mcap: thrust_left" in err  # the summary identify prints
     assert "warning: thrust_left: " in err and "sample(s) beyond 1e+04 N" in err and "up to 4e+05 N" in err, err
+    from boat_twin.ident.pipeline import trial_warnings
+    from boat_twin.io.sources import read_trial_file
+
+    named = [w for w in trial_warnings(read_trial_file(bag)) if "sample(s) beyond" in w]  # identify's warnings
+    assert len(named) == 1 and "thrust_left: 100 sample(s) beyond 1e+04 N" in named[0], named
 
 
 def test_sigterm_on_a_blocked_reader_never_hangs_the_tests() -> None:

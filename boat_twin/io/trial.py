@@ -482,7 +482,7 @@ def thrust_outliers(trial: Trial, bollard_thrust_N: float, factor: float = 5.0) 
     for role, thrust in (("thrust_left", trial.thrust_left_N), ("thrust_right", trial.thrust_right_N)):
         beyond = np.flatnonzero(np.abs(np.nan_to_num(thrust)) > limit)
         if beyond.size:
-            named.append(f"{role}: {beyond.size} sample(s) beyond {limit:.4g} N ({factor:g} x the model's bollard "
+            named.append(f"{role}: {beyond.size} sample(s) beyond {limit:.4g} N ({factor:g} x the boat's bollard "
                          f"thrust), up to {np.max(np.abs(thrust[beyond])):.4g} N, first at t = "
                          f"{trial.t_s[beyond[0]]:.1f} s")
     return "; ".join(named) or None
