@@ -72,12 +72,13 @@ class CableNode(Node):
             parameters.declare(self, name, value, "case field (see boat_twin.cable.case)", read_only=False)
             self._case_names.append(name)
         parameters.boolean(self, "follow_gnss_vel", False, "tow speed from gnss/vel", read_only=False)
+        self._live_speed_mps: float | None = None
+        self._case()  # a case field given at start-up (-p tow_speed_mps:=.nan) is checked now: one line, exit 2
         parameters.string(self, "frame_id", "tow_point", "frame of cable/path")
         self._frame_prefix = conventions.frame_prefix(self)
         self._diagnostics = Diagnostics(self)
         self._status = Status("towed cable", STALE, "not solved yet")
         period = parameters.double(self, "update_period_s", 1.0, "re-solve period, s", above=0.0)
-        self._live_speed_mps: float | None = None
         self._dirty = True
         self.add_on_set_parameters_callback(self._check_parameters)
         self._path_pub = self.create_publisher(PathMsg, "cable/path", LATCHED)
