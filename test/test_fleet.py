@@ -212,6 +212,27 @@ def test_a_signal_during_a_batch_leaves_each_trial_report_old_or_new_whole(accel
     assert code == 0 and "(3 complete from an earlier run)" in stdout, stdout
 
 
+def test_a_report_moved_aside_by_a_batch_killed_mid_swap_is_restored_before_the_resume(accel_stop_bag,
+                                                                                      tmp_path) -> None:
+    """Killed between the two renames of a trial's swap (its old report aside as .a.old-PID, a missing) and
+    while writing another (.b.partial-PID): the next run restores a, removes the scratch, names both and resumes
+    both trials as complete instead of redoing a."""
+    trials = tmp_path / "trials"
+    trials.mkdir()
+    for name in "ab":
+        shutil.copy(accel_stop_bag, trials / f"{name}.mcap")
+    out = tmp_path / "out"
+    assert run_cli("follow", trials, "--each", "--out", out, "--scheduler", "sync")[0] == 0
+    row = (out / "a" / ROW_FILE).read_bytes()
+    os.rename(out / "a", out / ".a.old-999999")
+    (out / ".b.partial-999999").mkdir()
+    code, stdout, stderr = run_cli("follow", trials, "--each", "--out", out, "--scheduler", "sync")
+    assert code == 0 and "(2 complete from an earlier run)" in stdout, (stdout, stderr)
+    assert f"restored {out / 'a'}" in stderr and f"removed {out / '.b.partial-999999'}" in stderr, stderr
+    assert (out / "a" / ROW_FILE).read_bytes() == row
+    assert sorted(p.name for p in out.iterdir()) == ["a", "b", "summary.csv", "summary.json"]
+
+
 def test_trials_are_named_uniquely_and_bags_are_not_entered(tmp_path) -> None:
     for boat in ("a", "b"):
         (tmp_path / boat / "bag").mkdir(parents=True)

@@ -22,6 +22,7 @@ import csv
 import io
 import json
 import os
+import re
 import socket
 import sys
 import time
@@ -32,6 +33,7 @@ from typing import Any, Protocol
 
 from boat_twin.errors import InputError
 from boat_twin.files import (
+    OutputClaim,
     ReportSet,
     atomic_write_text,
     ensure_out_dir,
@@ -135,6 +137,16 @@ def write_summary(out: Path, rows: Sequence[dict[str, Any]], columns: Sequence[s
         atomic_write_text(out / SUMMARY_CSV, text.getvalue())
 
 
+def _clean_leftovers(out: Path, tasks: Sequence[TrialTask]) -> None:
+    """Leftovers of a run killed while writing a trial's report (``.NAME.partial-PID``) or swapping it in
+    (``.NAME.old-PID``, the old report moved aside): removed or restored now, before the resume looks for
+    complete reports (:class:`~boat_twin.files.OutputClaim` does it and names each on stderr)."""
+    names = {task.name for task in tasks}
+    stale = {m.group(1) for m in map(re.compile(r"\.(.+)\.(?:partial|old)-\d+").fullmatch, os.listdir(out)) if m}
+    for name in sorted(stale & names):
+        OutputClaim(out / name, force=True, kind="reports").release()
+
+
 def _complete_row(report_dir: Path) -> dict[str, Any] | None:
     """The row of an earlier complete report in ``report_dir``, or None."""
     try:
@@ -179,6 +191,7 @@ def run_batch(job: Job, tasks: Sequence[TrialTask], out: Path, client: Any = Non
     out = ensure_out_dir(out).resolve()
     columns = (*COMMON_COLUMNS, *job.columns, *RUN_COLUMNS)
     with locked_directory(out):
+        _clean_leftovers(out, tasks)
         rows: dict[str, dict[str, Any]] = {}
         if not force:
             for task in tasks:
