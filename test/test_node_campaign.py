@@ -3,7 +3,7 @@ one over the CLI verbs).
 
 Hostile parameters (misspelt, of the wrong type, out of bounds, NaN or infinite) given to every node at start-up:
 exit 2 with one error line naming the parameter, never a traceback. Hostile messages (NaN, ±1e300 commands and
-velocities, velocity stamps running backwards) published to the simulator, identifier and cable nodes at once:
+velocities, velocity stamps running backwards) published to the simulator, identifier, cable and shadow nodes at once:
 each stays alive and every number it publishes stays finite (or NaN where it means "not yet known"), and it ends
 with exit 0 on Ctrl-C.
 """
@@ -53,8 +53,9 @@ def test_hostile_parameters_end_every_node_with_one_line_and_exit_2(tmp_path) ->
             (node, name, value, err)
 
 
-HOSTILE_VALUES = (math.nan, 1e300, -1e300, math.inf)
-"""What a broken driver publishes."""
+HOSTILE_VALUES = (math.nan, 1e300, -1e300, math.inf, 0.5)
+"""What a broken driver publishes (the last a valid value: its velocity's stamp, from another clock and running
+backwards, is what is hostile)."""
 
 
 def _velocity(stamp_ns: int, east: float, north: float) -> TwistStamped:
@@ -72,14 +73,19 @@ def _finite_or_nan(values: list[float]) -> bool:
 
 def test_hostile_messages_leave_the_nodes_alive_and_finite(tmp_path) -> None:
     with rosnodes.nodes(("simulator", {"seed": 3}), ("identifier", {}),
-                        ("cable", {"follow_gnss_vel": True, "update_period_s": 0.5}), log_dir=tmp_path) as procs, \
+                        ("cable", {"follow_gnss_vel": True, "update_period_s": 0.5}),
+                        ("shadow", {"twin_path": str(tmp_path / "twin.yaml")}), log_dir=tmp_path) as procs, \
             rosnodes.probe("hostile_probe") as probe:
         node = probe.node
-        seen: dict[str, list] = {"sim": [], "odom": [], "coefficients": [], "tension": [], "identifier": []}
+        seen: dict[str, list] = {"sim": [], "odom": [], "coefficients": [], "tension": [], "identifier": [],
+                                 "shadow": [], "shadow_model": []}
         node.create_subscription(TwistStamped, messages.TOPIC_GNSS_VEL,
                                  lambda m: m.header.frame_id != "hostile" and seen["sim"].append(m),
                                  qos_profile_sensor_data)
         node.create_subscription(Odometry, "odom/truth", seen["odom"].append, qos_profile_sensor_data)
+        node.create_subscription(Odometry, "shadow/odom", seen["shadow"].append, 10)
+        node.create_subscription(Float64MultiArray, "shadow/model", lambda m: seen["shadow_model"].append(
+            list(m.data)), 10)
         node.create_subscription(Float64MultiArray, "identification/coefficients",
                                  lambda m: seen["coefficients"].append(list(m.data)), 10)
         node.create_subscription(Float64, "cable/top_tension", lambda m: seen["tension"].append(m.data),
@@ -95,7 +101,7 @@ def test_hostile_messages_leave_the_nodes_alive_and_finite(tmp_path) -> None:
             messages.TOPIC_THRUST_LEFT, messages.TOPIC_THRUST_RIGHT, messages.TOPIC_ANGLE_LEFT,
             messages.TOPIC_ANGLE_RIGHT)]
         velocity = node.create_publisher(TwistStamped, messages.TOPIC_GNSS_VEL, qos_profile_sensor_data)
-        assert probe.spin_until(lambda: seen["sim"] and seen["coefficients"] and seen["tension"],
+        assert probe.spin_until(lambda: all(seen[key] for key in ("sim", "coefficients", "tension", "shadow")),
                                 rosnodes.START_TIMEOUT_S), {k: len(v) for k, v in seen.items()}
         counted = {key: len(values) for key, values in seen.items()}
         tick = [0]
@@ -115,8 +121,8 @@ def test_hostile_messages_leave_the_nodes_alive_and_finite(tmp_path) -> None:
         probe.spin_for(1.0)
         alive = [proc.process.poll() is None for proc in procs]
         logs = [proc.stderr for proc in procs]
-    assert tick[0] > 20 and alive == [True, True, True], (tick, alive, logs)
-    assert [proc.process.returncode for proc in procs] == [0, 0, 0], logs
+    assert tick[0] > 20 and alive == [True] * 4, (tick, alive, logs)
+    assert [proc.process.returncode for proc in procs] == [0] * 4, logs
     assert all("Traceback" not in log for log in logs), logs
     fresh = {key: values[counted[key]:] for key, values in seen.items()}
     assert len(fresh["sim"]) > 10, {k: len(v) for k, v in fresh.items()}  # still publishing (10 Hz)
@@ -126,4 +132,7 @@ def test_hostile_messages_leave_the_nodes_alive_and_finite(tmp_path) -> None:
                math.isfinite(m.pose.pose.position.x) for m in fresh["odom"])
     assert fresh["coefficients"] and all(_finite_or_nan(values) for values in fresh["coefficients"])
     assert all(math.isfinite(t) for t in seen["tension"])
+    assert fresh["shadow"] and all(math.isfinite(m.pose.pose.position.x) and math.isfinite(m.twist.twist.linear.x)
+                                   for m in fresh["shadow"])
+    assert fresh["shadow_model"] and all(_finite_or_nan(values) for values in fresh["shadow_model"])
     assert fresh["identifier"][-1]["rejected_samples"] > 0, fresh["identifier"][-1]  # counted, not absorbed
