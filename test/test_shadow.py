@@ -159,7 +159,7 @@ def test_adoption_and_reversal_follow_the_held_out_score() -> None:
     assert adapter.update(distance) and adapter.swaps == 1
     assert adapter.current.mass_kg == pytest.approx(1500.0, rel=0.05)
     assert adapter.current.mass_ci95_kg[0] < adapter.current.mass_kg < adapter.current.mass_ci95_kg[1]
-    assert adapter.update(lambda m: 1.0 + distance(m) if m.windows else 0.5)  # now the old model scores better
+    assert adapter.update(lambda m: 1.0 + distance(m) if m.samples else 0.5)  # now the old model scores better
     assert adapter.current == SurgeModel(base.mass_kg, 1.0) and not adapter.previous
 
 

@@ -84,7 +84,7 @@ class Shadow:
     def _build(self) -> None:
         s, config = self.settings, self.base
         self.adapter = SurgeAdapter(config.vessel, horizon_s=s.horizon_s, holdout_s=s.holdout_s,
-                                    period_s=s.adapt_period_s, log=self.log)
+                                    period_s=s.adapt_period_s, latency_s=config.gnss.latency_s, log=self.log)
         self.recent = RecentStreams(max(s.diagnosis_window_s, s.holdout_s) + 10.0)
         self.rolling = RollingDiagnosis(self.recent, window_s=s.diagnosis_window_s, period_s=s.diagnosis_period_s,
                                         idle_period_s=s.diagnosis_idle_period_s, misfit_ratio=s.misfit_ratio,
@@ -131,9 +131,9 @@ class Shadow:
             state = self.twin.state
             assert state is not None
             yaw = float(state[2])
-            surge = ((values[0] - env.current_east_mps) * math.cos(yaw)
-                     + (values[1] - env.current_north_mps) * math.sin(yaw))
-            self.adapter.add(t_s, self.surge_force_N(surge), surge)
+            east, north = values[0] - env.current_east_mps, values[1] - env.current_north_mps
+            surge = east * math.cos(yaw) + north * math.sin(yaw)
+            self.adapter.add(t_s, self.surge_force_N(surge), math.hypot(east, north))
             if self.adapter.due(t_s) and self.adapter.update(self._held_out_score(t_s)):
                 self.twin.set_config(replace(self.twin.config, vessel=self.adapter.vessel()))
                 self._m22_kg = None
