@@ -11,8 +11,9 @@ state, which in a turn is as large as a resistance error). The speed measured at
 t − GNSS latency; the fit takes it there (on the 6 m boat, ignoring the 0.1 s shifted the mass by +1.3 %).
 
 Cost decides how the curve's complexity is chosen: the offline cross-validation (baseline and 3, 5, 8, 12
-I-splines, four folds each: 22 fits) costs seconds per horizon, too much every ``period_s``. So the baseline
-a·|u| + b·u² is fitted until the training stretch first spans the whole horizon; there
+I-splines, four folds each: 22 fits) costs 2 s of CPU on a 470 s horizon with one BLAS thread, 20 s with
+OpenBLAS's threads on the loaded 2-core machine — too much every ``period_s``. So :data:`FIRST_SPLINES` I-splines
+are fitted until the training stretch first spans the whole horizon; there
 :func:`~boat_twin.ident.output_error.identify_surge` selects among the baseline and :data:`SELECTION_SPLINES`
 I-splines once, and that size is refitted on every later horizon (knots at its own speed quantiles): one fit
 per update. A horizon that does not fix the mass (95 % interval wider than ± :data:`MASS_RELATIVE_LIMIT`) is
@@ -60,13 +61,19 @@ REJECT_LEVEL = 0.95
 MASS_RELATIVE_LIMIT = 0.2
 """A 95 % mass interval wider than ± this share of the estimate: the horizon does not fix the mass, which is held
 at the current model's, -."""
-SELECTION_SPLINES = (3, 5)
-"""I-spline sizes the once-per-run cross-validation compares with the baseline (the offline set stops at 12; the
-larger ones cost most and a 10-minute horizon rarely supports them)."""
+FIRST_SPLINES = 5
+"""I-spline terms fitted until the first full horizon selects them: a coarser curve leaves a shape error the mass
+absorbs (a boat of the configured curve × 0.9 followed from the truth: +1.4 % with the baseline or 3 I-splines,
++0.6 % with 5 or 8, where the 95 % interval is ±1.2 %)."""
+SELECTION_SPLINES = (5, 8)
+"""I-spline sizes the once-per-run cross-validation compares with the baseline (the offline set also tries 3
+and 12: 3 for the reason above, 12 for its cost)."""
 FACTOR_POINTS = 21
 """Speed quantiles over which the resistance factor summarises a fitted curve against the configured one."""
 MIN_SAMPLES = 100
 """Fewer training samples than this: no fit."""
+MIN_SPAN_S = 60.0
+"""A training stretch shorter than this: no fit, s."""
 FACTOR_RANGE = (0.3, 3.0)
 """Physical range of the mass and resistance factors relative to the configured boat, -: a fit outside is a
 stand-in for something else (a current, a fault) and is not adopted."""
@@ -238,8 +245,8 @@ class SurgeAdapter:
         self.candidate: SurgeModel | None = None
         """The latest fit, adopted or not (its intervals are what the fit says now)."""
         self.splines: int | None = None
-        """I-spline terms refitted on every horizon, once the first full one selected them (None: not yet; the
-        baseline meanwhile)."""
+        """I-spline terms refitted on every horizon, once the first full one selected them (None: not yet;
+        :data:`FIRST_SPLINES` meanwhile)."""
         self.swaps = 0
         self._samples: deque[tuple[float, float, float]] = deque()
         self._next_s = math.nan
@@ -274,7 +281,7 @@ class SurgeAdapter:
             return None
         t, f, u = (np.array(c) for c in zip(*self._samples, strict=True))
         train = t <= t[-1] - self.holdout_s
-        if train.sum() < MIN_SAMPLES:
+        if train.sum() < MIN_SAMPLES or t[train][-1] - t[0] < MIN_SPAN_S:
             return None
         return horizon_record(t[train], f[train], u[train], self.latency_s)
 
@@ -287,7 +294,7 @@ class SurgeAdapter:
                 self.splines, why = 0, f"baseline: {err}"
             self.log(f"surge resistance curve selected on the first full horizon ({record.t_s[-1] - record.t_s[0]:.0f}"
                      f" s) by cross-validated output error: {why}")
-        return self.splines or 0
+        return FIRST_SPLINES if self.splines is None else self.splines
 
     def update(self, score: Score) -> bool:
         """Fit a candidate on the horizon without its held-out tail and adopt it, or revert, if it predicts the
