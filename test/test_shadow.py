@@ -258,7 +258,6 @@ def test_a_fit_within_its_noise_of_the_current_model_is_not_adopted_even_if_it_s
     swaps = 0
     for seed in range(5):
         adapter = SurgeAdapter(truth, horizon_s=400.0, holdout_s=50.0)
-        adapter.splines = 0  # the baseline curve, no selection (its cost) in a unit test
         for sample in zip(*_surge_samples(1500.0, 1.2, seed), strict=True):
             adapter.add(*sample)
         swaps += adapter.update(lambda m: 0.5 if m.samples else 1.0)
@@ -266,7 +265,6 @@ def test_a_fit_within_its_noise_of_the_current_model_is_not_adopted_even_if_it_s
         assert adapter.candidate.mass_ci95_kg[0] < 1500.0 * 1.1  # the fit itself is not far off
     assert swaps <= 1
     wrong = SurgeAdapter(TwinConfig().vessel, horizon_s=400.0, holdout_s=50.0)
-    wrong.splines = 0
     for sample in zip(*_surge_samples(1500.0, 1.2, 0), strict=True):
         wrong.add(*sample)
     assert wrong.update(lambda m: 0.5 if m.samples else 1.0)

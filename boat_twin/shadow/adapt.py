@@ -10,13 +10,13 @@ delivered thrust along the hull at the outboards' real angles plus the sway-yaw 
 state, which in a turn is as large as a resistance error). The speed measured at t describes the boat at
 t − GNSS latency; the fit takes it there (on the 6 m boat, ignoring the 0.1 s shifted the mass by +1.3 %).
 
-Cost decides how the curve's complexity is chosen: the offline cross-validation (baseline and 3, 5, 8, 12
-I-splines, four folds each: 22 fits) costs 2 s of CPU on a 470 s horizon with one BLAS thread, 20 s with
-OpenBLAS's threads on the loaded 2-core machine — too much every ``period_s``. So :data:`FIRST_SPLINES` I-splines
-are fitted until the training stretch first spans the whole horizon; there
-:func:`~boat_twin.ident.output_error.identify_surge` selects among the baseline and :data:`SELECTION_SPLINES`
-I-splines once, and that size is refitted on every later horizon (knots at its own speed quantiles): one fit
-per update. A horizon that does not fix the mass (95 % interval wider than ± :data:`MASS_RELATIVE_LIMIT`) is
+Cost decides the curve's size: the offline cross-validation (baseline and 3, 5, 8, 12 I-splines, four folds:
+22 fits) costs 2 s of CPU on a 470 s horizon with one BLAS thread, 20 s with OpenBLAS's threads on the loaded
+2-core machine — too much every ``period_s``, and its choice (the smallest curve predicting within 1 % of the
+best) is made for prediction, not for the mass: run once on the first full horizon it chose the baseline on 2 of
+5 boats, and on one of them the mass came out 2.4 % high, outside its interval. So every fit uses the fixed
+candidate of :data:`SPLINES` I-splines (knots at the horizon's own speed quantiles): one fit per update.
+A horizon that does not fix the mass (95 % interval wider than ± :data:`MASS_RELATIVE_LIMIT`) is
 refitted with the current mass held.
 
 The adapted model's *resistance factor* is a summary for the timeline and the node: the least-squares ratio of
@@ -32,7 +32,9 @@ Adoption (:class:`SurgeAdapter`): every ``period_s``, a candidate is fitted on t
    started at the truth swapped between fits ±2-3 % apart); and
 2. it predicts the held-out seconds better by a score given by the caller (the session replays them through the
    whole 3-DOF twin and its sensor models, open loop in windows started from the measurements, as the diagnosis
-   does: :func:`boat_twin.twin.replay.predict`): held-out error below (1 − :data:`ADOPT_MARGIN`) × the current's.
+   does: :func:`boat_twin.twin.replay.predict`): held-out error below (1 − :data:`ADOPT_MARGIN`) × the current's
+   — or merely below it when the candidate identifies a mass the current model only kept (a light boat's mass
+   hardly changes the held-out error: the margin kept a mass held from an early horizon 37 % off for good).
 
 The previous model is kept, and reinstated when it predicts the newest held-out data better by the same margin.
 """
@@ -61,13 +63,10 @@ REJECT_LEVEL = 0.95
 MASS_RELATIVE_LIMIT = 0.2
 """A 95 % mass interval wider than ± this share of the estimate: the horizon does not fix the mass, which is held
 at the current model's, -."""
-FIRST_SPLINES = 5
-"""I-spline terms fitted until the first full horizon selects them: a coarser curve leaves a shape error the mass
-absorbs (a boat of the configured curve × 0.9 followed from the truth: +1.4 % with the baseline or 3 I-splines,
-+0.6 % with 5 or 8, where the 95 % interval is ±1.2 %)."""
-SELECTION_SPLINES = (5, 8)
-"""I-spline sizes the once-per-run cross-validation compares with the baseline (the offline set also tries 3
-and 12: 3 for the reason above, 12 for its cost)."""
+SPLINES = 5
+"""I-spline terms of every fit (a fixed candidate; module docstring). Fewer leave a shape error the mass absorbs:
+a boat of the configured curve × 0.9 followed from the truth gave +1.4 % with the baseline or 3 I-splines, +0.6 %
+with 5 or 8, where the 95 % interval is ±1.2 %."""
 FACTOR_POINTS = 21
 """Speed quantiles over which the resistance factor summarises a fitted curve against the configured one."""
 MIN_SAMPLES = 100
@@ -153,13 +152,8 @@ def basis_for(record: SurgeRecord, splines: int) -> ResistanceBasis:
     return ResistanceBasis() if splines == 0 else spline_basis(record.speed_mps, splines)
 
 
-def select_splines(record: SurgeRecord) -> tuple[int, str]:
-    """I-spline terms (0: the baseline) the output-error cross-validation selects on ``record``, and why."""
-    result = output_error.identify_surge([record], spline_sizes=SELECTION_SPLINES)
-    return result.selected.basis.size - 2, result.reason
-
-
-def fit_surge(record: SurgeRecord, base: VesselParams, current: SurgeModel, splines: int = 0) -> SurgeModel | None:
+def fit_surge(record: SurgeRecord, base: VesselParams, current: SurgeModel, splines: int = SPLINES
+              ) -> SurgeModel | None:
     """The output-error fit of (mass, resistance) on one horizon (:func:`horizon_record`) as a surge model of
     ``base``: ``splines`` I-spline terms or the baseline; the mass held at ``current``'s when the horizon does not
     fix it. None when the fit cannot be made (too few samples, no motion, divergence)."""
@@ -174,7 +168,7 @@ def fit_surge(record: SurgeRecord, base: VesselParams, current: SurgeModel, spli
                     and high - low <= 2.0 * MASS_RELATIVE_LIMIT * fit.mass_kg)
         if held:
             fit = output_error.fit_surge([record], basis, mass_kg=current.mass_kg * added)
-    except (InputError, np.linalg.LinAlgError):
+    except (InputError, ValueError, np.linalg.LinAlgError):  # ValueError: the simulation diverged mid-fit
         return None
     return _model(fit, record, base, current, held)
 
@@ -244,9 +238,6 @@ class SurgeAdapter:
         """Models replaced, latest last: what :meth:`revert` goes back to."""
         self.candidate: SurgeModel | None = None
         """The latest fit, adopted or not (its intervals are what the fit says now)."""
-        self.splines: int | None = None
-        """I-spline terms refitted on every horizon, once the first full one selected them (None: not yet;
-        :data:`FIRST_SPLINES` meanwhile)."""
         self.swaps = 0
         self._samples: deque[tuple[float, float, float]] = deque()
         self._next_s = math.nan
@@ -285,17 +276,6 @@ class SurgeAdapter:
             return None
         return horizon_record(t[train], f[train], u[train], self.latency_s)
 
-    def _splines(self, record: SurgeRecord) -> int:
-        """The I-spline size to fit: selected once, on the first training stretch that spans the horizon."""
-        if self.splines is None and record.t_s[-1] - record.t_s[0] >= 0.95 * (self.horizon_s - self.holdout_s):
-            try:
-                self.splines, why = select_splines(record)
-            except InputError as err:
-                self.splines, why = 0, f"baseline: {err}"
-            self.log(f"surge resistance curve selected on the first full horizon ({record.t_s[-1] - record.t_s[0]:.0f}"
-                     f" s) by cross-validated output error: {why}")
-        return FIRST_SPLINES if self.splines is None else self.splines
-
     def update(self, score: Score) -> bool:
         """Fit a candidate on the horizon without its held-out tail and adopt it, or revert, if it predicts the
         tail better by ``score`` (module docstring); returns True when the model changed."""
@@ -311,12 +291,15 @@ class SurgeAdapter:
                 self.revert(f"it predicts the last {self.holdout_s:.0f} s better (velocity RMS "
                             f"{math.sqrt(now):.3f} → {math.sqrt(before):.3f} m/s)")
                 return True
-        candidate = fit_surge(record, self.base, self.current, self._splines(record))
+        candidate = fit_surge(record, self.base, self.current)
         self.candidate = candidate
         if candidate is None or not self._physical(candidate) or not rejects(candidate, self.current, self.base):
             return False
         new = score(candidate)
-        if not new < (1.0 - ADOPT_MARGIN) * now:
+        # a mass identified replaces one only kept at no worse a prediction: a light boat's mass hardly changes the
+        # held-out error, so the margin would keep a mass held from an early horizon for good
+        margin = 0.0 if self.current.mass_held and not candidate.mass_held else ADOPT_MARGIN
+        if not new < (1.0 - margin) * now:
             return False
         self.previous.append(self.current)
         self.current = candidate
