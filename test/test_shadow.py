@@ -160,7 +160,12 @@ def test_adoption_and_reversal_follow_the_held_out_score() -> None:
     assert adapter.update(distance) and adapter.swaps == 1
     assert adapter.current.mass_kg == pytest.approx(1500.0, rel=0.05)
     assert adapter.current.mass_ci95_kg[0] < adapter.current.mass_kg < adapter.current.mass_ci95_kg[1]
-    assert adapter.update(lambda m: 1.0 + distance(m) if m.samples else 0.5)  # now the old model scores better
+    favour_old = lambda m: 1.0 + distance(m) if m.samples else 0.5  # noqa: E731 - the old model scores better
+    assert not adapter.update(favour_old)  # but the newest fit rejects it: no reversal
+    adapter.reset()  # the boat is the configured one again (1,300 kg, ×1.0)
+    for sample in zip(*_surge_samples(base.mass_kg, 1.0, 9), strict=True):
+        adapter.add(*sample)
+    assert adapter.update(favour_old)  # the newest fit does not reject it: reinstated
     assert adapter.current == SurgeModel(base.mass_kg, 1.0) and not adapter.previous
 
 
