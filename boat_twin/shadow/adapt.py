@@ -23,8 +23,9 @@ The adapted model's *resistance factor* is a summary for the timeline and the no
 its Fc to the configured boat's Fc₀ over :data:`FACTOR_POINTS` quantiles of the fitted speeds (linear in the
 coefficients, so its interval is exact from their covariance).
 
-Adoption (:class:`SurgeAdapter`): every ``period_s``, a candidate is fitted on the horizon without its last
-``holdout_s``. It replaces the current model only when
+Adoption (:class:`SurgeAdapter`): every ``period_s`` (doubling, up to :data:`MAX_WAIT_PERIODS` periods, while
+the fits confirm the current model), a candidate is fitted on the horizon without its last ``holdout_s``. It
+replaces the current model only when
 
 1. its own intervals reject the current model: the Wald (Hotelling T²) statistic of the difference in
    (m₁₁, resistance factor), with the candidate's cluster-robust covariance, exceeds its 95 % point — a candidate
@@ -75,6 +76,8 @@ MIN_SAMPLES = 100
 """Fewer training samples than this: no fit."""
 MIN_SPAN_S = 60.0
 """A training stretch shorter than this: no fit, s."""
+MAX_WAIT_PERIODS = 4.0
+"""While fits keep confirming the current model, the time between updates doubles up to this many periods."""
 FACTOR_RANGE = (0.3, 3.0)
 """Physical range of the mass and resistance factors relative to the configured boat, -: a fit outside is a
 stand-in for something else (a current, a fault) and is not adopted."""
@@ -243,6 +246,9 @@ class SurgeAdapter:
         self.swaps = 0
         self._samples: deque[tuple[float, float, float]] = deque()
         self._next_s = math.nan
+        self.wait_s = period_s
+        """Time to the next update, s: ``period_s``, doubled after each fit that does not reject the current model
+        up to :data:`MAX_WAIT_PERIODS` × ``period_s`` (fewer refits while the model stands)."""
 
     def add(self, t_s: float, force_N: float, speed_mps: float) -> None:
         """One sample (time increasing; others are ignored)."""
@@ -257,16 +263,17 @@ class SurgeAdapter:
             self._next_s = t_s + self.holdout_s + self.period_s
 
     def due(self, t_s: float) -> bool:
-        """True when an update is due at ``t_s`` (then scheduled ``period_s`` on)."""
+        """True when an update is due at ``t_s`` (then scheduled :attr:`wait_s` on)."""
         if math.isnan(self._next_s) or t_s < self._next_s:
             return False
-        self._next_s = t_s + self.period_s
+        self._next_s = t_s + self.wait_s
         return len(self._samples) > 0
 
     def reset(self) -> None:
         """Forget the samples (a restarted recording); the model is kept."""
         self._samples.clear()
         self._next_s = math.nan
+        self.wait_s = self.period_s
 
     def training(self) -> SurgeRecord | None:
         """The horizon without its held-out tail, as the fit reads it (None: too few samples)."""
@@ -289,6 +296,8 @@ class SurgeAdapter:
             return False
         candidate = fit_surge(record, self.base, self.current)
         self.candidate = candidate
+        standing = candidate is None or not rejects(candidate, self.current, self.base)
+        self.wait_s = min(2.0 * self.wait_s, MAX_WAIT_PERIODS * self.period_s) if standing else self.period_s
         if self.previous and (candidate is None or not rejects(candidate, self.previous[-1], self.base)):
             before = score(self.previous[-1])
             if before < (1.0 - ADOPT_MARGIN) * now:
@@ -296,7 +305,7 @@ class SurgeAdapter:
                             f"{math.sqrt(now):.3f} → {math.sqrt(before):.3f} m/s) and the newest fit does not "
                             "reject it")
                 return True
-        if candidate is None or not self._physical(candidate) or not rejects(candidate, self.current, self.base):
+        if candidate is None or standing or not self._physical(candidate):
             return False
         new = score(candidate)
         # a mass identified replaces one only kept at no worse a prediction: a light boat's mass hardly changes the
