@@ -10,7 +10,7 @@ D. an independent integrator's boat (straight line, m·du/dt = T − a·u − b�
    identification's (``identify`` on the same recording, its twin);
 E. an actuator fault outside the catalogue: the live diagnosis says ``unexplained`` and names nothing.
 
-Run: .venv/bin/python benchmarks/bench_follow.py [--hour-s 3600]
+Run: .venv/bin/python benchmarks/bench_follow.py [--hour-s 3600] [--only ABDEC]
 """
 
 from __future__ import annotations
@@ -204,12 +204,12 @@ def study_probe(duration_s: float = 600.0) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--hour-s", type=float, default=3600.0, help="length of the clean trial of C, s")
+    parser.add_argument("--only", default="ABDEC", help="studies to run, by letter (default: all)")
     args = parser.parse_args()
-    study_adaptation()
-    study_current()
-    study_independent()
-    study_probe()
-    study_clean_hour(args.hour_s)
+    studies = {"A": study_adaptation, "B": study_current, "D": study_independent, "E": study_probe,
+               "C": lambda: study_clean_hour(args.hour_s)}
+    for letter in args.only.upper():
+        studies[letter]()
 
 
 if __name__ == "__main__":
