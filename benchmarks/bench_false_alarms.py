@@ -276,10 +276,12 @@ def main() -> int:
         seeds = -(-args.trials // len(plan(1)))
     print("command: " + " ".join(shlex.quote(a) for a in [".venv/bin/python", *sys.argv]), flush=True)
     outcomes: list[dict[str, Any]] = []
-    if args.resume and args.json and args.json.exists():
-        outcomes = json.loads(args.json.read_text())
+    planned = plan(seeds)
+    if args.resume and args.json and args.json.exists():  # only the saved trials this plan holds
+        keys = {item[:3] for item in planned}
+        outcomes = [o for o in json.loads(args.json.read_text()) if (o["commands"], o["boat"], o["seed"]) in keys]
     done = {(o["commands"], o["boat"], o["seed"]) for o in outcomes}
-    todo = [item for item in plan(seeds) if item[:3] not in done]
+    todo = [item for item in planned if item[:3] not in done]
     print(f"{len(todo)} trials to run ({len(outcomes)} saved), {args.workers} worker(s)", flush=True)
     context = multiprocessing.get_context("spawn")
     with concurrent.futures.ProcessPoolExecutor(args.workers, mp_context=context,
@@ -295,7 +297,7 @@ def main() -> int:
                   f" ({outcome['cpu_s']:.1f} s CPU)", flush=True)
             if args.json:
                 atomic_write_text(args.json, json.dumps(outcomes, indent=1))
-    order = {item[:3]: i for i, item in enumerate(plan(seeds))}
+    order = {item[:3]: i for i, item in enumerate(planned)}
     outcomes.sort(key=lambda o: order.get((o["commands"], o["boat"], o["seed"]), len(order)))
     print()
     print(table(outcomes))
