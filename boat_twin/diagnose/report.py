@@ -50,6 +50,8 @@ class CandidateResult(TypedDict):
     """The signals carrying its held-out gain."""
     misfit_share: float | None
     """Share of those signals' misfit above the noise floor that it removes (the share rule)."""
+    worsens: list[str]
+    """The signals whose held-out misfit it raises by more than MAX_MISFIT_RISE (not named: a stand-in)."""
 
 
 class VerdictResult(TypedDict):
@@ -125,7 +127,8 @@ def _candidate_dict(candidate: Candidate, round_index: int) -> CandidateResult:
             "named": candidate.named, "on_bound": candidate.at_bound, "takes_over": candidate.takes_over,
             "outranked": candidate.outranked, "not_judged": candidate.failed_conditions,
             # the signals carrying its held-out gain and the share of their excess over the noise it removes
-            "claims": list(candidate.claims), "misfit_share": candidate.share if np.isfinite(candidate.share) else None}
+            "claims": list(candidate.claims), "misfit_share": candidate.share if np.isfinite(candidate.share) else None,
+            "worsens": list(candidate.worsens)}
 
 
 def ambiguity(selection: Selection) -> AmbiguousResult | None:
@@ -218,6 +221,8 @@ def text_report(result: DiagnosisResult) -> str:
         why = "; ".join(c["not_judged"])
         gain = f"{c['heldout_gain']:+8.1%}" if c["heldout_gain"] is not None else (
             f"not judged: {why}" if why else "not judged")
+        if c["worsens"]:
+            gain += f" (worsens {', '.join(c['worsens'])})"
         lines.append(f"  {c['effect']:18s} {c['delta_bic']:10.1f}  {gain}")
     if result["unexplained"]:
         for sig in result["signature"]:

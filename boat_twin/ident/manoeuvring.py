@@ -185,8 +185,11 @@ def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
     noise-free zigzags of ``test_zigzags_steered_between_log_ticks_identify_without_bias`` fit a_r within 1.4 %
     (−6.3 % on the grid), but with the sensors' noise a_r came out +7.8, +10.3, −0.6, +3.5 % (seeds 1-2, 3-4,
     5-6, 7-8; on the grid +2.6, +5.7, −5.5, −1.1 %), outside its interval on 3-4: a bias of about +5 % that the
-    noise brings into this fit and the grid timing's own bias had cancelled (issue 23). Until that is understood
-    the fit keeps the timing it was validated with."""
+    noise brings into this fit and the grid timing's own bias had cancelled (issue 23). The cause, measured
+    (docs/identification.md, "The commands' issue times"): each window's initial yaw rate, taken from the noisy
+    gyro as exact. Estimating it too (a third nuisance) removes that bias on the twin's zigzags but narrows the
+    intervals below the replay's own error on the independent integrator's trials, so the fit keeps the timing
+    it was validated with until that is resolved."""
     windows = cut_windows(replace(trial, command_switch_s=None), window_s)
     index = windows.start_index[None, :] + np.arange(windows.t_s.shape[0])[:, None]
     measured = {**windows.measured, LATERAL_ACCEL: trial.accel_y_mps2[index]}
