@@ -4,8 +4,9 @@ independent integrator made (scipy's adaptive RK45, not the twin's kernel).
 Each trial draws a boat (effective mass 15-2,000 kg log-uniform; a top speed 1.5-12 m/s; a resistance shape:
 linear + quadratic, a plateau between displacement and planing, or linear + cubic, scaled so the largest thrust
 holds the top speed), a command pattern (a staircase up and down, or random holds of 0.5-6 surge time constants,
-sometimes with a reversing stretch), GNSS speed noise (white 0.02-0.10 m/s plus a Gauss-Markov part) and a wave
-force (AR(1), 2 % of the largest thrust). Printed per trial: true and identified mass with its 95 % interval,
+sometimes with a reversing stretch), GNSS speed over ground (the norm of the velocity with white noise 0.02-0.10 m/s
+and a Gauss-Markov part on each axis, as a receiver's Doppler velocity) and a wave force (AR(1), 2 % of the largest
+thrust). Printed per trial: true and identified mass with its 95 % interval,
 the selected model, the re-simulation error against the true model's own re-simulation error (the same
 commands, no knowledge of the waves) and the baseline's;
 then the coverage of the mass and resistance intervals (target 90-98 %), the median mass error (target 5 %).
@@ -99,10 +100,12 @@ def hidden_trial(boat: HiddenBoat, rng: np.random.Generator) -> tuple[SurgeRecor
     wave *= 0.02 * float(np.max(thrust))
     u = integrate(boat, t, thrust + wave)
     white = rng.uniform(0.02, 0.10)
-    markov = np.zeros(t.size)
-    for k in range(1, t.size):  # Gauss-Markov GNSS error, 0.02 m/s, correlation time 5 s
-        markov[k] = markov[k - 1] * np.exp(-DT_S / 5.0) + 0.02 * np.sqrt(1 - np.exp(-2 * DT_S / 5.0)) * rng.normal()
-    measured = np.abs(u + markov + rng.normal(0.0, white, t.size))
+    markov = np.zeros((t.size, 2))
+    for k in range(1, t.size):  # Gauss-Markov GNSS error per axis, 0.02 m/s, correlation time 5 s
+        markov[k] = markov[k - 1] * np.exp(-DT_S / 5.0) + 0.02 * np.sqrt(1 - np.exp(-2 * DT_S / 5.0)) * rng.normal(
+            size=2)
+    error = markov + rng.normal(0.0, white, (t.size, 2))
+    measured = np.hypot(u + error[:, 0], error[:, 1])  # speed over ground: the norm of a noisy 2-D velocity
     return SurgeRecord(t, thrust, measured), integrate(boat, t, thrust)
 
 
