@@ -28,9 +28,15 @@ from boat_twin.ident.resimulate import Resimulation, resimulate
 from boat_twin.ident.settling import derive_criteria
 from boat_twin.ident.steady import FitResult, fit_power_series, select_order
 from boat_twin.ident.twin_config import identified_vessel, thrust_seen
-from boat_twin.io.trial import COMMAND_ROLES, Trial
+from boat_twin.io.trial import COMMAND_ROLES, Trial, long_holds, thrust_outliers
 from boat_twin.units import KGF_N, KNOT_MPS
-from boat_twin.vessel.params import VesselParams, params_to_dict
+from boat_twin.vessel.params import (
+    HELD_COMMAND_TIME_CONSTANTS,
+    VesselParams,
+    held_command_limit_s,
+    params_to_dict,
+    surge_response_time_s,
+)
 
 SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
 """Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
@@ -398,7 +404,7 @@ def identify_trials(trials: list[Trial], *, order: int | None = None, max_order:
         noise_correlation_s=max(trial.metadata.speed_smoothing_s for trial in trials),
         speed_noise_mps=max(trial.metadata.derived_speed_noise_mps for trial in trials) or None,
         fallback_mass_kg=fallback))
-    result["warnings"] += [w for trial in trials for w in trial_warnings(trial)]
+    result["warnings"] += [w for trial in trials for w in trial_warnings(trial, boat)]
     vessel: VesselParams | None = None
     try:
         if result["physical_problems"]:
@@ -432,11 +438,20 @@ def identify_trials(trials: list[Trial], *, order: int | None = None, max_order:
     return result, resims, vessel
 
 
-def trial_warnings(trial: Trial) -> list[str]:
-    """What a trial's reading did to its data, as identify warnings: clock faults, dropouts, derived streams."""
+def trial_warnings(trial: Trial, boat: dict[str, float] | None = None) -> list[str]:
+    """What a trial's reading did to its data, as identify warnings: clock faults, dropouts, derived streams;
+    and what in its commands no fit should take on trust: thrust samples beyond 5 times the bollard thrust of
+    ``boat`` (boat-file facts; default the default boat's) and thrust held unchanged longer than the default
+    boat's :func:`~boat_twin.vessel.params.held_command_limit_s` (the boat being identified has no time constant
+    yet)."""
     source = trial.metadata.source
     meta = trial.metadata
-    return ([f"{source}: {role}: {count} sample(s) whose stamp ran backwards (up to {back_s:.3g} s) were dropped: "
+    prior = VesselParams()
+    commands = [thrust_outliers(trial, (boat or {}).get("bollard_thrust_N", prior.bollard_thrust_N)),
+                long_holds(trial, held_command_limit_s(prior), f"{HELD_COMMAND_TIME_CONSTANTS:g} x the default "
+                           f"boat's surge response time, {surge_response_time_s(prior):.0f} s")]
+    return ([f"{source}: {w}" for w in commands if w]
+            + [f"{source}: {role}: {count} sample(s) whose stamp ran backwards (up to {back_s:.3g} s) were dropped: "
              "the recording's clock is faulty there" for role, (count, back_s) in meta.backward_stamps.items()]
             + [f"{source}: {role}: {count} sample(s) with NaN values dropped as dropouts (gaps)"
                for role, count in meta.dropouts.items()]
