@@ -33,9 +33,14 @@ error is taken, and only if it predicts every recording's held-out data at least
 baseline.
 
 Uncertainty: residuals of an output-error fit are correlated in time (waves, gusts, model error integrate), so
-the covariance is cluster-robust (the sandwich (JᵀJ)⁻¹·Σ_g J_gᵀ r_g r_gᵀ J_g·(JᵀJ)⁻¹ over consecutive blocks
-of five integrated residual-correlation times, at least 10 s; Cameron & Miller 2015) with Student-t intervals
-on G − 1 degrees of freedom. Parameters at their bound (a term switched off) are held fixed in it. That
+the covariance is cluster-robust over consecutive blocks of five integrated residual-correlation times, at
+least 10 s: the delete-one-block jackknife (CR3; MacKinnon, Nielsen & Webb 2023), each replicate one Gauss-Newton
+step from the fit, (G − 1)/G·Σ_g (d_g − d̄)(d_g − d̄)ᵀ with d_g = (JᵀJ − J_gᵀJ_g)⁺·J_gᵀr_g, and Student-t
+intervals on G − 1 degrees of freedom. The plain sandwich (CR1) missed the leverage of single blocks: with a wave
+force driving a 280 kg boat through 11 thrust steps its mass standard error was 16 kg where 12 wave draws spread
+the estimate by 36-61 kg; the jackknife gives 31 kg (still narrow under strong process noise), and 2.8 kg against
+2.0 kg without the waves (conservative). Parameters at their
+bound (a term switched off) are held fixed in it. That
 covariance knows the noise but not the basis' approximation error (a plateau a few terms cannot follow, weights
 pinned at their bound), which the intervals missed on hidden trials (resistance coverage 70-84 % for every basis
 alone); the selected fit and the baseline are therefore refitted with the next richer basis (the next candidate, or
@@ -51,6 +56,7 @@ import numba
 import numpy as np
 from scipy import optimize, special, stats
 from scipy.interpolate import BSpline
+from threadpoolctl import threadpool_limits
 
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
@@ -421,12 +427,13 @@ def _cluster_covariance(problem: _Problem, residual: np.ndarray, jac: np.ndarray
         label += int(block[-1]) + 1
         offset += t.size
     j = jac[:, free]
-    bread = np.linalg.pinv(j.T @ j)
-    scores = np.zeros((label, j.shape[1]))
-    np.add.at(scores, labels, j * residual[:, None])
-    n, q = residual.size, j.shape[1]
-    correction = label / max(label - 1, 1) * (n - 1) / max(n - q, 1)
-    return correction * bread @ (scores.T @ scores) @ bread, label, cluster_s
+    information = j.T @ j
+    shifts = np.empty((label, j.shape[1]))
+    for g in range(label):  # one Gauss-Newton step of the fit without cluster g: its jackknife replicate
+        rows = labels == g
+        shifts[g] = np.linalg.pinv(information - j[rows].T @ j[rows]) @ (j[rows].T @ residual[rows])
+    centred = shifts - shifts.mean(axis=0)
+    return (label - 1) / max(label, 1) * centred.T @ centred, label, cluster_s
 
 
 def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: list[Segment] | None = None,
@@ -456,7 +463,9 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
             cache[key] = residual, jac
         return cache[key]
 
-    with np.errstate(over="ignore", invalid="ignore"):
+    # The solver's matrices are small (parameters × samples): BLAS threads only spin (0.18 s per SVD on a busy
+    # machine against 3 ms on one thread), so the fit runs on one.
+    with np.errstate(over="ignore", invalid="ignore"), threadpool_limits(limits=1, user_api="blas"):
         result = optimize.least_squares(lambda x: evaluate(x)[0], np.clip(x0, lower, upper),
                                         jac=lambda x: evaluate(x)[1], bounds=(lower, upper), x_scale="jac",
                                         method="trf", max_nfev=200)
