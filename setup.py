@@ -32,6 +32,7 @@ setup(
         "matplotlib>=3.6",
         "numba>=0.59",
         "zstandard>=0.21",
+        "threadpoolctl>=3.1",
     ],
     extras_require={
         # ROS 2 Jazzy's core as PyPI wheels (CPython 3.11), for a machine without a ROS install; on a Jazzy

@@ -4,13 +4,18 @@ independent integrator made (scipy's adaptive RK45, not the twin's kernel).
 Each trial draws a boat (effective mass 15-2,000 kg log-uniform; a top speed 1.5-12 m/s; a resistance shape:
 linear + quadratic, a plateau between displacement and planing, or linear + cubic, scaled so the largest thrust
 holds the top speed), a command pattern (a staircase up and down, or random holds of 0.5-6 surge time constants,
-sometimes with a reversing stretch), GNSS speed noise (white 0.02-0.10 m/s plus a Gauss-Markov part) and a wave
-force (AR(1), 2 % of the largest thrust). Printed per trial: true and identified mass with its 95 % interval,
+sometimes with a reversing stretch), GNSS speed over ground (the norm of the velocity with white noise 0.02-0.10 m/s
+and a Gauss-Markov part on each axis, as a receiver's Doppler velocity) and a wave force (AR(1), 2 % of the largest
+thrust). Printed per trial: true and identified mass with its 95 % interval,
 the selected model, the re-simulation error against the true model's own re-simulation error (the same
 commands, no knowledge of the waves) and the baseline's;
 then the coverage of the mass and resistance intervals (target 90-98 %), the median mass error (target 5 %).
 
-Run: ``.venv/bin/python benchmarks/bench_ident_coverage.py [--trials 20] [--seed 0]``.
+With ``--each-basis`` every resistance basis is fitted alone on every trial instead (no cross-validation) and the
+coverage is printed per basis, from the cluster-robust covariance alone and with the spread to the next richer
+basis added (what the identification reports).
+
+Run: ``.venv/bin/python benchmarks/bench_ident_coverage.py [--trials 20] [--seed 0] [--each-basis]``.
 """
 
 from __future__ import annotations
@@ -22,7 +27,17 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from boat_twin.ident.output_error import SurgeRecord, identify_surge, predict, split_segments
+from boat_twin.ident.output_error import (
+    SPLINE_SIZES,
+    ResistanceBasis,
+    SurgeFit,
+    SurgeRecord,
+    fit_surge,
+    identify_surge,
+    predict,
+    spline_basis,
+    split_segments,
+)
 
 DT_S = 0.1
 """Sample period of the hidden trials (a 10 Hz GNSS), s."""
@@ -99,19 +114,55 @@ def hidden_trial(boat: HiddenBoat, rng: np.random.Generator) -> tuple[SurgeRecor
     wave *= 0.02 * float(np.max(thrust))
     u = integrate(boat, t, thrust + wave)
     white = rng.uniform(0.02, 0.10)
-    markov = np.zeros(t.size)
-    for k in range(1, t.size):  # Gauss-Markov GNSS error, 0.02 m/s, correlation time 5 s
-        markov[k] = markov[k - 1] * np.exp(-DT_S / 5.0) + 0.02 * np.sqrt(1 - np.exp(-2 * DT_S / 5.0)) * rng.normal()
-    measured = np.abs(u + markov + rng.normal(0.0, white, t.size))
+    markov = np.zeros((t.size, 2))
+    for k in range(1, t.size):  # Gauss-Markov GNSS error per axis, 0.02 m/s, correlation time 5 s
+        markov[k] = markov[k - 1] * np.exp(-DT_S / 5.0) + 0.02 * np.sqrt(1 - np.exp(-2 * DT_S / 5.0)) * rng.normal(
+            size=2)
+    error = markov + rng.normal(0.0, white, (t.size, 2))
+    measured = np.hypot(u + error[:, 0], error[:, 1])  # speed over ground: the norm of a noisy 2-D velocity
     return SurgeRecord(t, thrust, measured), integrate(boat, t, thrust)
+
+
+def held(fit: SurgeFit, boat: HiddenBoat, speeds: np.ndarray) -> tuple[bool, list[bool]]:
+    """Whether the mass interval and the resistance intervals at ``speeds`` hold the truth."""
+    lo, hi = fit.mass_ci95_kg
+    clo, chi = fit.resistance_ci95_N(speeds)
+    truth = boat.resistance_N(speeds)
+    return bool(lo <= boat.mass_kg <= hi), list((clo <= truth) & (truth <= chi))
+
+
+def each_basis(trials: int, rng: np.random.Generator) -> None:
+    """Coverage per basis, fitted alone, with and without the spread to the next richer basis."""
+    sizes = (0, *SPLINE_SIZES)
+    counts = {k: np.zeros(4, dtype=int) for k in sizes[:-1]}  # mass alone, mass with spread, the same for Fc
+    for _ in range(trials):
+        boat = draw_boat(rng)
+        record, truth = hidden_trial(boat, rng)
+        speeds = np.linspace(0.2, 0.9, 4) * float(np.max(np.abs(truth)))
+        fits = [fit_surge([record], ResistanceBasis() if k == 0 else spline_basis(record.speed_mps, k))
+                for k in sizes]
+        for k, fit, richer in zip(sizes[:-1], fits[:-1], fits[1:], strict=True):
+            alone = held(fit, boat, speeds)
+            fit.reference = richer
+            spread = held(fit, boat, speeds)
+            counts[k] += (alone[0], spread[0], sum(alone[1]), sum(spread[1]))
+    print(f"{'basis':>9} {'mass alone':>10} {'+ spread':>8} {'Fc alone':>9} {'+ spread':>8}  ({trials} trials, "
+          f"Fc at 4 speeds each)")
+    for k, (m, ms, r, rs) in counts.items():
+        name = "baseline" if k == 0 else f"spline-{k}"
+        print(f"{name:>9} {m / trials:10.0%} {ms / trials:8.0%} {r / (4 * trials):9.0%} {rs / (4 * trials):8.0%}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=20)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--each-basis", action="store_true", help="coverage of every basis fitted alone")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
+    if args.each_basis:
+        each_basis(args.trials, rng)
+        return
     held_mass, held_curve, errors, ratios, base_ratios, seconds = [], [], [], [], [], []
     print(f"{'trial':>5} {'shape':>9} {'mass kg':>8} {'estimate [95% CI]':>26} {'model':>9} "
           f"{'resim/truth':>11} {'baseline/truth':>14}")
