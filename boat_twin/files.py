@@ -219,11 +219,8 @@ class OutputClaim:
     def commit(self, new: Path) -> None:
         """Move the complete new output ``new`` (inside :attr:`scratch`) to ``path``. SIGINT and SIGTERM are
         held back during the renames (and acted on right after): a signal never lands between them."""
-        held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
-        try:
+        with signals_held():
             replace_output(new, self.path)
-        finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
     def _unlock(self) -> None:
         if self._fd is not None:
@@ -244,6 +241,17 @@ class OutputClaim:
         self.release()
         if exc is not None and is_write_failure(exc):
             raise InputError(f"{self.path}: cannot write it ({write_failure(exc)}); nothing was replaced") from None
+
+
+@contextmanager
+def signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM held back (in this thread) for the ``with`` block and acted on right after it: what the
+    block does (a few renames, a pair of small files that must agree) is never cut in the middle."""
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
 
 WRITE_FAILURES = (errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS)

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hostile import VerbFlags, command_lines
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -95,7 +96,7 @@ YAMLS = st.sampled_from([f"{{{name}}}" for name in (*YAML, "binary.yaml", "fifo.
                         + ["{loop}", "/dev/zero", "{missing.yaml}", "{foreign}", "{rep}/model.yaml"])
 NUMBERS = st.sampled_from(["nan", "inf", "-inf", "-1", "0", "1e-9", "1e12", "1e300", "abc", "2", "604801"])
 OUTS = st.sampled_from(["{rep}", "{new}", "{foreign}", "{loop}", "{own.mcap}", "{rep}/identify.json", "."])
-VERB_FLAGS: dict[tuple[str, ...], dict[str, st.SearchStrategy[str] | None]] = {
+VERB_FLAGS: VerbFlags = {
     ("simulate", "accel-stop"): {"--duration": NUMBERS, "--config": YAMLS, "--model": YAMLS, "--out": OUTS,
                                  "--force": None, "--tlog": OUTS},
     ("simulate",): {"--commands": st.sampled_from(["{absurd.csv}", "{late.csv}", "{wide.csv}", "{trial.mcap}",
@@ -117,14 +118,7 @@ VERB_FLAGS: dict[tuple[str, ...], dict[str, st.SearchStrategy[str] | None]] = {
 """Each verb's flags and the hostile values they get ("" is the positional argument; None: a switch)."""
 
 
-@st.composite
-def command_lines(draw: st.DrawFn) -> list[str]:
-    verb = draw(st.sampled_from(sorted(VERB_FLAGS)))
-    flags = VERB_FLAGS[verb]
-    argv = list(verb)
-    for flag in draw(st.lists(st.sampled_from(sorted(flags)), min_size=1, max_size=4, unique=True)):
-        values = flags[flag]
-        argv += ([flag] if flag else []) + ([] if values is None else [draw(values)])
+def _cheap(verb: tuple[str, ...], argv: list[str]) -> list[str]:
     if verb[0] == "simulate" and "--duration" not in argv:
         argv += ["--duration", "2"]  # cheap runs
     if verb == ("identify",) and "--order" not in argv and "--boat" not in argv:
@@ -169,7 +163,7 @@ def _check_after(base: Path, before: dict[str, bytes], code: int, argv: list[str
 
 @settings(max_examples=150, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
-@given(argv=command_lines())
+@given(argv=command_lines(VERB_FLAGS, _cheap))
 def test_generated_hostile_command_lines(argv, accel_stop_bag, old_reports, own_tlog, capsys) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         base = Path(tmp)

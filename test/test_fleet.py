@@ -11,6 +11,7 @@ import csv
 import io
 import json
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -155,6 +156,81 @@ def test_resume_after_a_killed_run_skips_complete_reports_and_force_redoes_them(
     code, stdout, _ = run_cli("identify", *good, "--each", "--out", out, "--scheduler", "sync", "--force")
     assert code == 0 and "(0 complete from an earlier run)" in stdout
     assert json.loads(first.read_text())["worker"] == f"{socket.gethostname()}:{os.getpid()}"
+
+
+BOAT_TWIN = str(Path(sys.executable).parent / "boat-twin")
+"""The console script, as a user runs it."""
+
+
+def _inodes(report: Path) -> dict[str, int]:
+    return {p.name: p.stat().st_ino for p in report.iterdir()}
+
+
+@pytest.mark.parametrize(("signum", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_a_signal_during_a_batch_leaves_each_trial_report_old_or_new_whole(accel_stop_bag, tmp_path, signum,
+                                                                            code) -> None:
+    """``follow --each --force`` over a complete batch, signalled once a trial's new report is being written:
+    every trial directory is the old report or a whole new one (never a mix of files), the two summaries agree,
+    nothing is left beside them, and the next run resumes every trial as complete."""
+    trials = tmp_path / "trials"
+    trials.mkdir()
+    for name in "abc":
+        shutil.copy(accel_stop_bag, trials / f"{name}.mcap")
+    out = tmp_path / "out"
+    assert run_cli("follow", trials, "--each", "--out", out, "--scheduler", "sync")[0] == 0
+    old = {name: _inodes(out / name) for name in "abc"}
+    run = subprocess.Popen([BOAT_TWIN, "follow", str(trials), "--each", "--out", str(out), "--scheduler", "sync",
+                            "--force"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # Ctrl-C as in a shell
+    staging = out / f".a.partial-{run.pid}" / "a"
+    deadline = time.monotonic() + 120.0
+    while run.poll() is None and time.monotonic() < deadline:  # the first file of a's new report is written
+        if _inodes(out / "a") != old["a"] or (staging.is_dir() and any(staging.iterdir())):
+            break
+        time.sleep(0.002)
+    assert run.poll() is None, "the batch ended before it was signalled"
+    time.sleep(0.1)  # further files of the report written
+    run.send_signal(signum)
+    status = run.wait(timeout=60)
+    err = run.stderr.read() if run.stderr else ""
+    assert status == code and "Traceback" not in err, err
+    kept = 0
+    for name in "abc":
+        now = _inodes(out / name)
+        assert set(now) == set(old[name]), name
+        same = [file for file in now if now[file] == old[name][file]]
+        assert same in ([], list(now)), f"{name}: a mix of old {same} and new files"
+        kept += bool(same)
+        if not same:  # a whole new report
+            assert json.loads((out / name / ROW_FILE).read_text())["worker"].endswith(f":{run.pid}")
+    assert kept >= 2  # signalled during the first trial's report: the last two not yet started
+    assert sorted(p.name for p in out.iterdir()) == ["a", "b", "c", "summary.csv", "summary.json"]
+    rows, table = summary(out)
+    assert [r["trial"] for r in rows] == [r["trial"] for r in table] and \
+        [r["worker"] for r in rows] == [r["worker"] for r in table]
+    code, stdout, _ = run_cli("follow", trials, "--each", "--out", out, "--scheduler", "sync")
+    assert code == 0 and "(3 complete from an earlier run)" in stdout, stdout
+
+
+def test_a_report_moved_aside_by_a_batch_killed_mid_swap_is_restored_before_the_resume(accel_stop_bag,
+                                                                                      tmp_path) -> None:
+    """Killed between the two renames of a trial's swap (its old report aside as .a.old-PID, a missing) and
+    while writing another (.b.partial-PID): the next run restores a, removes the scratch, names both and resumes
+    both trials as complete instead of redoing a."""
+    trials = tmp_path / "trials"
+    trials.mkdir()
+    for name in "ab":
+        shutil.copy(accel_stop_bag, trials / f"{name}.mcap")
+    out = tmp_path / "out"
+    assert run_cli("follow", trials, "--each", "--out", out, "--scheduler", "sync")[0] == 0
+    row = (out / "a" / ROW_FILE).read_bytes()
+    os.rename(out / "a", out / ".a.old-999999")
+    (out / ".b.partial-999999").mkdir()
+    code, stdout, stderr = run_cli("follow", trials, "--each", "--out", out, "--scheduler", "sync")
+    assert code == 0 and "(2 complete from an earlier run)" in stdout, (stdout, stderr)
+    assert f"restored {out / 'a'}" in stderr and f"removed {out / '.b.partial-999999'}" in stderr, stderr
+    assert (out / "a" / ROW_FILE).read_bytes() == row
+    assert sorted(p.name for p in out.iterdir()) == ["a", "b", "summary.csv", "summary.json"]
 
 
 def test_trials_are_named_uniquely_and_bags_are_not_entered(tmp_path) -> None:

@@ -278,6 +278,11 @@ def test_diagnose_prints_the_trial_summary_and_names_absurd_thrust(accel_stop_ba
     err = capsys.readouterr().err
     assert "absurd.mcap: thrust_left" in err  # the summary identify prints
     assert "warning: thrust_left: " in err and "sample(s) beyond 1e+04 N" in err and "up to 4e+05 N" in err, err
+    from boat_twin.ident.pipeline import trial_warnings
+    from boat_twin.io.sources import read_trial_file
+
+    named = [w for w in trial_warnings(read_trial_file(bag)) if "sample(s) beyond" in w]  # identify's warnings
+    assert len(named) == 1 and "thrust_left: 100 sample(s) beyond 1e+04 N" in named[0], named
 
 
 def test_sigterm_on_a_blocked_reader_never_hangs_the_tests() -> None:
@@ -311,3 +316,45 @@ def test_an_alias_bomb_in_a_bags_metadata_is_refused_before_rosbags_parses_it(ac
     (bag / "metadata.yaml").write_text(BOMB)
     assert main(["identify", str(bag)]) == 2
     assert "metadata.yaml: malformed YAML" in _one_error_line(capsys.readouterr().err)
+
+
+# --------------------------------------------------------------------------- a thrust held very long
+
+
+def _steps_bag(path: Path, stop_thrust_after_s: float | None = None) -> Path:
+    """The default boat's thrust-steps trial (its natural length) as a bag; ``stop_thrust_after_s``: the thrust
+    topics stop publishing from then on (a logger fault: the reader's zero-order hold keeps the last value)."""
+    run = run_sea_trial(TwinConfig(), make_scenario("thrust-steps", TwinConfig().vessel, np.random.default_rng(0)),
+                        seed=0)
+    cut_ns = math.inf if stop_thrust_after_s is None else stop_thrust_after_s * 1e9
+    write_bag(path, [(topic, stamp, msg) for topic, stamp, msg in trial_messages(run, truth=False)
+                     if not (topic.endswith("/thrust") and stamp > cut_ns)])
+    return path
+
+
+def test_a_thrust_held_beyond_15_surge_response_times_is_named_by_identify_and_diagnose(tmp_path, capsys,
+                                                                                        monkeypatch) -> None:
+    from boat_twin.diagnose import pipeline as diagnosis
+    from boat_twin.ident.pipeline import trial_warnings
+    from boat_twin.io.sources import read_trial_file
+    from boat_twin.vessel.params import held_command_limit_s
+
+    limit_s = held_command_limit_s(TwinConfig().vessel)
+    assert 200.0 < limit_s < 300.0  # 15 x 16 s: the default boat's slowest speed build-up, m11·u/Fc(u)
+    clean = read_trial_file(_steps_bag(tmp_path / "steps.mcap"))
+    assert not [w for w in trial_warnings(clean) if "held" in w]  # the scenario's own steps (<= 180 s) pass
+    stopped = _steps_bag(tmp_path / "stopped.mcap", stop_thrust_after_s=60.0)
+    trial = read_trial_file(stopped)
+    held = [w for w in trial_warnings(trial) if "held unchanged" in w]
+    end = trial.t_s[-1]  # the first step (from t = 0, still on at 60 s) held to the end
+    assert len(held) == 1 and "thrust_left: " in held[0] and "thrust_right: " in held[0], held
+    assert f"held unchanged for {end:.0f} s, t = 0.0 to {end:.1f} s" in held[0], held
+    assert f"longer than {limit_s:.0f} s" in held[0] and "stopped publishing" in held[0]
+
+    def stop(*args, **kwargs):
+        raise InputError("stopped after the summary")  # the diagnosis itself is test_diagnose's
+
+    monkeypatch.setattr(diagnosis, "diagnose_trial", stop)
+    assert main(["diagnose", str(stopped)]) == 2
+    err = capsys.readouterr().err
+    assert "warning: thrust_left: " in err and "held unchanged for" in err and "surge response time" in err, err

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hostile import VerbFlags, command_lines
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -265,7 +266,7 @@ INTEGERS = st.sampled_from(["-1", "0", "1", "99", "1e3", "abc", "", str(2**70)])
 FILES = st.sampled_from(["{binary}", "{missing}", "{dir}", "{empty}", "{text}", "{bag}", str(CASE),
                          str(CALIBRATION)])
 OUTS = st.sampled_from(["{new}", "", ".", "/proc/boat_twin_out", "{text}", "{dir}", "{own}"])
-VERB_FLAGS: dict[tuple[str, ...], dict[str, st.SearchStrategy[str] | None]] = {
+VERB_FLAGS: VerbFlags = {
     ("simulate", "accel-stop"): {"--duration": NUMBERS, "--seed": INTEGERS, "--config": FILES, "--model": FILES,
                                  "--commands": FILES, "--current": NUMBERS, "--out": OUTS, "--force": None,
                                  "--no-noise": None, "--storage": st.sampled_from(["mcap", "sqlite3", "x"])},
@@ -285,15 +286,7 @@ VERB_FLAGS: dict[tuple[str, ...], dict[str, st.SearchStrategy[str] | None]] = {
 """Each verb's flags and the values they are given ("" is the positional argument; None: a switch)."""
 
 
-@st.composite
-def command_lines(draw: st.DrawFn) -> list[str]:
-    verb = draw(st.sampled_from(sorted(VERB_FLAGS)))
-    flags = VERB_FLAGS[verb]
-    argv = list(verb)
-    for flag in draw(st.lists(st.sampled_from(sorted(flags)), min_size=1, max_size=4, unique=True)):
-        values = flags[flag]
-        value = [] if values is None else [draw(values)] * (2 if flag in ("--current", "--segments") else 1)
-        argv += ([flag] if flag else []) + value
+def _cheap(verb: tuple[str, ...], argv: list[str]) -> list[str]:
     if verb[0] == "simulate" and "--duration" not in argv:
         argv += ["--duration", "2"]  # cheap runs
     if verb[0] in ("identify", "diagnose") and "{bag}" in argv and "--table" not in argv:
@@ -303,7 +296,7 @@ def command_lines(draw: st.DrawFn) -> list[str]:
 
 @settings(max_examples=40, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(argv=command_lines())
+@given(argv=command_lines(VERB_FLAGS, _cheap, frozenset({"--current", "--segments"})))
 def test_every_verb_answers_bad_arguments_with_one_line_and_exit_2(argv, small_bag, capsys) -> None:
     """Exit 0 or 2, never a traceback; on exit 2 the last stderr line is the one error (progress lines such as
     "reading X ..." may come before it)."""

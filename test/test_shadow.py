@@ -114,6 +114,23 @@ def test_a_gap_resynchronises_and_a_clock_jump_back_starts_afresh(clean_trial: T
     assert twin.synchronised
 
 
+def test_absurd_values_are_dropped_and_a_jump_forward_is_not_integrated_over(clean_trial: Trial) -> None:
+    """A velocity of 1e300 m/s once synchronised the twin at that speed (then its state overflowed) and a command
+    stamped far ahead of the twin was integrated over the whole span (1e9 s: a hung node). Issue 24."""
+    samples = list(trial_samples(clean_trial))[:3000]
+    hostile = list(samples)
+    hostile.insert(1500, ("gnss_vel", samples[1500][1] + 0.01, (1e300, -1e300)))
+    hostile.insert(1600, ("thrust_left", samples[1600][1] + 0.01, (-1e300,)))
+    twin, log = _final_state(hostile)
+    reference, _ = _final_state(samples)
+    assert twin.counts["absurd"] == 2 and sum("a decoding or unit error" in line for line in log) == 2, log
+    np.testing.assert_allclose(twin.state, reference.state, rtol=1e-12, atol=1e-12)
+    end = samples[-1][1]
+    jumped = [*samples, ("thrust_left", end + 100.0, (500.0,))]  # a stream on another clock, 100 s ahead
+    twin, log = _final_state(jumped)
+    assert not twin.synchronised and any("nothing for 100." in line for line in log), log[-3:]
+
+
 def test_the_twin_adapts_to_a_heavier_draggier_boat() -> None:
     trial = _trial(_boat(1.25, 1.2), "random", 600.0, 7)
     result = follow_trial(trial, TwinConfig(), NO_DIAGNOSIS)

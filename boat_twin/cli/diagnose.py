@@ -27,6 +27,7 @@ from boat_twin.cli.options import (
 from boat_twin.diagnose.defaults import EXTENDED_MODEL_NAME, WINDOW_S
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_save_figure, atomic_write_yaml, to_json
+from boat_twin.fleet.outputs import DIAGNOSE_OUTPUTS
 
 
 def _progress(message: str) -> None:
@@ -34,8 +35,7 @@ def _progress(message: str) -> None:
     sys.stderr.flush()
 
 
-TRIAL_OUTPUTS = (EXTENDED_MODEL_NAME, "diagnosis_signals.png", "diagnosis_residuals.png", "diagnosis_evidence.png",
-                 "diagnosis.json")
+TRIAL_OUTPUTS = DIAGNOSE_OUTPUTS
 """What ``diagnose TRIAL --out DIR`` writes."""
 TABLE_OUTPUTS = (EXTENDED_MODEL_NAME, "diagnosis_table.png")
 """What ``diagnose --table dyda2021 --out DIR`` writes."""
@@ -45,12 +45,15 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     from boat_twin.diagnose.pipeline import diagnose_trial
     from boat_twin.diagnose.report import text_report
     from boat_twin.fleet.reports import write_diagnosis_report
-    from boat_twin.io.trial import thrust_outliers
+    from boat_twin.io.trial import long_holds, thrust_outliers
+    from boat_twin.vessel.params import HELD_COMMAND_TIME_CONSTANTS, held_command_limit_s, surge_response_time_s
 
     trial = trial_from_args(args.trial, args)
     config = twin_config_from_args(args)
     summary = trial.metadata.summary_line()  # what identify prints of a trial
-    warnings = [w for w in [thrust_outliers(trial, config.vessel.bollard_thrust_N)] if w]
+    held = long_holds(trial, held_command_limit_s(config.vessel), f"{HELD_COMMAND_TIME_CONSTANTS:g} x the model's "
+                      f"surge response time, {surge_response_time_s(config.vessel):.0f} s")
+    warnings = [w for w in [thrust_outliers(trial, config.vessel.bollard_thrust_N), held] if w]
     sys.stderr.write("".join(f"{line}\n" for line in [summary, *(f"warning: {w}" for w in warnings)]))
     done = diagnose_trial(trial, config, args.window, None if args.json else _progress)
     if not args.json:

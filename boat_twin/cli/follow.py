@@ -25,8 +25,9 @@ from boat_twin.cli.options import (
 )
 from boat_twin.errors import InputError
 from boat_twin.files import to_json
+from boat_twin.fleet.outputs import FOLLOW_OUTPUTS
 
-OUTPUTS = ("follow.json", "follow_innovations.png", "follow_model.png", "follow_causes.png", "twin.yaml")
+OUTPUTS = FOLLOW_OUTPUTS
 """What ``follow TRIAL --out DIR`` writes."""
 
 

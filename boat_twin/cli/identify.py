@@ -27,10 +27,11 @@ from boat_twin.cli.options import (
 )
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
+from boat_twin.fleet.outputs import IDENTIFY_OUTPUTS
 
 TABLE_OUTPUTS = ("identify.json", "report.txt", "model.yaml", "fits.png", "residuals.png")
 """What ``identify --table --out DIR`` writes."""
-TRIAL_OUTPUTS = ("identify.json", "model.yaml", "twin.yaml", "trial.png", "resistance.png", "resimulation.png")
+TRIAL_OUTPUTS = IDENTIFY_OUTPUTS
 """What ``identify TRIAL --out DIR`` writes."""
 MANOEUVRING_OUTPUTS = ("manoeuvring.json", "twin.yaml")
 """What ``identify TRIAL... --manoeuvring --out DIR`` writes: the result and the twin config with the fit."""

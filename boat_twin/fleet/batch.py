@@ -2,11 +2,14 @@
 
 :func:`run_batch` is what ``boat-twin identify|diagnose TRIAL... --each --out DIR`` runs. Contract:
 
-- ``DIR/<trial name>/`` holds each trial's own report (what the verb writes for one trial) and, written last,
-  ``row.json``, its summary row: a trial with ``row.json`` is complete, and a later run skips it (resume) unless
-  ``force``. A trial that failed has no ``row.json`` and is tried again.
+- ``DIR/<trial name>/`` holds each trial's own report (what the verb writes for one trial) and ``row.json``,
+  its summary row, written as one set (:class:`~boat_twin.files.ReportSet`): the whole new report appears at
+  once when the trial is done, or nothing of it (an error, an interrupt, a killed worker keep the old report
+  whole). A trial with ``row.json`` is complete, and a later run skips it (resume) unless ``force``. A trial
+  that failed has no new report (an earlier complete one stays) and is tried again.
 - ``DIR/summary.csv`` and ``DIR/summary.json`` (a list of rows, one per trial in the order given) are rewritten
-  after every trial, so that a killed run leaves the rows of the trials it finished. Each row has at least
+  after every trial, each atomically and the two together with SIGINT and SIGTERM held back (they always
+  agree), so that a killed run leaves the rows of the trials it finished. Each row has at least
   ``trial``, ``status`` ("ok" or "error"), ``error`` (null when ok), ``boat``, ``source``, ``duration_s``, the
   verb's headline (the job's ``columns``), ``seconds``, ``cpu_s`` and ``worker``.
 - A failing trial (bad file, a pipeline error, even a crash of its worker) is reported in its row and never stops
@@ -19,6 +22,7 @@ import csv
 import io
 import json
 import os
+import re
 import socket
 import sys
 import time
@@ -28,7 +32,16 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from boat_twin.errors import InputError
-from boat_twin.files import atomic_write_text, ensure_out_dir, locked_directory, refuse_input_as_output, to_json
+from boat_twin.files import (
+    OutputClaim,
+    ReportSet,
+    atomic_write_text,
+    ensure_out_dir,
+    locked_directory,
+    refuse_input_as_output,
+    signals_held,
+    to_json,
+)
 from boat_twin.fleet.jobs import COMMON_COLUMNS, RUN_COLUMNS
 from boat_twin.fleet.trials import TrialTask
 
@@ -43,8 +56,10 @@ class Job(Protocol):
 
     verb: str
     columns: tuple[str, ...]
+    outputs: tuple[str, ...]
+    """The files of one trial's report (:mod:`boat_twin.fleet.outputs`)."""
 
-    def __call__(self, path: Path, out: Path) -> dict[str, Any]: ...
+    def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict[str, Any]: ...
 
 
 @dataclass
@@ -74,16 +89,23 @@ def run_task(job: Job, task: TrialTask, report_dir: str, one_thread: bool) -> di
     row: dict[str, Any] = {"trial": task.name, "status": "ok", "error": None, "boat": task.boat,
                            "source": task.path, "duration_s": None, **dict.fromkeys(job.columns)}
     out = Path(report_dir)
+
+    def timed() -> None:
+        row.update(seconds=time.perf_counter() - start, cpu_s=time.process_time() - cpu,
+                   worker=f"{socket.gethostname()}:{os.getpid()}")
+
     try:
-        row.update(job(Path(task.path), out))
+        with ReportSet(out, (*job.outputs, ROW_FILE), force=True) as report:
+            row.update(job(Path(task.path), report.staging, out))
+            timed()
+            (report.staging / ROW_FILE).write_text(to_json(row) + "\n")
+            report.commit()
     except InputError as err:
         row.update(status="error", error=str(err))
     except Exception as err:  # noqa: BLE001  a bug or a broken file the readers did not foresee: this trial's row
         row.update(status="error", error=f"{task.path}: {type(err).__name__}: {err}")
-    row.update(seconds=time.perf_counter() - start, cpu_s=time.process_time() - cpu,
-               worker=f"{socket.gethostname()}:{os.getpid()}")
-    if row["status"] == "ok":
-        atomic_write_text(out / ROW_FILE, to_json(row) + "\n")
+    if row["status"] != "ok":
+        timed()
     return row
 
 
@@ -103,14 +125,26 @@ def _cell(value: Any) -> Any:
 
 
 def write_summary(out: Path, rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> None:
-    """``summary.json`` (the rows) and ``summary.csv`` (``columns``; lists joined by ``;``, null empty)."""
-    atomic_write_text(out / SUMMARY_JSON, to_json(list(rows)) + "\n")
+    """``summary.json`` (the rows) and ``summary.csv`` (``columns``; lists joined by ``;``, null empty), each
+    atomically, the pair with SIGINT and SIGTERM held back: an interrupt never leaves one newer than the other."""
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
     writer.writerow(columns)
     for row in rows:
         writer.writerow([_cell(row.get(c)) for c in columns])
-    atomic_write_text(out / SUMMARY_CSV, text.getvalue())
+    with signals_held():
+        atomic_write_text(out / SUMMARY_JSON, to_json(list(rows)) + "\n")
+        atomic_write_text(out / SUMMARY_CSV, text.getvalue())
+
+
+def _clean_leftovers(out: Path, tasks: Sequence[TrialTask]) -> None:
+    """Leftovers of a run killed while writing a trial's report (``.NAME.partial-PID``) or swapping it in
+    (``.NAME.old-PID``, the old report moved aside): removed or restored now, before the resume looks for
+    complete reports (:class:`~boat_twin.files.OutputClaim` does it and names each on stderr)."""
+    names = {task.name for task in tasks}
+    stale = {m.group(1) for m in map(re.compile(r"\.(.+)\.(?:partial|old)-\d+").fullmatch, os.listdir(out)) if m}
+    for name in sorted(stale & names):
+        OutputClaim(out / name, force=True, kind="reports").release()
 
 
 def _complete_row(report_dir: Path) -> dict[str, Any] | None:
@@ -157,6 +191,7 @@ def run_batch(job: Job, tasks: Sequence[TrialTask], out: Path, client: Any = Non
     out = ensure_out_dir(out).resolve()
     columns = (*COMMON_COLUMNS, *job.columns, *RUN_COLUMNS)
     with locked_directory(out):
+        _clean_leftovers(out, tasks)
         rows: dict[str, dict[str, Any]] = {}
         if not force:
             for task in tasks:

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from boat_twin.config import TwinConfig
+from boat_twin.fleet.outputs import DIAGNOSE_OUTPUTS, FOLLOW_OUTPUTS, IDENTIFY_OUTPUTS
 from boat_twin.io.trial import Trial
 
 COMMON_COLUMNS = ("trial", "status", "error", "boat", "source", "duration_s")
@@ -55,6 +56,7 @@ class IdentifyJob:
     """Boat facts for the twin (``--boat`` file's contents), None: the default boat's."""
     boat_file: str | None = None
     verb = "identify"
+    outputs = IDENTIFY_OUTPUTS
     columns = ("mass_kg", "mass_ci95_low_kg", "mass_ci95_high_kg", "mass_identified", "model", "curve_speed_mps",
                "curve_N", "heldout_rmse_mps", "baseline_heldout_rmse_mps", "physical_problems", "steady_points",
                "misfit_speed_rmse_mps", "warnings")
@@ -65,8 +67,9 @@ class IdentifyJob:
     speed RMSE (the identified model run on the trial's commands against the measured speed), m/s; warnings
     counted."""
 
-    def __call__(self, path: Path, out: Path) -> dict[str, Any]:
-        """Identify the trial at ``path``, write its report into ``out``; its row's values."""
+    def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict[str, Any]:
+        """Identify the trial at ``path``, write its report into ``out`` (``named``: the directory its texts
+        name, default ``out``); its row's values."""
         from boat_twin.fleet.reports import write_identify_report
         from boat_twin.ident.pipeline import identify_trials
 
@@ -75,7 +78,7 @@ class IdentifyJob:
                                                  monotone=self.monotone, window_s=self.window_s,
                                                  thrust_tolerance_N=self.thrust_tolerance_N, boat=self.boat)
         out.mkdir(parents=True, exist_ok=True)
-        write_identify_report(out, result, [trial], resims, vessel, str(path), self.boat_file)
+        write_identify_report(out, result, [trial], resims, vessel, str(path), self.boat_file, named)
         oe = result["output_error"]
         selected, table = oe["selected"], oe["selected"]["resistance_table"]
         known = "effective_mass_kg" in result["model"]
@@ -99,13 +102,15 @@ class DiagnoseJob:
     read: ReadOptions = field(default_factory=ReadOptions)
     window_s: float | None = None
     verb = "diagnose"
+    outputs = DIAGNOSE_OUTPUTS
     columns = ("verdict", "unexplained", "ambiguous", "misfit_x_noise", "misfit_extended_x_noise")
     """The headline: the named effects; whether a structured residual is left that no catalogue effect explains;
     the candidates the trial cannot tell apart; the largest signal RMSE over its noise before and after the named
     effects, -."""
 
-    def __call__(self, path: Path, out: Path) -> dict[str, Any]:
-        """Diagnose the trial at ``path``, write its report into ``out``; its row's values."""
+    def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict[str, Any]:
+        """Diagnose the trial at ``path``, write its report into ``out`` (``named``: the directory its texts
+        name, default ``out``); its row's values."""
         from boat_twin.diagnose.defaults import WINDOW_S
         from boat_twin.diagnose.pipeline import diagnose_trial
         from boat_twin.fleet.reports import write_diagnosis_report
@@ -113,7 +118,7 @@ class DiagnoseJob:
         trial = self.read.read(path)
         done = diagnose_trial(trial, self.config, self.window_s or WINDOW_S)
         out.mkdir(parents=True, exist_ok=True)
-        write_diagnosis_report(out, done, str(path))
+        write_diagnosis_report(out, done, str(path), named)
         result = done.result
         ambiguous = result["ambiguous"]
         return {"duration_s": duration_s(trial), "verdict": [v["effect"] for v in result["verdict"]],
@@ -129,13 +134,15 @@ class FollowJob:
     config: TwinConfig = field(default_factory=TwinConfig)
     read: ReadOptions = field(default_factory=ReadOptions)
     verb = "follow"
+    outputs = FOLLOW_OUTPUTS
     columns = ("mass_kg", "resistance_factor", "causes", "unexplained", "misfit_speed_innovation_ratio")
     """The headline at the trial's end: the adapted surge mass, kg, and resistance factor, -; the causes the
     rolling diagnosis names and whether something is unexplained; the speed innovations' RMS over their noise
     in the last minute, -."""
 
-    def __call__(self, path: Path, out: Path) -> dict[str, Any]:
-        """Follow the trial at ``path``, write its report into ``out``; its row's values."""
+    def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict[str, Any]:
+        """Follow the trial at ``path``, write its report into ``out`` (its texts name no directory: ``named``
+        unused); its row's values."""
         from boat_twin.fleet.reports import write_follow_report
         from boat_twin.shadow.follow import follow_trial
 

@@ -351,6 +351,13 @@ class _Problem:
         return np.concatenate([self.records[g.record].t_s[g.start:g.stop] for g in self.segments])
 
 
+def _finite_squares(jac: np.ndarray) -> bool:
+    """Whether the squares of the sensitivities are finite: the solver's scaling and SVD square them (a
+    sensitivity of 1e200 m/s per parameter, where a trial mass near zero makes the model stiff, overflows)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return bool(np.isfinite(np.sum(np.square(jac))))
+
+
 def _initial_guess(problem: _Problem) -> np.ndarray:
     """Coefficients from the quasi-steady balance T ≈ Fc(speed) (NNLS over all samples), then the mass from a
     scan of time constants 0.3-300 s at the median speed; initial speeds: each segment's first measurement."""
@@ -369,8 +376,9 @@ def _initial_guess(problem: _Problem) -> np.ndarray:
     best = None
     for tau_s in np.geomspace(0.3, 300.0, 13):
         x = np.concatenate([coeffs, [tau_s * slope], u0])
-        cost = float(np.sum(problem.simulate(x)[0] ** 2))
-        if np.isfinite(cost) and (best is None or cost < best[0]):
+        residual, jac = problem.simulate(x)
+        cost = float(np.sum(residual**2))
+        if np.isfinite(cost) and _finite_squares(jac) and (best is None or cost < best[0]):
             best = (cost, x)
     if best is None:
         raise InputError("the surge model diverges for every trial mass: check the thrust and speed units")
@@ -426,7 +434,10 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
         key = x.tobytes()
         if key not in cache:
             cache.clear()
-            cache[key] = problem.simulate(x)
+            residual, jac = problem.simulate(x)
+            if not _finite_squares(jac):  # sensitivities blew up (a stiff, near-massless trial point): a
+                residual = np.full_like(residual, np.nan)  # failed step, which the solver shrinks away from
+            cache[key] = residual, jac
         return cache[key]
 
     with np.errstate(over="ignore", invalid="ignore"):

@@ -37,9 +37,14 @@ from boat_twin.ident.results import (
 from boat_twin.ident.settling import derive_criteria
 from boat_twin.ident.steady import FitResult, fit_power_series, select_order
 from boat_twin.ident.twin_config import identified_vessel, thrust_seen
-from boat_twin.io.trial import COMMAND_ROLES, Trial
+from boat_twin.io.trial import COMMAND_ROLES, Trial, long_holds, thrust_outliers
 from boat_twin.units import KGF_N, KNOT_MPS
-from boat_twin.vessel.params import VesselParams
+from boat_twin.vessel.params import (
+    HELD_COMMAND_TIME_CONSTANTS,
+    VesselParams,
+    held_command_limit_s,
+    surge_response_time_s,
+)
 
 __all__ = ["IdentifyResult", "TrialIdentifyResult", "identify_arrays", "identify_pooled", "identify_recordings",
            "identify_table", "identify_trial", "identify_trials", "identify_and_resimulate", "model_dict", "pool",
@@ -365,7 +370,7 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
         noise_correlation_s=max(trial.metadata.speed_smoothing_s for trial in trials),
         speed_noise_mps=max(trial.metadata.derived_speed_noise_mps for trial in trials) or None,
         fallback_mass_kg=fallback)
-    found.warnings += [w for trial in trials for w in trial_warnings(trial)]
+    found.warnings += [w for trial in trials for w in trial_warnings(trial, boat)]
     result = TrialsIdentification(found, [], None)
     try:
         if found.physical_problems:
@@ -389,11 +394,20 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
     return result
 
 
-def trial_warnings(trial: Trial) -> list[str]:
-    """What a trial's reading did to its data, as identify warnings: clock faults, dropouts, derived streams."""
+def trial_warnings(trial: Trial, boat: dict[str, float] | None = None) -> list[str]:
+    """What a trial's reading did to its data, as identify warnings: clock faults, dropouts, derived streams;
+    and what in its commands no fit should take on trust: thrust samples beyond 5 times the bollard thrust of
+    ``boat`` (boat-file facts; default the default boat's) and thrust held unchanged longer than the default
+    boat's :func:`~boat_twin.vessel.params.held_command_limit_s` (the boat being identified has no time constant
+    yet)."""
     source = trial.metadata.source
     meta = trial.metadata
-    return ([f"{source}: {role}: {count} sample(s) whose stamp ran backwards (up to {back_s:.3g} s) were dropped: "
+    prior = VesselParams()
+    commands = [thrust_outliers(trial, (boat or {}).get("bollard_thrust_N", prior.bollard_thrust_N)),
+                long_holds(trial, held_command_limit_s(prior), f"{HELD_COMMAND_TIME_CONSTANTS:g} x the default "
+                           f"boat's surge response time, {surge_response_time_s(prior):.0f} s")]
+    return ([f"{source}: {w}" for w in commands if w]
+            + [f"{source}: {role}: {count} sample(s) whose stamp ran backwards (up to {back_s:.3g} s) were dropped: "
              "the recording's clock is faulty there" for role, (count, back_s) in meta.backward_stamps.items()]
             + [f"{source}: {role}: {count} sample(s) with NaN values dropped as dropouts (gaps)"
                for role, count in meta.dropouts.items()]

@@ -482,7 +482,32 @@ def thrust_outliers(trial: Trial, bollard_thrust_N: float, factor: float = 5.0) 
     for role, thrust in (("thrust_left", trial.thrust_left_N), ("thrust_right", trial.thrust_right_N)):
         beyond = np.flatnonzero(np.abs(np.nan_to_num(thrust)) > limit)
         if beyond.size:
-            named.append(f"{role}: {beyond.size} sample(s) beyond {limit:.4g} N ({factor:g} x the model's bollard "
+            named.append(f"{role}: {beyond.size} sample(s) beyond {limit:.4g} N ({factor:g} x the boat's bollard "
                          f"thrust), up to {np.max(np.abs(thrust[beyond])):.4g} N, first at t = "
                          f"{trial.t_s[beyond[0]]:.1f} s")
     return "; ".join(named) or None
+
+
+def long_holds(trial: Trial, limit_s: float, reason: str) -> str | None:
+    """A warning naming each thrust command held at one exact value longer than ``limit_s`` (``reason``: what
+    the limit is, in words): its role, value, span and how many such holds; None if there are none. A held value
+    is the zero-order hold of the command stream, so a stream that stopped publishing looks exactly like a helm
+    that held still: the warning says both."""
+    named = []
+    for role, thrust in (("thrust_left", trial.thrust_left_N), ("thrust_right", trial.thrust_right_N)):
+        if thrust.size < 2:
+            continue
+        starts = np.flatnonzero(np.r_[True, thrust[1:] != thrust[:-1]])  # NaN != NaN: every NaN its own run
+        ends = np.r_[starts[1:], thrust.size - 1]  # a run lasts until the next value (or the trial's end)
+        spans = trial.t_s[ends] - trial.t_s[starts]
+        long = np.flatnonzero((spans > limit_s) & np.isfinite(thrust[starts]))
+        if long.size:
+            i = long[np.argmax(spans[long])]
+            t0, t1 = trial.t_s[starts[i]], trial.t_s[ends[i]]
+            more = f" (and {long.size - 1} more such hold(s))" if long.size > 1 else ""
+            named.append(f"{role}: {thrust[starts[i]]:.4g} N held unchanged for {spans[i]:.0f} s, t = {t0:.1f} to "
+                         f"{t1:.1f} s{more}")
+    if not named:
+        return None
+    return (f"{'; '.join(named)}: longer than {limit_s:.0f} s ({reason}); a command stream that stopped "
+            "publishing is held the same way: check the log there")

@@ -41,6 +41,7 @@ from std_srvs.srv import Trigger
 from boat_twin.cable.case import CableCase, case_from_parameters, case_parameters, load_case, with_overrides
 from boat_twin.cable.problems import CableSolution, solve_depth, solve_length
 from boat_twin.errors import InputError
+from boat_twin.io.trial import VALUE_LIMITS
 from boat_twin.nodes import conventions, parameters
 from boat_twin.nodes.diagnostics import ERROR, OK, STALE, Diagnostics, Status
 from boat_twin.nodes.spin import run_node
@@ -72,12 +73,15 @@ class CableNode(Node):
             parameters.declare(self, name, value, "case field (see boat_twin.cable.case)", read_only=False)
             self._case_names.append(name)
         parameters.boolean(self, "follow_gnss_vel", False, "tow speed from gnss/vel", read_only=False)
+        self._live_speed_mps: float | None = None
+        self._rejected = 0
+        """gnss/vel samples refused as no velocity (see :meth:`_on_velocity`)."""
+        self._case()  # a case field given at start-up (-p tow_speed_mps:=.nan) is checked now: one line, exit 2
         parameters.string(self, "frame_id", "tow_point", "frame of cable/path")
         self._frame_prefix = conventions.frame_prefix(self)
         self._diagnostics = Diagnostics(self)
         self._status = Status("towed cable", STALE, "not solved yet")
         period = parameters.double(self, "update_period_s", 1.0, "re-solve period, s", above=0.0)
-        self._live_speed_mps: float | None = None
         self._dirty = True
         self.add_on_set_parameters_callback(self._check_parameters)
         self._path_pub = self.create_publisher(PathMsg, "cable/path", LATCHED)
@@ -145,9 +149,18 @@ class CableNode(Node):
         return self._answer(response, solve_length)
 
     def _on_velocity(self, msg: TwistStamped) -> None:
-        if self.get_parameter("follow_gnss_vel").value:
-            self._live_speed_mps = math.hypot(msg.twist.linear.x, msg.twist.linear.y)
-            self._dirty = True
+        if not self.get_parameter("follow_gnss_vel").value:
+            return
+        velocity = (msg.twist.linear.x, msg.twist.linear.y)
+        if not all(low <= v <= high for v, (_, low, high, _) in zip(velocity, VALUE_LIMITS["gnss_vel"],
+                                                                     strict=False)):
+            self._rejected += 1  # NaN, or beyond the speed of sound: a broken driver; the last valid speed holds
+            if self._rejected == 1:
+                self.get_logger().warning(f"gnss/vel ({velocity[0]:.6g}, {velocity[1]:.6g}) m/s is not a velocity "
+                                          "(non-finite or beyond 343 m/s): ignored (further ones counted)")
+            return
+        self._live_speed_mps = math.hypot(*velocity)
+        self._dirty = True
 
     def _refresh(self) -> None:
         if not self._dirty:
@@ -163,7 +176,8 @@ class CableNode(Node):
         self._publish(solution)
         self._status = Status("towed cable", OK, f"vehicle at {solution.vehicle_depth_m:.1f} m depth", {
             "tow_speed_mps": case.tow_speed_mps, "length_m": solution.length_m,
-            "vehicle_depth_m": solution.vehicle_depth_m, "top_tension_N": solution.top_tension_N})
+            "vehicle_depth_m": solution.vehicle_depth_m, "top_tension_N": solution.top_tension_N,
+            "rejected_velocities": self._rejected})
 
 
 def main(args: list[str] | None = None) -> int:

@@ -5,7 +5,10 @@ Arrival: samples come in any order, at any rate, duplicated or late. They wait :
 in a queue and are processed in stamp order (commands first at one stamp) once a newer stamp has passed them by
 that much (``flush()`` takes
 the rest). A sample older than the twin's time is late and dropped, the same stamp twice on one stream a
-duplicate, a non-finite value dropped; each kind is counted and logged once. A stamp more than
+duplicate, a non-finite value or one no sensor or command can hold (:data:`~boat_twin.io.trial.VALUE_LIMITS`,
+the bound every reader applies: a velocity beyond 343 m/s, a thrust beyond 1 MN) dropped; each kind is counted
+and logged once. A step forward of more than :attr:`SyncSettings.gap_s` without a sample (a stream on another
+clock) is not integrated over: the twin re-synchronises. A stamp more than
 :attr:`SyncSettings.restart_s` before the newest one of its own stream is a clock jump backwards (a restarted
 player, a bag looped): logged, and the twin starts afresh from the samples that follow. (One stream lagging the
 others, a backlog drained late, is not a jump: its samples are late.)
@@ -38,6 +41,7 @@ import pymap3d
 
 from boat_twin.config import TwinConfig
 from boat_twin.frames import wrap_pi
+from boat_twin.io.trial import VALUE_LIMITS
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.tow import tow_drag_table
 from boat_twin.vessel.truth import ground_velocity_enu
@@ -139,7 +143,8 @@ class ShadowTwin:
         self.sink = sink or (lambda _kind, _t, _values: None)
         self.innovations: deque[Innovation] = deque(maxlen=4096)
         """The latest innovations, oldest first (a consumer may clear it)."""
-        self.counts = {"late": 0, "duplicate": 0, "non_finite": 0, "resets": 0, "restarts": 0, "processed": 0}
+        self.counts = {"late": 0, "duplicate": 0, "non_finite": 0, "absurd": 0, "resets": 0, "restarts": 0,
+                       "processed": 0}
         self._logged: set[str] = set()
         self.set_config(config)
         self.reset()
@@ -207,6 +212,13 @@ class ShadowTwin:
             self._once(f"nan-{kind}", f"{kind}: sample with a non-finite stamp or value at {stamp_s:.3f} s dropped "
                        "(further ones counted, not logged)")
             return
+        for value, (name, low, high, unit) in zip(values, VALUE_LIMITS[kind], strict=False):
+            if not low <= value <= high and not math.isnan(value):  # (an IMU's NaN: "not provided")
+                self.counts["absurd"] += 1
+                self._once(f"absurd-{kind}", f"{kind}: {name} {value:.6g} {unit} at {stamp_s:.3f} s is outside "
+                           f"[{low:g}, {high:g}] {unit} (a decoding or unit error): dropped (further ones "
+                           "counted, not logged)")
+                return
         newest = self._newest.get(kind, -math.inf)
         if stamp_s < newest - self.settings.restart_s:
             self.counts["restarts"] += 1
@@ -297,6 +309,12 @@ class ShadowTwin:
             return
         dt_total = to_s - self.t_s
         if dt_total <= 0.0:
+            return
+        if dt_total > self.settings.gap_s:  # nothing to integrate over (a stream on another clock, a stall)
+            self.log(f"nothing for {dt_total:.1f} s (to {to_s:.3f} s): the twin re-synchronises from the next "
+                     "measurements")
+            self.state, self.t_s = None, to_s
+            self._latest.clear()
             return
         commands = np.where(np.isfinite(self.commands), self.commands, 0.0)[None, :]
         if self._steering is None:

@@ -439,3 +439,26 @@ def top_speed_mps(params: VesselParams) -> float:
         gap = 2.0 * max_thrust_N(params, np.array(mid)) - params.resistance.force_N(mid)
         lo, hi = (mid, hi) if gap > 0 else (lo, mid)
     return 0.5 * (lo + hi)
+
+
+
+HELD_COMMAND_TIME_CONSTANTS = 15.0
+"""A thrust command held unchanged longer than this many of the boat's surge response times
+(:func:`surge_response_time_s`) is named in a trial's summary, -. The speed settles within 5 of them (e^-5 < 1 %
+of a step left); a hold three times longer adds no dynamics to fit, and a helm rarely holds one exact value that
+long, while a command stream that stopped (a logger or driver fault) is filled with its last value by the
+zero-order hold and looks exactly like it."""
+
+
+def surge_response_time_s(params: VesselParams) -> float:
+    """The boat's slowest surge response: the largest m11·u / Fc(u) over its speeds up to the top speed (50
+    speeds), s: the time constant of a linear drag through the origin that gives Fc(u) at u. Unlike m11 /
+    (dFc/du) (:func:`surge_time_constant_s`) it stays finite over a resistance hump or plateau."""
+    speeds = np.linspace(0.0, top_speed_mps(params), 51)[1:]
+    return float(np.max(_inertia(params)["m11"] * speeds / params.resistance.force_N(speeds)))
+
+
+def held_command_limit_s(params: VesselParams) -> float:
+    """Longest thrust hold a trial's summary passes without a word: :data:`HELD_COMMAND_TIME_CONSTANTS` times
+    :func:`surge_response_time_s`, s."""
+    return HELD_COMMAND_TIME_CONSTANTS * surge_response_time_s(params)
