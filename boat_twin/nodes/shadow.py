@@ -154,6 +154,8 @@ class ShadowNode(Node):
         elif causes:
             level = WARN
             message = "named cause: " + ", ".join(f"{c.name} {c.size:.3g} {c.size_unit}" for c in causes)
+        elif status["unexplained"]:
+            level, message = WARN, "unexplained: the twin misfits and no catalogue cause explains it"
         elif ratio is not None and ratio > self.shadow.settings.misfit_ratio:
             level, message = WARN, f"misfit: speed innovations {ratio:.1f}x their noise"
         else:

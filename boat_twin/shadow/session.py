@@ -36,6 +36,8 @@ from boat_twin.vessel.params import derive_coefficients
 
 RATIO_WINDOW_S = 60.0
 """The speed-innovation ratio is the RMS over this last stretch of stream time, s."""
+RATIO_CHANNELS = ("speed_mps", "yaw_rate_radps")
+"""Innovation channels whose ratio to their stated spread the twin watches (speed over ground, yaw rate)."""
 ENVIRONMENT_CAUSES = ("water_current", "wind")
 """Causes the twin takes into its predictions when named (the sea around the boat, not the boat)."""
 
@@ -84,13 +86,13 @@ class Shadow:
     def _build(self) -> None:
         s, config = self.settings, self.base
         self.adapter = SurgeAdapter(config.vessel, horizon_s=s.horizon_s, holdout_s=s.holdout_s,
-                                    period_s=s.adapt_period_s, log=self.log)
+                                    period_s=s.adapt_period_s, latency_s=config.gnss.latency_s, log=self.log)
         self.recent = RecentStreams(max(s.diagnosis_window_s, s.holdout_s) + 10.0)
         self.rolling = RollingDiagnosis(self.recent, window_s=s.diagnosis_window_s, period_s=s.diagnosis_period_s,
                                         idle_period_s=s.diagnosis_idle_period_s, misfit_ratio=s.misfit_ratio,
                                         log=self.log)
         self.twin = ShadowTwin(config, s.sync, self.log, self._accepted)
-        self._speed: deque[tuple[float, float, float]] = deque()
+        self._squares: dict[str, deque[tuple[float, float, float]]] = {c: deque() for c in RATIO_CHANNELS}
         self._restarts = 0
         self._m22_kg: float | None = None
         self._pending: tuple[DiagnosisJob, Future[Outcome]] | None = None
@@ -104,7 +106,8 @@ class Shadow:
             self.adapter.reset()
             self.recent.clear()
             self.rolling.restart()
-            self._speed.clear()
+            for squares in self._squares.values():
+                squares.clear()
 
     def flush(self) -> None:
         """Process what is still queued (end of a recording)."""
@@ -131,14 +134,14 @@ class Shadow:
             state = self.twin.state
             assert state is not None
             yaw = float(state[2])
-            surge = ((values[0] - env.current_east_mps) * math.cos(yaw)
-                     + (values[1] - env.current_north_mps) * math.sin(yaw))
-            self.adapter.add(t_s, self.surge_force_N(surge), surge)
+            east, north = values[0] - env.current_east_mps, values[1] - env.current_north_mps
+            surge = east * math.cos(yaw) + north * math.sin(yaw)
+            self.adapter.add(t_s, self.surge_force_N(surge), math.hypot(east, north))
             if self.adapter.due(t_s) and self.adapter.update(self._held_out_score(t_s)):
                 self.twin.set_config(replace(self.twin.config, vessel=self.adapter.vessel()))
                 self._m22_kg = None
         self._poll_diagnosis()
-        if self.settings.diagnose and self._pending is None and self.rolling.due(t_s, self.speed_ratio()):
+        if self.settings.diagnose and self._pending is None and self.rolling.due(t_s, self.misfit_ratio()):
             self._diagnose(t_s)
 
     def _held_out_score(self, t_s: float) -> Callable[[SurgeModel], float]:
@@ -179,7 +182,8 @@ class Shadow:
         return force
 
     def _diagnose(self, t_s: float) -> None:
-        job = self.rolling.start(t_s, replace(self.base, vessel=self.adapter.vessel()))
+        job = self.rolling.start(t_s, replace(self.base, vessel=self.adapter.vessel()),
+                                 self.misfit_ratio() > self.settings.misfit_ratio)
         if self.settings.diagnose_in_background:
             if self._worker is None:
                 self._worker = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
@@ -219,19 +223,29 @@ class Shadow:
             item = innovations.popleft()
             if self.on_innovation is not None:
                 self.on_innovation(item)
-            if item.channel == "speed_mps":
-                self._speed.append((item.t_s, item.value**2, item.stdev**2))
-        while self._speed and self._speed[0][0] < self.twin.t_s - RATIO_WINDOW_S:
-            self._speed.popleft()
+            if item.channel in self._squares:
+                self._squares[item.channel].append((item.t_s, item.value**2, item.stdev**2))
+        for squares in self._squares.values():
+            while squares and squares[0][0] < self.twin.t_s - RATIO_WINDOW_S:
+                squares.popleft()
 
     # --- what the front ends publish -----------------------------------------------------------------------
-    def speed_ratio(self) -> float:
-        """RMS of the speed innovations over the last :data:`RATIO_WINDOW_S` over their stated spread (the
-        sensor's noise with the twin's own uncertainty); NaN without innovations."""
-        if not self._speed:
+    def innovation_ratio(self, channel: str) -> float:
+        """RMS of ``channel``'s innovations (one of :data:`RATIO_CHANNELS`) over the last :data:`RATIO_WINDOW_S`
+        over their stated spread (the sensor's noise with the twin's own uncertainty); NaN without innovations."""
+        squares = self._squares[channel]
+        if not squares:
             return math.nan
-        n = len(self._speed)
-        return math.sqrt(sum(s[1] for s in self._speed) / n) / math.sqrt(sum(s[2] for s in self._speed) / n)
+        return math.sqrt(sum(s[1] for s in squares) / sum(s[2] for s in squares))
+
+    def speed_ratio(self) -> float:
+        """:meth:`innovation_ratio` of the speed over ground."""
+        return self.innovation_ratio("speed_mps")
+
+    def misfit_ratio(self) -> float:
+        """The larger innovation ratio of speed and yaw rate (NaN-free: NaN only when neither has one)."""
+        ratios = [r for r in (self.innovation_ratio(c) for c in RATIO_CHANNELS) if math.isfinite(r)]
+        return max(ratios) if ratios else math.nan
 
     def causes(self) -> list[str]:
         """Names of the causes the latest rolling diagnosis holds."""
@@ -245,6 +259,7 @@ class Shadow:
             "t_s": self.twin.t_s,
             "synchronised": self.twin.synchronised,
             "speed_innovation_ratio": _finite(self.speed_ratio()),
+            "yaw_rate_innovation_ratio": _finite(self.innovation_ratio("yaw_rate_radps")),
             "mass_kg": float(self.adapter.current.mass_kg),
             "resistance_factor": float(self.adapter.current.resistance_factor),
             "causes": self.causes(),

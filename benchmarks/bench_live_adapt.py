@@ -1,0 +1,124 @@
+"""The live surge adaptation (boat_twin.shadow.adapt: the output-error fit over a moving horizon) on many boats:
+
+A. interval coverage: boats whose mass and resistance differ from the default twin by a random −30 … +30 %,
+   followed from the default twin; how often the adopted model's and the latest fit's 95 % intervals of the mass
+   and the resistance factor hold the truth, and the mass error. On the twin's own trials (random commands) and
+   on an independent integrator's boat (test/independent.py: classic RK4 of the same equations written apart
+   from the twin's kernel, thrust and steering changing at random);
+B. flapping: a twin started at the true model; adoptions and reversals over the trial (the true model should
+   stay), the largest relative mass change adopted.
+
+Run: .venv/bin/python benchmarks/bench_live_adapt.py [--boats 6] [--duration-s 900]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pymap3d
+
+from boat_twin.config import TwinConfig
+from boat_twin.diagnose.hidden import scenario
+from boat_twin.io.trial import Trial
+from boat_twin.shadow.follow import follow_trial
+from boat_twin.shadow.session import ShadowSettings
+from boat_twin.twin.sea_trial import measured_trial, run_sea_trial
+from boat_twin.vessel.resistance import CorrectedResistance
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "test"))
+from independent import boat_trial  # noqa: E402
+
+NO_DIAGNOSIS = ShadowSettings(diagnose=False)
+
+
+def boat(mass_factor: float, resistance_factor: float) -> TwinConfig:
+    base = TwinConfig()
+    v = base.vessel
+    top = v.resistance.max_speed_mps
+    return replace(base, vessel=replace(v, mass_kg=v.mass_kg * mass_factor, resistance=CorrectedResistance(
+        v.resistance, (0.0, top), (resistance_factor, resistance_factor))))
+
+
+def twin_trial(config: TwinConfig, duration_s: float, seed: int) -> Trial:
+    run = run_sea_trial(config, scenario("random", TwinConfig().vessel, np.random.default_rng(seed), duration_s),
+                        seed)
+    return measured_trial(run.record, 0, config, np.random.default_rng(seed + 100))
+
+
+def independent(config: TwinConfig, duration_s: float, seed: int) -> Trial:
+    """The independent integrator: each engine's thrust held 10-40 s at 60-700 N, steering ±15° held 5-30 s."""
+    rng = np.random.default_rng(seed)
+    holds = np.cumsum(rng.uniform(10.0, 40.0, int(duration_s / 10) + 2))
+    levels = rng.uniform(60.0, 700.0, holds.size)
+    turns = np.cumsum(rng.uniform(5.0, 30.0, int(duration_s / 5) + 2))
+    angles = np.where(rng.random(turns.size) < 0.5, 0.0, rng.uniform(-0.26, 0.26, turns.size))
+    data = boat_trial(config.vessel, lambda t: float(levels[np.searchsorted(holds, t)]),
+                      lambda t: float(angles[np.searchsorted(turns, t)]), duration_s, rng, initial_surge_mps=3.0)
+    lat, lon, _ = pymap3d.enu2geodetic(data.east_m, data.north_m, 0.0, 43.0, 131.0, 0.0)
+    return replace(data, lat_deg=lat, lon_deg=lon)
+
+
+def inside(interval: list[float], value: float) -> bool:
+    return bool(interval[0] <= value <= interval[1])
+
+
+def study_coverage(boats: int, duration_s: float) -> None:
+    rng = np.random.default_rng(5)
+    for source, make in (("twin", twin_trial), ("independent", independent)):
+        rows = []
+        cpu = time.process_time()
+        for b in range(boats):
+            mass_f, res_f = rng.uniform(0.7, 1.3, 2)
+            truth = boat(float(mass_f), float(res_f))
+            result = follow_trial(make(truth, duration_s, 40 + b), TwinConfig(), NO_DIAGNOSIS)
+            surge, fit = result.final["model"]["surge"], result.final["model"]["latest_fit"]
+            true_mass = truth.vessel.mass_kg
+            rows.append((surge["mass_kg"] / true_mass - 1, inside(surge["mass_ci95_kg"], true_mass),
+                         inside(surge["resistance_factor_ci95"], float(res_f)),
+                         fit is not None and inside(fit["mass_ci95_kg"], true_mass),
+                         fit is not None and inside(fit["resistance_factor_ci95"], float(res_f)),
+                         surge["curve"]))
+            print(f"   {source} boat {b}: mass ×{mass_f:.3f} resistance ×{res_f:.3f}: adopted "
+                  f"{surge['mass_kg']:.0f} kg "
+                  f"[{surge['mass_ci95_kg'][0]:.0f}, {surge['mass_ci95_kg'][1]:.0f}] (true {true_mass:.0f}), "
+                  f"×{surge['resistance_factor']:.3f} [{surge['resistance_factor_ci95'][0]:.3f}, "
+                  f"{surge['resistance_factor_ci95'][1]:.3f}] ({surge['curve']})", flush=True)
+        errors = np.abs([r[0] for r in rows])
+        n = len(rows)
+        print(f"A  {source}: {n} boats, {duration_s / 60:.0f} min each: adopted mass interval holds the truth "
+              f"{sum(r[1] for r in rows)}/{n}, resistance factor {sum(r[2] for r in rows)}/{n}; latest fit "
+              f"{sum(r[3] for r in rows)}/{n} and {sum(r[4] for r in rows)}/{n} (target ~95 %); mass error median "
+              f"{np.median(errors):.1%}, max {np.max(errors):.1%}; {(time.process_time() - cpu) / n:.1f} s CPU per "
+              f"boat", flush=True)
+
+
+def study_flapping(duration_s: float, seeds: int) -> None:
+    for seed in range(seeds):
+        truth = boat(1.1, 0.9)
+        result = follow_trial(twin_trial(truth, duration_s, 60 + seed), truth, NO_DIAGNOSIS)
+        adopted = [line for line in result.log if line.startswith("adopted")]
+        reverted = [line for line in result.log if line.startswith("reverted")]
+        masses = [m["surge"]["mass_kg"] for m in result.models]
+        swing = max(abs(m / truth.vessel.mass_kg - 1) for m in masses) if masses else math.nan
+        print(f"B  started at the truth, seed {seed}, {duration_s / 60:.0f} min: {len(adopted)} adoptions, "
+              f"{len(reverted)} reversals; largest mass departure {swing:.1%}", flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--boats", type=int, default=6, help="boats per source in A")
+    parser.add_argument("--duration-s", type=float, default=900.0, help="trial length, s")
+    parser.add_argument("--flap-seeds", type=int, default=3, help="trials in B")
+    args = parser.parse_args()
+    study_flapping(args.duration_s, args.flap_seeds)
+    study_coverage(args.boats, args.duration_s)
+
+
+if __name__ == "__main__":
+    main()
