@@ -22,6 +22,16 @@ ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = Path(os.environ.get("BOAT_TWIN_SHARED_DATA", ROOT.parent / "shared" / "data"))
 """Real third-party data beside the clone (never copied into it)."""
 
+BLAS_THREADS = "1"
+"""BLAS threads per test process (set before numpy loads OpenBLAS, unless the environment chose): `make test` runs
+one pytest worker per core, so threads inside each only oversubscribe the cores (the fleet's workers avoid it the
+same way: boat_twin.threads.single_thread_environment). On the busy 2-core machine OpenBLAS's spinning threads cost
+20x the CPU of one thread per SVD in the output-error fit's least squares (0.116 s against 0.0056 s for an
+18000 x 14 Jacobian), and `boat-twin identify` of the shipped sample took 34.1 s of CPU on the default threads,
+15.9 s on one, with the same --json output byte for byte (docs/architecture.md, "A test")."""
+for _variable in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, BLAS_THREADS)
+
 
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "ros_nodes: starts ROS 2 node processes (run apart from the rest)")

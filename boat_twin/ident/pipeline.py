@@ -1,30 +1,39 @@
 """The identification pipelines: a recorded trial, or a table of steady points, to the model m·dv/dt = F − Fc(v).
 
-:func:`identify_trials` is what ``boat-twin identify TRIAL [TRIAL ...]`` runs; :func:`identify_recordings` runs
+:func:`identify_trials` is what ``boat-twin identify TRIAL [TRIAL ...]`` runs; :func:`identify_pooled` runs
 every identifier on the arrays of one or more recordings pooled (steady points, batch fits with order selection,
-mass from transients, the online identifier replayed over the same samples), :func:`identify_arrays` on one;
-:func:`identify_table` reproduces the paper's table. Results are the ``--json`` contract (SI; JSON-ready
-dicts); :func:`model_dict` / :func:`write_model_yaml` give the identified model that the vessel loader accepts as
-an override.
+mass from transients, the online identifier replayed over the same samples) into a typed
+:class:`~boat_twin.ident.results.Identification`; :func:`identify_recordings` and :func:`identify_arrays` (one
+recording) return its ``--json`` contract (:mod:`boat_twin.ident.results` serialises, :mod:`boat_twin.ident.report`
+writes the files); :func:`identify_table` reproduces the paper's table.
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
-from pathlib import Path
-from typing import Any, TypedDict
+from typing import Any
 
 import numpy as np
-import yaml
 
 from boat_twin.data import dyda2021_table1_si
 from boat_twin.errors import InputError
-from boat_twin.files import atomic_write_text
-from boat_twin.ident.dynamic import DynamicWindow, check_samples, identify_dynamic
+from boat_twin.ident.dynamic import DynamicResult, DynamicWindow, check_samples, identify_dynamic
 from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadyCriteria, detect_steady_segments
-from boat_twin.ident.output_error import SurgeFit, SurgeRecord, identify_surge
+from boat_twin.ident.output_error import OutputErrorResult, SurgeFit, SurgeRecord, identify_surge
 from boat_twin.ident.paper import reproduce
 from boat_twin.ident.resimulate import Resimulation, resimulate
+from boat_twin.ident.results import (
+    Identification,
+    IdentifyResult,
+    TrialIdentifyResult,
+    TrialReplay,
+    TrialsIdentification,
+    identification_dict,
+    model_dict,
+    steady_point_dicts,
+    trials_identification_dict,
+    write_model_yaml,
+)
 from boat_twin.ident.settling import derive_criteria
 from boat_twin.ident.steady import FitResult, fit_power_series, select_order
 from boat_twin.ident.twin_config import identified_vessel, thrust_seen
@@ -34,77 +43,18 @@ from boat_twin.vessel.params import (
     HELD_COMMAND_TIME_CONSTANTS,
     VesselParams,
     held_command_limit_s,
-    params_to_dict,
     surge_response_time_s,
 )
+
+__all__ = ["IdentifyResult", "TrialIdentifyResult", "identify_arrays", "identify_pooled", "identify_recordings",
+           "identify_table", "identify_trial", "identify_trials", "identify_and_resimulate", "model_dict", "pool",
+           "replay_online", "trial_samples", "trial_warnings", "write_model_yaml"]
+"""The pipelines, and the result types and writers of :mod:`boat_twin.ident.results` their callers import here."""
 
 SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
 """Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
 TWO_WAY_WARNING = 0.3
 """Below this share of the speed range crossed both ways, the report warns: the mass rests on Fc's form."""
-
-
-class IdentifyResult(TypedDict):
-    """What :func:`identify_arrays` returns: the ``--json`` contract of ``boat-twin identify`` (SI, JSON-ready)."""
-
-    output_error: dict[str, Any]
-    """The model: OutputErrorResult.to_dict() (selected fit, the baseline beside it, every candidate's
-    cross-validated error, why the selection, whether the mass is identified)."""
-    physical_problems: list[str]
-    """Why the model is not physical (empty when it is): such a model never becomes a twin."""
-
-    steady_points: list[dict[str, float]]
-    """Accepted constant-thrust segments: speed_mps, thrust_N, duration_s, start_s, end_s, speed_stderr_mps,
-    recording (index of the pooled recording it came from)."""
-    rejected_segments: list[dict[str, Any]]
-    """Segments refused by the steady-state detector, each with its reason and recording."""
-    steady_criteria: dict[str, Any]
-    """The detector's window and thrust tolerance and the figures they were derived from (DerivedCriteria)."""
-    fits: list[dict[str, Any]]
-    """Steady power-series fits (FitResult.to_dict; a view of the data, not the model): coefficients N/(m/s)^i,
-    intervals, RMSE, CV, BIC, ..."""
-    selected_order: int | None
-    """Order of the selected steady fit (None: too few steady points for any)."""
-    selection_reason: str
-    dynamic: dict[str, Any]
-    """Mass + Fc from the transients (DynamicResult.to_dict; a view), or ``{"error": why}``."""
-    online: dict[str, Any]
-    """The online identifier replayed over the same samples (snapshot) and its agreement with batch."""
-    model: dict[str, Any]
-    """The identified model the vessel loader accepts: ``resistance`` (a monotone table of the output-error fit)
-    and ``effective_mass_kg`` when identified or given."""
-    warnings: list[str]
-
-
-class TrialIdentifyResult(IdentifyResult, total=False):
-    """What :func:`identify_trial` returns: :class:`IdentifyResult` plus the trial and the re-simulation."""
-
-    trial: dict[str, Any]
-    """Source, summary line, gaps, missing and derived roles of the (first) trial."""
-    resimulation: dict[str, Any]
-    """Resimulation.to_dict() of the (first) trial, or ``{"error": why}`` when the loop could not be closed."""
-    trials: list[dict[str, Any]]
-    """Every pooled trial: source, metadata line, gaps, missing, derived and its own ``resimulation``."""
-    twin: dict[str, Any]
-    """The identified twin's vessel (``vessel``: every fact; ``sources``: where each came from) or ``{"error"}``."""
-
-
-def model_dict(fit: FitResult, effective_mass_kg: float | None = None) -> dict[str, Any]:
-    """The identified model as plain data: ``{"resistance": {...}, "effective_mass_kg": m}`` (SI fit).
-
-    ``resistance`` is :meth:`PowerSeriesResistance.to_dict` (valid to the fit's top speed, quadratic law
-    beyond); ``effective_mass_kg`` (hull + surge added mass) only when known.
-    """
-    model: dict[str, Any] = {"resistance": fit.resistance_model().to_dict()}
-    if effective_mass_kg is not None:
-        model["effective_mass_kg"] = float(effective_mass_kg)
-    return model
-
-
-def write_model_yaml(path: Path, model: dict[str, Any], comment: str = "") -> None:
-    """Write ``model`` (:func:`model_dict`) as YAML to ``path`` atomically; ``comment`` lines go on top."""
-    header = "".join(f"# {line}\n" for line in comment.splitlines())
-    atomic_write_text(path, header + yaml.safe_dump(model, sort_keys=False))
 
 
 def _nrms(a: np.ndarray, b: np.ndarray) -> float:
@@ -260,7 +210,15 @@ def identify_arrays(
     return identify_recordings([(t_s, thrust_N, speed_mps)], **options)
 
 
-def identify_recordings(
+def identify_recordings(recordings: list[tuple[Any, Any, Any]], **options: Any) -> IdentifyResult:
+    """:func:`identify_pooled` as the ``--json`` contract (SI): ``output_error``, ``physical_problems``,
+    ``steady_points``, ``rejected_segments``, ``steady_criteria``, ``fits``, ``selected_order`` (None without
+    enough steady points), ``selection_reason``, ``dynamic``, ``online``, ``model`` (for :func:`write_model_yaml`)
+    and ``warnings``; each steady point and rejected segment names its ``recording`` (0-based)."""
+    return identification_dict(identify_pooled(recordings, **options))
+
+
+def identify_pooled(
     recordings: list[tuple[Any, Any, Any]],
     *,
     order: int | None = None,
@@ -275,7 +233,7 @@ def identify_recordings(
     window: DynamicWindow | None = None,
     memory_s: float = 3600.0,
     fallback_mass_kg: float | None = None,
-) -> IdentifyResult:
+) -> Identification:
     """Identify a boat from one or more recordings of (time s, total thrust N, speed m/s), pooled in one fit.
 
     The model is the output-error fit over every sample (:func:`~boat_twin.ident.output_error.identify_surge`:
@@ -288,10 +246,9 @@ def identify_recordings(
     speed smoothed from positions; or ``criteria`` taken as given) with power-series fits of N = 1..``max_order``
     (CV/BIC selection, or ``order``; Fc(0) = 0 unless ``through_origin`` is False), mass + Fc from transients,
     and the online identifier replayed over the same samples with its agreement with batch. Returns the
-    ``--json`` contract (SI): ``output_error``, ``physical_problems``, ``steady_points``, ``rejected_segments``,
-    ``steady_criteria``, ``fits``, ``selected_order`` (None without enough steady points), ``selection_reason``,
-    ``dynamic``, ``online``, ``model`` (for :func:`write_model_yaml`) and ``warnings``. Pooled recordings share
-    one time axis (:func:`pool`); each steady point and rejected segment names its ``recording`` (0-based).
+    typed :class:`~boat_twin.ident.results.Identification` (:func:`identify_recordings`: its ``--json``
+    contract). Pooled recordings share one time axis (:func:`pool`); each steady point and rejected segment
+    names its recording (0-based).
     """
     pieces = pool(recordings)
     derived = derive_criteria(pieces, criteria, window_s=window_s, thrust_tolerance_N=thrust_tolerance_N,
@@ -312,30 +269,8 @@ def identify_recordings(
     rejected = [(i, s) for i, s in segments if not s.accepted]
     fits, chosen, reason, warnings = _steady_view(points, rejected, criteria, order, max_order, monotone,
                                                    through_origin)
-    records = [SurgeRecord(*piece) for piece in pieces]
-    oe = identify_surge(records)
-    if not oe.mass_identified and fallback_mass_kg is not None:
-        oe = identify_surge(records, mass_kg=fallback_mass_kg)
-    elif not oe.mass_identified:
-        warnings.append(f"{oe.mass_note}; no mass in the model (give a boat file with mass_kg)")
-    try:
-        dyn = identify_dynamic(t, f, v, None, window)
-        if not dyn.mass_kg > 0.0:
-            raise InputError(f"the mass from the transients is {dyn.mass_kg:.0f} kg: physically impossible (time "
-                             "stamps out of order, or commands not aligned with the speed?); no mass identified")
-        dynamic: dict[str, Any] = dyn.to_dict()
-        if dyn.two_way_fraction < TWO_WAY_WARNING:
-            warnings.append(
-                f"only {dyn.two_way_fraction:.0%} of the speed range was crossed both accelerating and "
-                "decelerating: the mass rests on the form of Fc; add thrust steps down as well"
-            )
-    except InputError as err:
-        dyn = None
-        dynamic = {"error": str(err)}
-    steady_points = [{"speed_mps": s.speed_mps, "thrust_N": s.thrust_N, "duration_s": s.duration_s,
-                      "start_s": s.start_s, "end_s": s.end_s, "speed_stderr_mps": s.speed_stderr_mps,
-                      "recording": i} for i, s in points]
-    problems = physical_problems(oe.selected, steady_points, pieces)
+    oe = _output_error(pieces, fallback_mass_kg, warnings)
+    dyn, dynamic_error = _dynamic(t, f, v, window, warnings)
     model: dict[str, Any] = {"resistance": oe.selected.resistance_model().to_dict()}
     if oe.mass_identified or oe.selected.mass_fixed:
         model["effective_mass_kg"] = oe.selected.mass_kg
@@ -349,6 +284,45 @@ def identify_recordings(
     )
     for piece in pieces:
         replay_online(*piece, online)
+    problems = physical_problems(oe.selected, steady_point_dicts(points), pieces)
+    return Identification(oe, problems, points, rejected, derived, fits, chosen, reason, dyn, dynamic_error,
+                          _online_view(online, fits, chosen, dyn), model, warnings)
+
+
+def _output_error(pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], fallback_mass_kg: float | None,
+                  warnings: list[str]) -> OutputErrorResult:
+    """The output-error model over every sample; the fallback mass held when the data do not identify one
+    (without one, a warning: no mass in the model)."""
+    records = [SurgeRecord(*piece) for piece in pieces]
+    oe = identify_surge(records)
+    if not oe.mass_identified and fallback_mass_kg is not None:
+        oe = identify_surge(records, mass_kg=fallback_mass_kg)
+    elif not oe.mass_identified:
+        warnings.append(f"{oe.mass_note}; no mass in the model (give a boat file with mass_kg)")
+    return oe
+
+
+def _dynamic(t: np.ndarray, f: np.ndarray, v: np.ndarray, window: DynamicWindow | None, warnings: list[str]
+             ) -> tuple[DynamicResult | None, str]:
+    """Mass + Fc from the transients (a view), or None and why not."""
+    try:
+        dyn = identify_dynamic(t, f, v, None, window)
+        if not dyn.mass_kg > 0.0:
+            raise InputError(f"the mass from the transients is {dyn.mass_kg:.0f} kg: physically impossible (time "
+                             "stamps out of order, or commands not aligned with the speed?); no mass identified")
+    except InputError as err:
+        return None, str(err)
+    if dyn.two_way_fraction < TWO_WAY_WARNING:
+        warnings.append(
+            f"only {dyn.two_way_fraction:.0%} of the speed range was crossed both accelerating and "
+            "decelerating: the mass rests on the form of Fc; add thrust steps down as well"
+        )
+    return dyn, ""
+
+
+def _online_view(online: OnlineThrustSpeedIdentifier, fits: tuple[FitResult, ...], chosen: int | None,
+                 dyn: DynamicResult | None) -> dict[str, Any]:
+    """The replayed online identifier's snapshot with its agreement with the batch fits."""
     snap = online.snapshot()
     agreement: dict[str, Any] = {}
     if snap["coefficients"] is not None and fits:
@@ -359,20 +333,7 @@ def identify_recordings(
     if dyn is not None and snap["dynamic"] is not None:
         agreement["mass_rel"] = snap["dynamic"]["mass_kg"] / dyn.mass_kg - 1.0
     snap["agreement_with_batch"] = agreement
-    return {
-        "output_error": oe.to_dict(),
-        "physical_problems": problems,
-        "steady_points": steady_points,
-        "rejected_segments": [{**s.to_dict(), "recording": i} for i, s in rejected],
-        "steady_criteria": derived.to_dict(),
-        "fits": [fr.to_dict() for fr in fits],
-        "selected_order": chosen,
-        "selection_reason": reason,
-        "dynamic": dynamic,
-        "online": snap,
-        "model": model,
-        "warnings": warnings,
-    }
+    return snap
 
 
 def identify_trial(trial: Trial, **options: Any) -> tuple[TrialIdentifyResult, Resimulation | None]:
@@ -381,61 +342,56 @@ def identify_trial(trial: Trial, **options: Any) -> tuple[TrialIdentifyResult, R
     return result, resims[0]
 
 
-def identify_trials(trials: list[Trial], *, order: int | None = None, max_order: int = 6, monotone: bool = False,
-                    window_s: float | None = None, thrust_tolerance_N: float | None = None,
-                    boat: dict[str, float] | None = None,
+def identify_trials(trials: list[Trial], **options: Any
                     ) -> tuple[TrialIdentifyResult, list[Resimulation | None], VesselParams | None]:
-    """Recorded trials pooled in one identification (:func:`identify_recordings` on their known samples), the
+    """:func:`identify_and_resimulate` as the ``--json`` contract: ``trial`` and ``resimulation`` (the latter
+    ``{"error": why}`` when the loop cannot be closed) describe the first trial; ``trials`` lists every trial
+    with its own re-simulation; ``twin`` holds the vessel (``vessel``, ``sources``) or ``{"error": why}``.
+    Returns the result, the re-simulations (None where not done) and the vessel (None when no mass is known)."""
+    found = identify_and_resimulate(trials, **options)
+    return (trials_identification_dict(found), [replay.resimulation for replay in found.trials], found.vessel)
+
+
+def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, max_order: int = 6,
+                            monotone: bool = False, window_s: float | None = None,
+                            thrust_tolerance_N: float | None = None, boat: dict[str, float] | None = None,
+                            ) -> TrialsIdentification:
+    """Recorded trials pooled in one identification (:func:`identify_pooled` on their known samples), the
     identified twin's vessel built (:func:`~boat_twin.ident.twin_config.identified_vessel`: ``boat`` facts from
     a boat file, the rest carried from the default boat), then each trial re-simulated with that vessel (closing
-    the loop). ``trial`` and ``resimulation`` (the latter ``{"error": why}`` when the loop cannot be closed)
-    describe the first trial; ``trials`` lists every trial with its own re-simulation; ``twin`` holds the vessel
-    (``vessel``, ``sources``) or ``{"error": why}``. Returns the result, the re-simulations (None where not done)
-    and the vessel (None when no mass is known)."""
-    samples = []
-    for trial in trials:
-        samples.append(trial_samples(trial))
+    the loop)."""
+    samples = [trial_samples(trial) for trial in trials]
     boat = boat or {}
     fallback = boat["mass_kg"] * (1.0 + boat.get("surge_added_mass_ratio", VesselParams().surge_added_mass_ratio)) \
         if "mass_kg" in boat else None
-    result = TrialIdentifyResult(**identify_recordings(
+    found = identify_pooled(
         samples, order=order, max_order=max_order, monotone=monotone, window_s=window_s,
         thrust_tolerance_N=thrust_tolerance_N,
         noise_correlation_s=max(trial.metadata.speed_smoothing_s for trial in trials),
         speed_noise_mps=max(trial.metadata.derived_speed_noise_mps for trial in trials) or None,
-        fallback_mass_kg=fallback))
-    result["warnings"] += [w for trial in trials for w in trial_warnings(trial, boat)]
-    vessel: VesselParams | None = None
+        fallback_mass_kg=fallback)
+    found.warnings += [w for trial in trials for w in trial_warnings(trial, boat)]
+    result = TrialsIdentification(found, [], None)
     try:
-        if result["physical_problems"]:
-            raise InputError("the identified model is not physical: " + "; ".join(result["physical_problems"]))
-        vessel, sources = identified_vessel(result["model"], boat, thrust_seen(trials))
-        result["twin"] = {"vessel": params_to_dict(vessel), "sources": sources}
+        if found.physical_problems:
+            raise InputError("the identified model is not physical: " + "; ".join(found.physical_problems))
+        result.vessel, result.vessel_sources = identified_vessel(found.model, boat, thrust_seen(trials))
     except InputError as err:
-        result["twin"] = {"error": str(err)}
-        result["warnings"].append(f"no twin configuration: {err}")
-    oe = result["output_error"]
-    mass_source = "identified" if oe["mass_identified"] else \
-        "boat file" if oe["selected"]["mass_fixed"] else "NOT identified: the fit's point estimate"
-    resim_model = {**result["model"], "effective_mass_kg": oe["selected"]["mass_kg"]}
-    entries: list[dict[str, Any]] = []
-    resims: list[Resimulation | None] = []
+        result.twin_error = str(err)
+        found.warnings.append(f"no twin configuration: {err}")
+    oe = found.output_error
+    mass_source = "identified" if oe.mass_identified else \
+        "boat file" if oe.selected.mass_fixed else "NOT identified: the fit's point estimate"
+    resim_model = {**found.model, "effective_mass_kg": oe.selected.mass_kg}
     for trial in trials:
-        entry: dict[str, Any] = {"source": str(trial.metadata.source), "metadata": trial.metadata.summary_line(),
-                                 "gaps": trial.metadata.gaps, "missing": trial.metadata.missing,
-                                 "derived": trial.metadata.derived}
-        resim: Resimulation | None = None
+        meta = trial.metadata
+        replay = TrialReplay(str(meta.source), meta.summary_line(), meta.gaps, meta.missing, meta.derived, None)
         try:
-            resim = resimulate(trial, resim_model, vessel, mass_source)
-            entry["resimulation"] = resim.to_dict()
+            replay.resimulation = resimulate(trial, resim_model, result.vessel, mass_source)
         except InputError as err:  # the identification stands; say why the loop could not be closed
-            entry["resimulation"] = {"error": str(err)}
-        entries.append(entry)
-        resims.append(resim)
-    result["trial"] = {k: x for k, x in entries[0].items() if k != "resimulation"}
-    result["resimulation"] = entries[0]["resimulation"]
-    result["trials"] = entries
-    return result, resims, vessel
+            replay.error = str(err)
+        result.trials.append(replay)
+    return result
 
 
 def trial_warnings(trial: Trial, boat: dict[str, float] | None = None) -> list[str]:

@@ -13,8 +13,8 @@ from boat_twin.data import dyda2021_table1
 from boat_twin.data.dyda2021 import PAPER_COEFFICIENTS, PAPER_FISHER, PAPER_ORDERS
 from boat_twin.files import atomic_save_figure, atomic_write_text, ensure_out_dir, to_json
 from boat_twin.ident.paper import paper_model_values
-from boat_twin.ident.pipeline import IdentifyResult, write_model_yaml
 from boat_twin.ident.resimulate import Resimulation, resimulation_figure
+from boat_twin.ident.results import IdentifyResult, write_model_yaml
 from boat_twin.ident.steady import FitResult
 from boat_twin.vessel.resistance import resistance_from_dict
 

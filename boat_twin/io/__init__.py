@@ -1,8 +1,8 @@
 """Formats only: ROS 2 messages (rosbags typestore), rosbag2 / MCAP bags, MAVLink logs, CSV tables, and the Trial
 every analysis reads. Modules: ``messages`` (topics, builders, CDR), ``bags`` (write_bag, read_trial), ``trial``
-(Trial, build_trial), ``mavlink`` (MAVLink logs), ``csv_trial`` (a CSV table by a column mapping), ``roles``
-(the streams' role names), ``sources`` (read_trial_file: any trial file), ``log_messages`` (a MAVLink log as the
-package's messages)."""
+(Trial, build_trial), ``mavlink`` (MAVLink logs; its parts ``mavlink_calibration``, ``tlog``, ``dataflash``,
+``mavlink_log``, ``mavlink_trial``), ``csv_trial`` (a CSV table by a column mapping), ``roles`` (the streams' role
+names), ``sources`` (read_trial_file: any trial file), ``log_messages`` (a MAVLink log as the package's messages)."""
 
 from __future__ import annotations
 

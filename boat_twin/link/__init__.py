@@ -6,7 +6,7 @@ from boat_twin.lazy import lazy_exports
 
 _EXPORTS = {
     "MavlinkBoat": "boat_twin.link.mavlink_boat",
-    "parse_stream_rates": "boat_twin.link.mavlink_boat",
+    "parse_stream_rates": "boat_twin.link.schedule",
 }
 """Public name → its module, imported on first use."""
 
