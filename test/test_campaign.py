@@ -230,3 +230,25 @@ def test_a_real_process_signalled_at_a_seeded_moment(tmp_path, accel_stop_bag, o
                    if not name.startswith("rep/") and name != "own.mcap")
     stray = [p.name for p in tmp_path.rglob("*") if any(mark in p.name for mark in LEFTOVERS)]
     assert not stray, (line, stray)
+
+
+def test_an_interrupt_lost_in_a_callback_is_raised_again_without_a_traceback(capsys) -> None:
+    """Ctrl-C while numba compiled landed in llvmlite's ctypes callback: Python printed "Exception ignored ...
+    Traceback ... KeyboardInterrupt" (the signalled-process test above, on a fresh cache) and dropped the interrupt.
+    A run's unraisable hook raises the signal again, to be acted on once the callback has returned."""
+    import ctypes
+
+    from boat_twin import cli
+
+    def interrupted() -> None:
+        raise KeyboardInterrupt
+
+    callback = ctypes.CFUNCTYPE(None)(interrupted)
+    previous, sys.unraisablehook = sys.unraisablehook, cli._raise_lost_signal
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            callback()
+            time.sleep(1.0)  # the re-raised signal is acted on at the next bytecode, well before this ends
+    finally:
+        sys.unraisablehook = previous
+    assert "Traceback" not in capsys.readouterr().err

@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import signal
 import sys
+import threading
 
 from boat_twin import __version__
 from boat_twin.errors import InputError
@@ -69,12 +71,28 @@ def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+RESIGNAL_DELAY_S = 0.05
+"""Delay before a signal lost in a callback is sent again, s (a callback such as llvmlite's returns within it)."""
+
+
 class Terminated(BaseException):
     """SIGTERM during a run: unwinds like Ctrl-C, so that outputs being written are dropped and old ones kept."""
 
 
 def _terminate(signum: int, frame: object) -> None:
     raise Terminated
+
+
+def _raise_lost_signal(unraisable: sys.UnraisableHookArgs) -> None:
+    """``sys.unraisablehook`` for a run: Ctrl-C or SIGTERM landing in a callback Python cannot raise from (e.g.
+    llvmlite's cache notification while numba compiles) would be printed as "Exception ignored ... Traceback" and
+    lost; the signal is sent again instead, from a timer thread a moment later (raised here, inside the hook, it
+    would be ignored in turn), to be acted on once the callback has returned."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt | Terminated):
+        signum = signal.SIGINT if isinstance(unraisable.exc_value, KeyboardInterrupt) else signal.SIGTERM
+        threading.Timer(RESIGNAL_DELAY_S, os.kill, (os.getpid(), signum)).start()
+    else:
+        sys.__unraisablehook__(unraisable)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -87,6 +105,7 @@ def main(argv: list[str] | None = None) -> int:
         previous = signal.signal(signal.SIGTERM, _terminate)
     except ValueError:  # not the main thread: no handler
         previous = None
+    previous_hook, sys.unraisablehook = sys.unraisablehook, _raise_lost_signal
     try:
         args = build_parser(verb).parse_args(argv)
         return int(args.handler(args))
@@ -108,6 +127,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.stderr.write(f"boat-twin {verb}: error: {where}cannot write ({write_failure(err)})\n")
         return 2
     finally:
+        sys.unraisablehook = previous_hook
         if process and previous is not None:
             # The run is over, its outputs complete: a SIGTERM from now on cannot be acted on by Python (the
             # interpreter shuts down) and would kill the process by the signal; the process exits with the
