@@ -29,20 +29,12 @@ from boat_twin.io.trial import Trial
 from boat_twin.shadow.follow import follow_trial
 from boat_twin.shadow.session import ShadowSettings
 from boat_twin.twin.sea_trial import measured_trial, run_sea_trial
-from boat_twin.vessel.resistance import CorrectedResistance
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "test"))
+from bench_follow import boat  # noqa: E402  (run as a script: benchmarks/ is on the path)
 from independent import boat_trial  # noqa: E402
 
 NO_DIAGNOSIS = ShadowSettings(diagnose=False)
-
-
-def boat(mass_factor: float, resistance_factor: float) -> TwinConfig:
-    base = TwinConfig()
-    v = base.vessel
-    top = v.resistance.max_speed_mps
-    return replace(base, vessel=replace(v, mass_kg=v.mass_kg * mass_factor, resistance=CorrectedResistance(
-        v.resistance, (0.0, top), (resistance_factor, resistance_factor))))
 
 
 def twin_trial(config: TwinConfig, duration_s: float, seed: int) -> Trial:

@@ -117,7 +117,8 @@ def test_hostile_messages_leave_the_nodes_alive_and_finite(tmp_path) -> None:
         probe.spin_for(4.0, hostile)
         for publisher in commands[:2]:  # valid data again
             publisher.publish(Float64(data=500.0))
-        probe.spin_until(lambda: len(seen["identifier"]) > counted["identifier"] + 1, 10.0)
+        probe.spin_until(lambda: len(seen["identifier"]) > counted["identifier"] + 1
+                         and len(seen["shadow"]) > counted["shadow"], 10.0)  # each publishing again
         probe.spin_for(1.0)
         alive = [proc.process.poll() is None for proc in procs]
         logs = [proc.stderr for proc in procs]
