@@ -37,6 +37,9 @@ from boat_twin.twin.replay import (
 
 NUISANCES = (("heading_rad", 2, 0.005), ("surge_mps", 3, 0.02), ("sway_mps", 4, 0.02), ("yaw_rate_radps", 5, 0.002))
 """(name, state index, finite-difference step) of every initial-state component a window estimates for itself."""
+NONLINEAR_LIMIT = 1.0
+"""A window's replay is compared up to the first sample where its response to a nuisance of ± its prior
+standard deviation departs from linear by more than this many noise levels (:func:`predictable`)."""
 PRIOR_WIDENING = 2.0
 """Each prior standard deviation is this many times what the sensors' white noise alone leaves after the
 replay's smoothing (:func:`prior_stdev`): the GNSS velocity's and the IMU heading's errors are also correlated,
@@ -65,42 +68,79 @@ def prior_stdev(windows: Windows, sigma: dict[str, float]) -> np.ndarray:
 class InitialStateProjection:
     """Removes each window's best initial-state correction from normalized residuals (module docstring)."""
 
-    def __init__(self, sensitivity: np.ndarray, stdev: np.ndarray) -> None:
-        self.sensitivity = sensitivity
-        """(rows, m, q) ∂ normalized residual / ∂ nuisance per window (rows: signals × samples, NaN as 0)."""
+    def __init__(self, sensitivity: np.ndarray, stdev: np.ndarray, compared: np.ndarray | None = None) -> None:
+        self.compared = (np.ones(sensitivity.shape[:2], dtype=bool) if compared is None
+                         else np.tile(compared, (sensitivity.shape[0] // compared.shape[0], 1)))
+        """(rows, m) the samples within each window's predictability horizon (:func:`predictable`)."""
+        self.sensitivity = np.where(self.compared[..., None], sensitivity, 0.0)
+        """(rows, m, q) ∂ normalized residual / ∂ nuisance per window (rows: signals × samples, NaN and the samples
+        past the horizon as 0)."""
         self.stdev = stdev
         """(q,) prior standard deviations of the nuisances (:data:`NUISANCES`' units)."""
-        normal = np.einsum("rmi,rmj->mij", sensitivity, sensitivity) + np.diag(stdev**-2.0)
+        normal = np.einsum("rmi,rmj->mij", self.sensitivity, self.sensitivity) + np.diag(stdev**-2.0)
         self.inverse = np.linalg.inv(normal)
 
     @classmethod
     def for_model(cls, windows: Windows, config: TwinConfig, sigma: dict[str, float]) -> InitialStateProjection:
         """The projection linearized at ``config`` (one replay with every nuisance stepped in turn), residuals
-        normalized by ``sigma``."""
+        normalized by ``sigma``, each window compared up to its predictability horizon (the same replay has
+        every nuisance also ± its prior standard deviation)."""
         q = len(NUISANCES)
         m = windows.start_index.size
-        shift = np.zeros((q + 1, m, 6))
+        stdev = prior_stdev(windows, sigma)
+        shift = np.zeros((3 * q + 1, m, 6))
         for j, (_, state, step) in enumerate(NUISANCES):
             shift[j + 1, :, state] = step
+            shift[q + 1 + j, :, state] = stdev[j]
+            shift[2 * q + 1 + j, :, state] = -stdev[j]
         with np.errstate(all="ignore"):
-            predictions = predict_vessels(windows, config, [config.vessel] * (q + 1), initial_shift=shift)
+            predictions = predict_vessels(windows, config, [config.vessel] * (3 * q + 1), initial_shift=shift)
         stacked = [stack_signals(windows, p.signals, sigma) for p in predictions]
         base = stacked[0]
         columns = [np.where(np.isfinite(base) & np.isfinite(r), (r - base) / step, 0.0)
-                   for r, (_, _, step) in zip(stacked[1:], NUISANCES, strict=True)]
-        return cls(np.stack(columns, axis=-1), prior_stdev(windows, sigma))
+                   for r, (_, _, step) in zip(stacked[1:q + 1], NUISANCES, strict=True)]
+        compared = predictable(base, stacked[q + 1:2 * q + 1], stacked[2 * q + 1:])
+        return cls(np.stack(columns, axis=-1), stdev, compared)
+
+    def compared_fraction(self) -> float:
+        """The share of the windows' samples within their predictability horizons (1: every one compared)."""
+        return float(np.mean(self.compared))
 
     def corrections(self, residuals: np.ndarray) -> np.ndarray:
         """(m, q) each window's best correction δ* of its initial state for ``residuals`` (rows, m), NaN as 0."""
-        r = np.where(np.isfinite(residuals), residuals, 0.0)
+        r = np.where(np.isfinite(residuals) & self.compared, residuals, 0.0)
         return np.einsum("mij,mj->mi", self.inverse, np.einsum("rmj,rm->mj", self.sensitivity, r))
 
     def apply(self, residuals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(rows, m) ``residuals`` with each window's best correction removed (NaN kept NaN), and (q, m) the
-        corrections over their prior standard deviations (the prior's residuals)."""
+        """(rows, m) ``residuals`` with each window's best correction removed (NaN kept NaN, the samples past
+        the window's predictability horizon NaN), and (q, m) the corrections over their prior standard
+        deviations (the prior's residuals)."""
         step = self.corrections(residuals)
-        corrected = residuals - np.einsum("rmi,mi->rm", self.sensitivity, step)
+        corrected = np.where(self.compared, residuals - np.einsum("rmi,mi->rm", self.sensitivity, step), np.nan)
         return corrected, (step / self.stdev).T
+
+
+def predictable(base: np.ndarray, plus: list[np.ndarray], minus: list[np.ndarray]) -> np.ndarray:
+    """(T, m) the samples of each window before its predictability horizon: the first sample where some
+    signal's response to a nuisance of ± its prior standard deviation departs from linear by more than
+    :data:`NONLINEAR_LIMIT` (normalized: in units of the signal's noise), i.e. where the window's best linear
+    correction can no longer stand for the initial state the sensors leave uncertain. ``base``, ``plus``,
+    ``minus``: (rows, m) stacked normalized residuals of the replay from the measured states and from each
+    nuisance ± its prior standard deviation.
+
+    On a course the model holds stably, a prior-sized error of the initial state changes the path linearly
+    through the window (a heading 0.6° off turns it 0.6°) and the correction removes it: no sample is left out.
+    On an unstable one — a straight course astern, where a sway or yaw error grows e-fold in 0.5 s at 12 m/s — the
+    same error turns the replayed boat round within seconds, and from there the replay says nothing about the
+    model: the samples after the horizon are not compared (docs/diagnosis.md).
+    """
+    signals = len(SIGNALS)
+    curvature = np.zeros(base.shape)
+    for p, n in zip(plus, minus, strict=True):
+        second = 0.5 * (p + n) - base
+        curvature = np.maximum(curvature, np.where(np.isfinite(second), np.abs(second), 0.0))
+    worst = np.max(np.stack(np.split(curvature, signals)), axis=0)  # (T, m)
+    return np.cumsum(worst > NONLINEAR_LIMIT, axis=0) == 0
 
 
 def stack_signals(windows: Windows, predicted: dict[str, np.ndarray], sigma: dict[str, float]) -> np.ndarray:

@@ -57,6 +57,7 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
                                     diagnosis.folds)
     result = result_dict(windows, selection, baseline_prediction, extended_prediction, signatures, None,
                          diagnosis.sigma)
+    result["windows"]["compared_fraction"] = diagnosis.projection.compared_fraction()
     result["evaluations"] = diagnosis.evaluations
     return TrialDiagnosis(windows, selection, base, extended, baseline_prediction, extended_prediction, result)
 

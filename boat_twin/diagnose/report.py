@@ -75,7 +75,9 @@ class AmbiguousResult(TypedDict):
 class _DiagnosisResultBase(TypedDict):
     trial: str
     windows: dict[str, float]
-    """count (number of replay windows) and length_s."""
+    """count (number of replay windows), length_s, and compared_fraction (the share of the windows' samples within
+    their predictability horizons, :func:`~boat_twin.diagnose.initial_state.predictable`: 1 unless the replay
+    diverges from any initial state the sensors allow, as on a long straight run astern)."""
     noise: dict[str, float]
     """Measured noise floor per signal (white-noise stdev), SI."""
     baseline: dict[str, dict[str, float]]
@@ -194,6 +196,10 @@ def text_report(result: DiagnosisResult) -> str:
     """What was wrong, where, the cause, its size ± uncertainty, the gain per signal."""
     lines = [f"trial       {result['trial']}: {result['windows']['count']} windows of "
              f"{result['windows']['length_s']:g} s replayed from the sensors"]
+    compared = result["windows"].get("compared_fraction", 1.0)
+    if compared < 1.0:
+        lines.append(f"horizon     {100 * compared:.0f} % of the windows' time compared: past each window's "
+                     "predictability horizon the replay diverges from any initial state the sensors allow")
     base, ext = result["baseline"]["rmse"], result["extended"]["rmse"]
     lines.append("signal            baseline RMSE   extended RMSE")
     for s in ("speed_mps", *SIGNALS, "position_m"):
