@@ -19,9 +19,10 @@ most 2 %, which needs ≥ 149 alarm-free trials by the exact bound and ≥ 189 b
 The twin's ``crash-stop`` (a 10 s approach, 30 s full astern: 40 s, too short for the 6 windows a diagnosis
 needs) is run as :func:`crash_stops`: stops repeated, each ending about when the boat is dead in the water (as
 the IMO stopping test does). Stretched to 180 s instead, the twin's one stop backs at full astern for 170 s, at
-12 m/s (its resistance model is symmetric in the surge): a long run astern is not a clean trial the diagnosis
-can judge: the model is directionally unstable astern, so each window's replay is compared only up to its
-predictability horizon, a second or two there (docs/diagnosis.md, "A long run astern").
+12 m/s (its resistance model is symmetric in the surge): that is :func:`astern_run`, a shape of its own. The
+model is directionally unstable astern, so each window's replay is compared only up to its predictability
+horizon, a second or two there (docs/diagnosis.md, "A long run astern"); the table's last line says which trials
+were compared less than in full.
 
 Each trial is independent (its own seed), so ``--workers N`` runs them in N processes, each on one thread
 (the table does not depend on N); ``--resume`` skips the trials an earlier run saved in ``--json``.
@@ -151,10 +152,19 @@ def crash_stops(params: VesselParams, rng: np.random.Generator, duration_s: floa
     return _profile("crash-stops", duration_s, np.array(times), np.array(rows), made.initial_surge_mps)
 
 
+def astern_run(params: VesselParams, rng: np.random.Generator, duration_s: float) -> CommandProfile:
+    """The twin's ``crash-stop`` held: at its approach thrust for 5-15 s, then full astern to the end (170 s at
+    about 12 m/s astern on the default boat; docs/diagnosis.md, "A long run astern")."""
+    made = make_scenario("crash-stop", params, rng)
+    times = np.array([0.0, rng.uniform(5.0, 15.0)])
+    return _profile("astern-run", duration_s, times, np.array([made.values[0], made.values[-1]]),
+                    made.initial_surge_mps)
+
+
 SHAPES: dict[str, Callable[[VesselParams, np.random.Generator, float], CommandProfile]] = {
     "sine-steering": sine_steering, "slalom-steps": slalom_steps, "thrust-ramp": thrust_ramp,
     "steering-steps": steering_steps, "stop-and-go": stop_and_go, "chirp-steering": chirp_steering,
-    "crash-stops": crash_stops,
+    "crash-stops": crash_stops, "astern-run": astern_run,
 }
 """Command shapes of this benchmark's own (not the twin's scenarios)."""
 TWIN_SCENARIOS = tuple(name for name in SCENARIO_NAMES if name != "crash-stop")

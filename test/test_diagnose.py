@@ -22,6 +22,7 @@ from boat_twin.cli import main
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.diagnose import hidden
 from boat_twin.diagnose.effects import EFFECTS, catalogue, resistance_knots_mps
+from boat_twin.diagnose.initial_state import predictable
 from boat_twin.diagnose.pipeline import diagnose_trial
 from boat_twin.diagnose.report import text_report
 from boat_twin.diagnose.search import (
@@ -519,6 +520,24 @@ def _long_run_astern(seed: int) -> SeaTrial:
     config = replace(base, gnss=replace(base.gnss, dropout_probability=0.2))
     made = make_scenario("crash-stop", config.vessel, np.random.default_rng(seed))
     return run_sea_trial(config, replace(made, duration_s=180.0), seed)  # type: ignore[type-var]
+
+
+def test_the_predictability_horizon_is_the_first_sample_where_the_response_stops_being_linear() -> None:
+    """A window whose response to ± a prior-sized initial error is linear (however large) keeps every sample; one
+    whose yaw-rate response grows faster on one side than it falls on the other is cut at the first sample where
+    the second difference exceeds the noise level, in every signal from there on; unmeasured samples (NaN) never
+    cut a window."""
+    samples, windows = 50, 2
+    t = np.arange(samples, dtype=float)
+    linear = np.tile(np.concatenate([0.5 * t] * len(SIGNALS))[:, None], (1, windows))  # up to 25 noise levels
+    base = np.zeros_like(linear)
+    base[:10] = np.nan  # the settling second: not compared
+    plus, minus = base + linear, base - linear
+    yaw = slice(2 * samples, 3 * samples)
+    plus[yaw, 1] += 2.0 * np.exp(0.2 * (t - 30.0))  # second difference: 1 noise level at t = 30, then growing
+    compared = predictable(base, [plus], [minus])
+    assert compared[:, 0].all()
+    assert compared[:31, 1].all() and not compared[31:, 1].any(), np.flatnonzero(~compared[:, 1])
 
 
 def test_a_long_clean_run_astern_is_not_alarmed(tmp_path: Path) -> None:
