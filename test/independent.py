@@ -56,7 +56,8 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
         dthrust = (commanded - thrust) / lag_s if lag_s > 0 else 0.0
         thrust = thrust if lag_s > 0 else commanded
         fx, fy = 2.0 * thrust * math.cos(d), 2.0 * thrust * math.sin(d)
-        du = (fx + m22 * v * r - math.copysign(float(params.resistance.force_N(abs(u))), u)) / m11  # opposes u
+        drag = float(params.resistance.force_N(abs(u))) * (1.0 if u >= 0.0 else -1.0)  # opposes the motion
+        du = (fx + m22 * v * r - drag) / m11
         dv = (fy - m11 * u * r - c.sway_damping_Nspm2 * abs(u) * v - c.sway_quadratic_Ns2pm2 * abs(v) * v) / m22
         dr = (x_e * fy - (m22 - m11) * u * v - c.lateral_centre_x_m * c.sway_damping_Nspm2 * abs(u) * v
               - c.yaw_damping_Nms * abs(u) * r - c.yaw_quadratic_Nms2 * abs(r) * r) / m33

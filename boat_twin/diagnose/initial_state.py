@@ -17,6 +17,11 @@ their sum of squares is the minimum over δ of |r − S·δ|² + |δ/σ|² (a li
 sensitivity is computed once, for the base model, and used for every model the diagnosis tries: the
 corrections are small (σ), so the linearization holds for any model near the data, and one projection for
 every candidate keeps their sums of squares comparable.
+
+The linearization is the window's own test of whether its replay can be judged at all: where the model is
+unstable (a straight course astern), an initial error the prior allows grows until the response is no longer
+linear in it, and from there no correction stands for it. Each window is compared only up to that
+predictability horizon (:func:`predictable`), and the report says what share of the trial was compared.
 """
 
 from __future__ import annotations
