@@ -561,6 +561,7 @@ def test_a_long_clean_run_astern_is_not_alarmed(tmp_path: Path) -> None:
     assert all(not names and not ambiguous and not unexplained and fraction < 1.0
                for _, _, names, ambiguous, unexplained, fraction in summary), summary
     assert "predictability horizon" in text_report(outcomes[0][2])
+    assert "not an all-clear" in text_report(outcomes[0][2])  # nothing named, but most of the trial not judged
 
 
 @pytest.mark.parametrize("kind", ["zigzag", "random"])

@@ -207,6 +207,10 @@ def text_report(result: DiagnosisResult) -> str:
     if not result["verdict"] and result["unexplained"]:
         lines.append("verdict     UNEXPLAINED: the model is off the data and no catalogue effect explains it "
                      "(see the unexplained lines below)")
+    elif not result["verdict"] and compared < 1.0:
+        lines.append("verdict     no significant discrepancy a catalogue effect explains, in the "
+                     f"{100 * compared:.0f} % of the time the replay can predict: the rest is not judged "
+                     "(not an all-clear)")
     elif not result["verdict"]:
         lines.append("verdict     no significant discrepancy a catalogue effect explains")
     elif result["unexplained"]:
