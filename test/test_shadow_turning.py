@@ -102,12 +102,9 @@ def test_the_twin_adopts_the_turning_of_an_independent_integrators_boat() -> Non
 @pytest.mark.slow
 @pytest.mark.parametrize("kind", ["random", "zigzag"])
 def test_a_boat_equal_to_the_twin_adopts_no_turning_coefficients(kind: str) -> None:
-    """The configured boat for 15 minutes, two seeds: turning fits are made, none is adopted (no flapping). On
-    the zigzags (constant thrust) the surge adaptation is off: there the live surge fit adopts a mass ~12 % high
-    (docs/live-twin.md), and the turning fit, holding that mass, rightly moves the coefficients to make up for it."""
-    settings = NO_DIAGNOSIS if kind == "random" else ShadowSettings(diagnose=False, adapt_surge=False)
+    """The configured boat for 15 minutes, two seeds: turning fits are made, none is adopted (no flapping)."""
     for seed in (5, 6):
-        result = follow_trial(_twin_trial(TwinConfig(), kind, 900.0, seed), TwinConfig(), settings)
+        result = follow_trial(_twin_trial(TwinConfig(), kind, 900.0, seed), TwinConfig(), NO_DIAGNOSIS)
         turning = result.final["model"]["turning"]
         assert turning["fits"] >= 3 and turning["swaps"] == 0, [line for line in result.log if "turning" in line]
 

@@ -57,8 +57,6 @@ class ShadowSettings:
     """Its held-out tail, s: at least 6 replay windows of 20 s (the diagnosis' replay)."""
     adapt_period_s: float = 30.0
     """Time between adaptation attempts, s."""
-    adapt_surge: bool = True
-    """Re-identify the surge model online (needs ``adapt``)."""
     adapt_turning: bool = True
     """Re-identify the turning coefficients online when the boat steers (needs ``adapt``)."""
     turning_period_s: float = 60.0
@@ -140,7 +138,7 @@ class Shadow:
         self.recent.add(kind, t_s, values)
         if kind != "gnss_vel" or not self.twin.synchronised:
             return
-        if self.settings.adapt and self.settings.adapt_surge:
+        if self.settings.adapt:
             env = self.twin.config.environment
             state = self.twin.state
             assert state is not None
