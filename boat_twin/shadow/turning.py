@@ -33,6 +33,7 @@ they stand (a fit rejecting them but barred from adoption, e.g. by a misfit, is 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -223,8 +224,10 @@ class TurningAdapter:
         now = score(self.current)
         if not math.isfinite(now):
             return False
-        try:
-            fit = fit_manoeuvring([training], self.current.config(plain), free=LIVE_KEYS)
+        try:  # coefficients far off make replays diverge, which the fit scores as such: no warning to log
+            with np.errstate(all="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                fit = fit_manoeuvring([training], self.current.config(plain), free=LIVE_KEYS)
             candidate: TurningModel | None = TurningModel.from_fit(fit)
         except (InputError, ValueError, np.linalg.LinAlgError):
             candidate = None
