@@ -159,13 +159,9 @@ class Shadow:
             self._diagnose(t_s)
 
     def _held_out_score(self, t_s: float) -> Callable[[SurgeModel], float]:
-        """How well a surge model predicts the last ``holdout_s``: the mean squared error of the speed over ground
-        of the whole twin with that model, replayed open loop in windows from the measurements (NaN if the
-        held-out stretch cannot be cut into enough windows). The speed, not the velocity vector: at 10-14 m/s
-        the open-loop heading drifts so far in a 20 s window (velocity errors of 2-5 m/s RMS with the configured
-        and with a near-true model alike) that the vector's error judged the turning, and a fit within 0.5 % of
-        the true mass and resistance (1,422 kg ×0.847 for 1,419 kg ×0.841) scored 2.9 m/s against the configured
-        model's 1.3: never adopted over 15 minutes, the speed innovations staying 5-7× their noise."""
+        """How well a surge model predicts the last ``holdout_s``: the mean squared GNSS velocity error of the
+        whole twin with that model, replayed open loop in windows from the measurements (NaN if the held-out
+        stretch cannot be cut into enough windows)."""
         try:
             windows = cut_windows(self.recent.trial(t_s - self.settings.holdout_s, t_s), REPLAY_WINDOW_S)
         except InputError:
@@ -175,7 +171,8 @@ class Shadow:
 
         def score(model: SurgeModel) -> float:
             prediction = predict(windows, turning.config(replace(config, vessel=model.vessel(self.adapter.base))))
-            return float(np.nanmean(np.square(_speed(windows.measured) - _speed(prediction.signals))))
+            errors = [windows.measured[s] - prediction.signals[s] for s in ("vel_east_mps", "vel_north_mps")]
+            return float(np.nanmean(np.square(errors)))
 
         return score
 
@@ -336,11 +333,6 @@ def _with_cause(environment: Environment, name: str, parameters: dict[str, float
         return replace(environment, wind_east_mps=east, wind_north_mps=north)
     return replace(environment, current_east_mps=environment.current_east_mps + east,
                    current_north_mps=environment.current_north_mps + north)
-
-
-def _speed(signals: dict[str, np.ndarray]) -> np.ndarray:
-    """Speed over ground of GNSS velocity signals, m/s."""
-    return np.hypot(signals["vel_east_mps"], signals["vel_north_mps"])
 
 
 def _finite(value: float) -> float | None:
