@@ -81,7 +81,7 @@ def _turning_axes(ax: Axes, result: FollowResult) -> None:
         ax.errorbar(ft, ratio, yerr=[ratio - low, high - ratio], fmt=".", color=color, capsize=2)
     ax.axhline(1.0, color="k", ls=":", lw=1)
     ax.set_ylabel("turning coefficient ×, -")
-    ax.legend(loc="upper right", fontsize="small", ncol=2, title="adopted (steps), fits (bars)")
+    ax.legend(loc="best", fontsize="small", ncol=2, title="adopted (steps), fits (bars)")
 
 
 def cause_figure(result: FollowResult) -> Figure:
