@@ -6,9 +6,13 @@ A. interval coverage: boats whose mass and resistance differ from the default tw
    on an independent integrator's boat (test/independent.py: classic RK4 of the same equations written apart
    from the twin's kernel, thrust and steering changing at random);
 B. flapping: a twin started at the true model; adoptions and reversals over the trial (the true model should
-   stay), the largest relative mass change adopted.
+   stay, surge and turning), the largest relative mass change adopted;
+T. the live turning adaptation (boat_twin.shadow.turning): boats whose yaw damping and yaw inertia differ from the
+   default twin by a random −25 … +25 %, followed from the default twin; whether the turning coefficients are
+   adopted, how often their 95 % intervals hold the truth, the yaw-damping error, the yaw-rate innovation ratio
+   in the first minute and the last, and CPU per boat.
 
-Run: .venv/bin/python benchmarks/bench_live_adapt.py [--boats 6] [--duration-s 900]
+Run: .venv/bin/python benchmarks/bench_live_adapt.py [--boats 6] [--duration-s 900] [--only BAT]
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from boat_twin.diagnose.hidden import scenario
 from boat_twin.io.trial import Trial
 from boat_twin.shadow.follow import follow_trial
 from boat_twin.shadow.session import ShadowSettings
+from boat_twin.shadow.turning import LIVE_KEYS, coefficients
 from boat_twin.twin.sea_trial import measured_trial, run_sea_trial
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "test"))
@@ -94,12 +99,50 @@ def study_flapping(duration_s: float, seeds: int) -> None:
     for seed in range(seeds):
         truth = boat(1.1, 0.9)
         result = follow_trial(twin_trial(truth, duration_s, 60 + seed), truth, NO_DIAGNOSIS)
-        adopted = [line for line in result.log if line.startswith("adopted")]
-        reverted = [line for line in result.log if line.startswith("reverted")]
+        adopted = [line for line in result.log if line.startswith("adopted surge")]
+        reverted = [line for line in result.log if line.startswith("reverted surge")]
+        turning = [line for line in result.log if line.startswith(("adopted turning", "reverted turning"))]
         masses = [m["surge"]["mass_kg"] for m in result.models]
         swing = max(abs(m / truth.vessel.mass_kg - 1) for m in masses) if masses else math.nan
         print(f"B  started at the truth, seed {seed}, {duration_s / 60:.0f} min: {len(adopted)} adoptions, "
-              f"{len(reverted)} reversals; largest mass departure {swing:.1%}", flush=True)
+              f"{len(reverted)} reversals; largest mass departure {swing:.1%}; turning: "
+              f"{result.final['model']['turning']['fits']} fits, {len(turning)} adoptions or reversals", flush=True)
+
+
+def study_turning(boats: int, duration_s: float) -> None:
+    rng = np.random.default_rng(7)
+    for source, make in (("twin", twin_trial), ("independent", independent)):
+        rows = []
+        cpu = time.process_time()
+        for b in range(boats):
+            damping_f, inertia_f = rng.uniform(0.75, 1.25, 2)
+            base = TwinConfig() if source == "twin" else TwinConfig(vessel=replace(TwinConfig().vessel,
+                                                                                     steering_rate_radps=0.0))
+            derived = coefficients(base.vessel)  # the integrator's outboards swing instantly: the model says so
+            truth = replace(base, vessel=replace(base.vessel, manoeuvring={
+                "yaw_damping_Nms": derived["yaw_damping_Nms"] * damping_f,
+                "m33_kgm2": derived["m33_kgm2"] * inertia_f}))
+            result = follow_trial(make(truth, duration_s, 80 + b), base, NO_DIAGNOSIS)
+            turning = result.final["model"]["turning"]
+            true = coefficients(truth.vessel)
+            held = sum(turning["ci95"][k][0] <= true[k] <= turning["ci95"][k][1] for k in turning["ci95"])
+            ratios = [e["yaw_rate_innovation_ratio"] for e in result.timeline]
+            error = turning["coefficients"]["yaw_damping_Nms"] / true["yaw_damping_Nms"] - 1
+            rows.append((turning["fitted"], held, error, ratios[0], ratios[-1]))
+            ci = turning["ci95"].get("yaw_damping_Nms", [math.nan, math.nan])
+            print(f"   {source} boat {b}: yaw damping ×{damping_f:.3f}, m33 ×{inertia_f:.3f}: "
+                  f"{'adopted' if turning['fitted'] else 'NOT adopted'} ({turning['fits']} fits, "
+                  f"{turning['swaps']} swaps), yaw damping {error:+.1%} [{ci[0] / true['yaw_damping_Nms'] - 1:+.1%}, "
+                  f"{ci[1] / true['yaw_damping_Nms'] - 1:+.1%}], intervals holding the truth {held}/{len(LIVE_KEYS)}"
+                  f"; yaw-rate innovation ratio {ratios[0]:.2f} → {ratios[-1]:.2f}", flush=True)
+        n = len(rows)
+        adopted = [r for r in rows if r[0]]
+        print(f"T  {source}: {n} boats, {duration_s / 60:.0f} min each: turning adopted on {len(adopted)}/{n}; "
+              f"intervals holding the truth {sum(r[1] for r in adopted)}/{len(adopted) * len(LIVE_KEYS)} "
+              f"(target ~95 %); yaw-damping error median {np.median(np.abs([r[2] for r in rows])):.1%}, max "
+              f"{np.max(np.abs([r[2] for r in rows])):.1%}; yaw-rate innovation ratio first minute median "
+              f"{np.median([r[3] for r in rows]):.2f}, last {np.median([r[4] for r in rows]):.2f}; "
+              f"{(time.process_time() - cpu) / n:.1f} s CPU per boat", flush=True)
 
 
 def main() -> None:
@@ -107,9 +150,14 @@ def main() -> None:
     parser.add_argument("--boats", type=int, default=6, help="boats per source in A")
     parser.add_argument("--duration-s", type=float, default=900.0, help="trial length, s")
     parser.add_argument("--flap-seeds", type=int, default=3, help="trials in B")
+    parser.add_argument("--only", default="BAT", help="studies to run, by letter (default: all)")
     args = parser.parse_args()
-    study_flapping(args.duration_s, args.flap_seeds)
-    study_coverage(args.boats, args.duration_s)
+    if "B" in args.only:
+        study_flapping(args.duration_s, args.flap_seeds)
+    if "A" in args.only:
+        study_coverage(args.boats, args.duration_s)
+    if "T" in args.only:
+        study_turning(args.boats, args.duration_s)
 
 
 if __name__ == "__main__":

@@ -215,6 +215,15 @@ def _normalized_residuals(data: TrialData, prediction: Prediction) -> dict[str, 
     return out
 
 
+def prediction_error(data: TrialData, config: TwinConfig) -> float:
+    """Mean squared residual of ``config``'s replay of ``data``'s windows, each signal over its measured noise
+    (the fit's own measure, at the windows' measured initial states): ≈ 1 when the model is right, -."""
+    with np.errstate(all="ignore"), warnings.catch_warnings():  # a diverged replay is scored as such
+        warnings.simplefilter("ignore", RuntimeWarning)
+        residuals = _normalized_residuals(data, predict(data.windows, config))
+    return float(np.nanmean(np.concatenate([r.ravel() for r in residuals.values()]) ** 2))
+
+
 def _steering_late(windows: Windows, samples: int) -> Windows:
     """``windows`` with the steering commands (not the thrust) acting ``samples`` samples late: each sample's
     steering is the trial's from ``samples`` earlier (the first held)."""
@@ -494,14 +503,19 @@ def _sandwich(jac: np.ndarray, residuals: np.ndarray, clusters: np.ndarray) -> t
     return bread @ meat @ bread * g_count / max(g_count - p, 1), g_count
 
 
-def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float = WINDOW_S) -> ManoeuvringFit:
-    """Fit the manoeuvring coefficients of ``base`` (the prior; its surge is held) to ``trials``."""
+def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float = WINDOW_S,
+                    free: Sequence[str] = PARAMETER_KEYS) -> ManoeuvringFit:
+    """Fit the manoeuvring coefficients ``free`` (keys of :data:`PARAMETER_KEYS`; every one by default) of
+    ``base`` (the prior; its surge and the others held) to ``trials``."""
     if not trials:
         raise InputError("no trial to fit the manoeuvring coefficients to")
+    unknown = sorted(set(free) - set(PARAMETER_KEYS))
+    if unknown or not free:
+        raise ValueError(f"manoeuvring parameters to fit: unknown {unknown}" if unknown else "nothing to fit")
     started = time.perf_counter()
     data = [prepare(trial, window_s) for trial in trials]
     start = _start_values(base)
-    free = list(PARAMETER_KEYS)
+    free = [key for key in PARAMETER_KEYS if key in free]
     problem = _Problem(data, base, start, free)
     x, jac, fun = _solve(problem)
     evaluations = problem.evaluations

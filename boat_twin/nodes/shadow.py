@@ -56,11 +56,15 @@ from boat_twin.nodes.simulator import message_class
 from boat_twin.nodes.spin import run_node
 from boat_twin.shadow.session import Shadow, ShadowSettings
 from boat_twin.shadow.sync import COMMAND_KINDS, Innovation, SyncSettings
+from boat_twin.shadow.turning import LIVE_KEYS
 
 SENSOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
 """SensorDataQoS with 100 s of a 10 Hz stream as history: a rolling diagnosis holds the executor for 2-3 s, which
 a recording played at 10x fills with 30 s of samples."""
-MODEL_LABEL = "mass_kg,mass_low_kg,mass_high_kg,resistance_factor,factor_low,factor_high"
+MODEL_LABEL = ",".join(["mass_kg,mass_low_kg,mass_high_kg,resistance_factor,factor_low,factor_high"]
+                       + [f"{k},{k}_low,{k}_high" for k in LIVE_KEYS])
+"""The ``shadow/model`` array: the surge model, then each live turning coefficient (SI) with its 95 % interval
+(NaN while the twin turns with the configured ones)."""
 INNOVATION_LABEL = "t_s,speed_innovation_mps,stdev_mps,ratio"
 
 
@@ -143,8 +147,11 @@ class ShadowNode(Node):
         self.shadow.poll()
         self._publish_odometry()
         surge = self.shadow.adapter.current
+        turning = self.shadow.turning.to_dict(self.shadow.twin.config.vessel)
+        coefficients = [x for k in LIVE_KEYS
+                        for x in (turning["coefficients"][k], *turning["ci95"].get(k, (math.nan, math.nan)))]
         self.model_pub.publish(_array([surge.mass_kg, *surge.mass_ci95_kg, surge.resistance_factor,
-                                       *surge.factor_ci95], MODEL_LABEL))
+                                       *surge.factor_ci95, *coefficients], MODEL_LABEL))
         status = self.shadow.status()
         latest = self.shadow.rolling.latest
         causes = latest.causes if latest is not None else []

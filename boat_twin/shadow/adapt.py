@@ -47,7 +47,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -70,6 +70,9 @@ SPLINES = 5
 """I-spline terms of every fit (a fixed candidate; module docstring). Fewer leave a shape error the mass absorbs:
 a boat of the configured curve × 0.9 followed from the truth gave +1.4 % with the baseline or 3 I-splines, +0.6 %
 with 5 or 8, where the 95 % interval is ±1.2 %."""
+RICHER_SPLINES = 8
+"""I-spline terms of the richer curve whose spread the intervals of a fit about to be adopted carry (offline
+``identify``'s next candidate after :data:`SPLINES`)."""
 FACTOR_POINTS = 21
 """Speed quantiles over which the resistance factor summarises a fitted curve against the configured one."""
 MIN_SAMPLES = 100
@@ -108,6 +111,9 @@ class SurgeModel:
     """Var(m₁₁) kg², Cov(m₁₁, factor) kg, Var(factor) of the fit (cluster-robust)."""
     clusters: int = 0
     """Blocks of the cluster-robust covariance, -."""
+    fit: SurgeFit | None = field(default=None, compare=False, repr=False)
+    record: SurgeRecord | None = field(default=None, compare=False, repr=False)
+    """The fit and the horizon it was made on (None: the configured model), for :func:`with_basis_spread`."""
 
     def vessel(self, base: VesselParams) -> VesselParams:
         """``base`` with this mass and resistance."""
@@ -178,6 +184,22 @@ def fit_surge(record: SurgeRecord, base: VesselParams, current: SurgeModel, spli
     return _model(fit, record, base, current, held)
 
 
+def with_basis_spread(model: SurgeModel, base: VesselParams, current: SurgeModel) -> SurgeModel:
+    """``model`` with intervals that also carry the spread to the next richer curve (:data:`RICHER_SPLINES`
+    I-splines) fitted to the same horizon, as offline ``identify`` gives them
+    (:attr:`~boat_twin.ident.output_error.SurgeFit.reference`): the 5-spline curve's approximation error, which
+    the sampling covariance leaves out. ``model`` unchanged when the richer fit cannot be made."""
+    fit, record = model.fit, model.record
+    if fit is None or record is None or fit.reference is not None:
+        return model
+    try:
+        fit.reference = output_error.fit_surge([record], spline_basis(record.speed_mps, RICHER_SPLINES),
+                                               mass_kg=fit.mass_kg if fit.mass_fixed else None)
+    except (InputError, ValueError, np.linalg.LinAlgError):
+        return model
+    return _model(fit, record, base, current, model.mass_held)
+
+
 def _model(fit: SurgeFit, record: SurgeRecord, base: VesselParams, current: SurgeModel, held: bool) -> SurgeModel:
     """A fit as a surge model: mass per displacement, the curve as a table, the factor and its covariance."""
     added = 1.0 + base.surge_added_mass_ratio
@@ -191,13 +213,19 @@ def _model(fit: SurgeFit, record: SurgeRecord, base: VesselParams, current: Surg
     cov_mass = 0.0 if held else float(gradient @ cov[:p, p])
     var_mass = 0.0 if held else float(cov[p, p])
     factor = float(gradient @ fit.coefficients)
+    if fit.reference is not None:  # the spread to the richer curve (with_basis_spread)
+        reference_values, _ = fit.reference.basis.design(speeds)
+        reference_gradient = reference_values.T @ reference / max(float(reference @ reference), 1e-300)
+        var_factor += (factor - float(reference_gradient @ fit.reference.coefficients)) ** 2
+        if not held:
+            var_mass += (fit.mass_kg - fit.reference.mass_kg) ** 2
     q = fit.t_quantile()
     half = q * math.sqrt(max(var_factor, 0.0))
     mass = current.mass_kg if held else fit.mass_kg / added
     mass_ci = current.mass_ci95_kg if held else (fit.mass_ci95_kg[0] / added, fit.mass_ci95_kg[1] / added)
     return SurgeModel(mass, factor, mass_ci, (factor - half, factor + half), int(record.t_s.size),
                       fit.resistance_model(), fit.basis.name, held, tuple(float(s) for s in speeds),
-                      (var_mass, cov_mass, var_factor), fit.clusters)
+                      (var_mass, cov_mass, var_factor), fit.clusters, fit, record)
 
 
 def rejects(candidate: SurgeModel, current: SurgeModel, base: VesselParams, level: float = REJECT_LEVEL) -> bool:
@@ -295,6 +323,10 @@ class SurgeAdapter:
         if not math.isfinite(now):
             return False
         candidate = fit_surge(record, self.base, self.current)
+        if candidate is not None and rejects(candidate, self.current, self.base):
+            # only then the richer curve's spread (a second fit): a candidate that does not reject the current
+            # model with its sampling covariance alone does not with wider intervals either
+            candidate = with_basis_spread(candidate, self.base, self.current)
         self.candidate = candidate
         standing = candidate is None or not rejects(candidate, self.current, self.base)
         self.wait_s = min(2.0 * self.wait_s, MAX_WAIT_PERIODS * self.period_s) if standing else self.period_s

@@ -37,7 +37,8 @@ class FollowResult:
     speed_innovations: np.ndarray
     """(n, 3) t_s, speed innovation m/s, its stated spread m/s."""
     models: list[dict[str, Any]] = field(default_factory=list)
-    """Per timeline entry: t_s, the current model and the latest fit (with intervals)."""
+    """Per timeline entry: t_s, the current surge model and its latest fit (with intervals), the turning
+    coefficients (:meth:`~boat_twin.shadow.turning.TurningAdapter.to_dict`)."""
     diagnoses: list[dict[str, Any]] = field(default_factory=list)
     """Every rolling diagnosis run (RollingResult.to_dict)."""
 
@@ -67,7 +68,8 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
         if t >= next_entry:
             timeline.append(_entry(shadow))
             models.append({"t_s": t, "surge": shadow.adapter.current.to_dict(),
-                           "latest_fit": shadow.adapter.candidate.to_dict() if shadow.adapter.candidate else None})
+                           "latest_fit": shadow.adapter.candidate.to_dict() if shadow.adapter.candidate else None,
+                           "turning": shadow.turning.to_dict(shadow.twin.config.vessel)})
             next_entry += TIMELINE_PERIOD_S
             if progress is not None:
                 progress(f"follow: {t:.0f} of {end_s:.0f} s")
@@ -104,7 +106,8 @@ def trial_samples(trial: Trial) -> Iterator[tuple[str, float, tuple[float, ...]]
 def _entry(shadow: Shadow) -> dict[str, Any]:
     status = shadow.status()
     return {"t_s": status["t_s"], "speed_innovation_ratio": status["speed_innovation_ratio"],
-            "mass_kg": status["mass_kg"], "resistance_factor": status["resistance_factor"],
+            "yaw_rate_innovation_ratio": status["yaw_rate_innovation_ratio"], "mass_kg": status["mass_kg"],
+            "resistance_factor": status["resistance_factor"],
             "causes": status["causes"], "unexplained": status["unexplained"]}
 
 

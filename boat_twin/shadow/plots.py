@@ -3,10 +3,14 @@ its 95 % intervals, and the causes the rolling diagnosis held over time."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from boat_twin.shadow.follow import FollowResult
+from boat_twin.shadow.turning import LIVE_KEYS
 
 
 def innovation_figure(result: FollowResult) -> Figure:
@@ -30,9 +34,10 @@ def innovation_figure(result: FollowResult) -> Figure:
 
 
 def model_figure(result: FollowResult, configured_mass_kg: float) -> Figure:
-    """Mass and resistance factor of the adopted model and of each fit, with the fits' 95 % intervals."""
-    fig = Figure(figsize=(9, 6))
-    axes = fig.subplots(2, 1, sharex=True)
+    """Mass and resistance factor of the adopted model and of each fit, with the fits' 95 % intervals; the turning
+    coefficients adopted over the configured boat's, and each turning fit's with its interval."""
+    fig = Figure(figsize=(9, 9))
+    axes = fig.subplots(3, 1, sharex=True)
     t = np.array([m["t_s"] for m in result.models])
     for ax, key, ci, label in ((axes[0], "mass_kg", "mass_ci95_kg", "mass, kg"),
                                (axes[1], "resistance_factor", "resistance_factor_ci95", "resistance ×, -")):
@@ -50,9 +55,33 @@ def model_figure(result: FollowResult, configured_mass_kg: float) -> Figure:
         ax.legend(loc="upper right")
     axes[0].axhline(configured_mass_kg, color="k", ls=":", lw=1)
     axes[1].axhline(1.0, color="k", ls=":", lw=1)
-    axes[1].set_xlabel("trial time, s")
+    _turning_axes(axes[2], result)
+    axes[2].set_xlabel("trial time, s")
     fig.tight_layout()
     return fig
+
+
+def _turning_axes(ax: Axes, result: FollowResult) -> None:
+    """Each live turning coefficient over the configured boat's: adopted (steps) and fitted (95 % intervals)."""
+    t = np.array([m["t_s"] for m in result.models])
+    fits: dict[float, dict[str, Any]] = {}
+    for m in result.models:  # a fit shows once, at the first entry after it
+        fit = m["turning"]["latest_fit"]
+        if fit is not None and fit not in fits.values():
+            fits[m["t_s"]] = fit
+    for i, key in enumerate(LIVE_KEYS):
+        color = f"C{i}"
+        adopted = [m["turning"]["relative_to_configured"][key] for m in result.models]
+        ax.step(t, adopted, where="post", color=color, label=key)
+        ft = np.array(list(fits)) + 2.0 * (i - 2)  # side by side
+        ratio = np.array([f["relative_to_configured"][key] for f in fits.values()], dtype=float)
+        configured = np.array([f["coefficients"][key] / f["relative_to_configured"][key] for f in fits.values()])
+        low = np.array([f["ci95"][key][0] for f in fits.values()], dtype=float) / configured
+        high = np.array([f["ci95"][key][1] for f in fits.values()], dtype=float) / configured
+        ax.errorbar(ft, ratio, yerr=[ratio - low, high - ratio], fmt=".", color=color, capsize=2)
+    ax.axhline(1.0, color="k", ls=":", lw=1)
+    ax.set_ylabel("turning coefficient ×, -")
+    ax.legend(loc="best", fontsize="small", ncol=2, title="adopted (steps), fits (bars)")
 
 
 def cause_figure(result: FollowResult) -> Figure:

@@ -17,6 +17,7 @@ import numpy as np
 from boat_twin.config import TwinConfig, save_config
 from boat_twin.diagnose.defaults import WINDOW_S as REPLAY_WINDOW_S
 from boat_twin.errors import InputError
+from boat_twin.ident.manoeuvring import prediction_error, prepare
 from boat_twin.shadow.adapt import SurgeAdapter, SurgeModel
 from boat_twin.shadow.rolling import (
     IDLE_PERIOD_S,
@@ -30,9 +31,10 @@ from boat_twin.shadow.rolling import (
     RollingResult,
 )
 from boat_twin.shadow.sync import Innovation, ShadowTwin, SyncSettings
+from boat_twin.shadow.turning import MIN_TRAINING_S, TurningAdapter, TurningModel
 from boat_twin.twin.replay import cut_windows, predict
 from boat_twin.vessel.environment import Environment
-from boat_twin.vessel.params import derive_coefficients
+from boat_twin.vessel.params import VesselParams, derive_coefficients
 
 RATIO_WINDOW_S = 60.0
 """The speed-innovation ratio is the RMS over this last stretch of stream time, s."""
@@ -48,13 +50,17 @@ class ShadowSettings:
 
     sync: SyncSettings = field(default_factory=SyncSettings)
     adapt: bool = True
-    """Re-identify the surge model online."""
+    """Adapt the model online (surge and turning, each as its own switch says)."""
     horizon_s: float = 600.0
     """Moving horizon of the adaptation, s."""
     holdout_s: float = 130.0
     """Its held-out tail, s: at least 6 replay windows of 20 s (the diagnosis' replay)."""
     adapt_period_s: float = 30.0
     """Time between adaptation attempts, s."""
+    adapt_turning: bool = True
+    """Re-identify the turning coefficients online when the boat steers (needs ``adapt``)."""
+    turning_period_s: float = 60.0
+    """Time between turning-adaptation attempts, s (doubling while fits confirm the coefficients)."""
     diagnose: bool = True
     """Run the rolling diagnosis."""
     diagnose_in_background: bool = False
@@ -87,7 +93,9 @@ class Shadow:
         s, config = self.settings, self.base
         self.adapter = SurgeAdapter(config.vessel, horizon_s=s.horizon_s, holdout_s=s.holdout_s,
                                     period_s=s.adapt_period_s, latency_s=config.gnss.latency_s, log=self.log)
-        self.recent = RecentStreams(max(s.diagnosis_window_s, s.holdout_s) + 10.0)
+        self.turning = TurningAdapter(config.vessel, period_s=s.turning_period_s, log=self.log)
+        turning_horizon_s = s.horizon_s if s.adapt and s.adapt_turning else 0.0
+        self.recent = RecentStreams(max(s.diagnosis_window_s, s.holdout_s, turning_horizon_s) + 10.0)
         self.rolling = RollingDiagnosis(self.recent, window_s=s.diagnosis_window_s, period_s=s.diagnosis_period_s,
                                         idle_period_s=s.diagnosis_idle_period_s, misfit_ratio=s.misfit_ratio,
                                         log=self.log)
@@ -104,6 +112,7 @@ class Shadow:
         if self.twin.counts["restarts"] != self._restarts:  # the stream restarted: its buffers go too
             self._restarts = self.twin.counts["restarts"]
             self.adapter.reset()
+            self.turning.reset()
             self.recent.clear()
             self.rolling.restart()
             for squares in self._squares.values():
@@ -138,7 +147,12 @@ class Shadow:
             surge = east * math.cos(yaw) + north * math.sin(yaw)
             self.adapter.add(t_s, self.surge_force_N(surge), math.hypot(east, north))
             if self.adapter.due(t_s) and self.adapter.update(self._held_out_score(t_s)):
-                self.twin.set_config(replace(self.twin.config, vessel=self.adapter.vessel()))
+                self.twin.set_config(replace(self.twin.config, vessel=self.vessel()))
+                self._m22_kg = None
+        if self.settings.adapt and self.settings.adapt_turning:
+            first_s = self.recent.first_s + self.settings.holdout_s + MIN_TRAINING_S
+            if self.turning.due(t_s, first_s) and self._update_turning(t_s):
+                self.twin.set_config(replace(self.twin.config, vessel=self.vessel()))
                 self._m22_kg = None
         self._poll_diagnosis()
         if self.settings.diagnose and self._pending is None and self.rolling.due(t_s, self.misfit_ratio()):
@@ -153,13 +167,34 @@ class Shadow:
         except InputError:
             return lambda _model: math.nan
         config = self.twin.config
+        turning = self.turning.current
 
         def score(model: SurgeModel) -> float:
-            prediction = predict(windows, replace(config, vessel=model.vessel(self.adapter.base)))
+            prediction = predict(windows, turning.config(replace(config, vessel=model.vessel(self.adapter.base))))
             errors = [windows.measured[s] - prediction.signals[s] for s in ("vel_east_mps", "vel_north_mps")]
             return float(np.nanmean(np.square(errors)))
 
         return score
+
+    def vessel(self) -> VesselParams:
+        """The configured boat with the adopted surge model and turning coefficients."""
+        return self.turning.current.config(replace(self.base, vessel=self.adapter.vessel())).vessel
+
+    def _update_turning(self, t_s: float) -> bool:
+        """Try the turning adaptation on the horizon without its held-out tail (True: the coefficients changed):
+        the fit holds the twin's current surge model, the held-out score replays the last ``holdout_s``."""
+        s = self.settings
+        try:
+            training = self.recent.trial(t_s - s.horizon_s, t_s - s.holdout_s)
+            held_out = prepare(self.recent.trial(t_s - s.holdout_s, t_s))
+        except InputError:
+            return False
+        plain = replace(self.twin.config, vessel=self.adapter.vessel())
+
+        def score(model: TurningModel) -> float:
+            return prediction_error(held_out, model.config(plain))
+
+        return self.turning.update(training, plain, score)
 
     def surge_force_N(self, surge_mps: float) -> float:
         """The surge force besides resistance now, N: the held thrust commands delivered (the engines' envelope
@@ -182,7 +217,7 @@ class Shadow:
         return force
 
     def _diagnose(self, t_s: float) -> None:
-        job = self.rolling.start(t_s, replace(self.base, vessel=self.adapter.vessel()),
+        job = self.rolling.start(t_s, replace(self.base, vessel=self.vessel()),
                                  self.misfit_ratio() > self.settings.misfit_ratio)
         if self.settings.diagnose_in_background:
             if self._worker is None:
@@ -274,6 +309,7 @@ class Shadow:
             "surge": self.adapter.current.to_dict(),
             "latest_fit": candidate.to_dict() if candidate is not None else None,
             "swaps": self.adapter.swaps,
+            "turning": self.turning.to_dict(self.twin.config.vessel),
             "environment": {k: float(v) for k, v in vars(self.twin.config.environment).items()},
             "diagnosis": self.rolling.latest.to_dict() if self.rolling.latest is not None else None,
             "diagnosis_runs": self.rolling.runs,
