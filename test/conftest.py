@@ -2,8 +2,12 @@
 MAVLink log the twin writes itself.
 
 Tests of a module that starts ROS 2 nodes (it imports ``test/rosnodes.py``) are marked ``ros_nodes``. `make test`
-runs the rest on every core (pytest-xdist) and these alone afterwards: a live recorder that shares the cores with
-other tests lags the simulated clock and records commands late (test/test_ros_live.py, REAL_TIME_FACTOR).
+runs the rest on every core (pytest-xdist) and these afterwards, apart: a live recorder that shares the cores with
+the CPU-bound tests lags the simulated clock and records commands late (test/test_ros_live.py, REAL_TIME_FACTOR).
+The node tests mostly wait on their processes, so they run in two pytest-xdist workers of their own, a module
+each at a time (``--dist loadfile``: a module's node fixture starts once), each worker on its own ROS domain
+(test/rosnodes.py). The modules marked ``long_wait`` (minutes of live run) are collected first, so that one
+worker takes them while the other works through the short ones and both end together.
 
 Real third-party data is never part of the project: it stays in ``../shared/data`` beside the clone
 (``BOAT_TWIN_SHARED_DATA`` names another directory). A test that needs it takes :func:`shared_data` and skips
@@ -37,6 +41,8 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "ros_nodes: starts ROS 2 node processes (run apart from the rest)")
     config.addinivalue_line("markers", "slow: a long study (minutes on 2 cores); `make test` runs it in CI only "
                                        "(CI=true, or `make test SLOW=1`)")
+    config.addinivalue_line("markers", "long_wait: a module of minutes of waiting on live nodes, collected first "
+                                       "(so that parallel workers end together)")
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
@@ -44,6 +50,7 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
         module = getattr(item, "module", None)
         if module is not None and "rosnodes" in vars(module):
             item.add_marker(pytest.mark.ros_nodes)
+    items.sort(key=lambda item: item.get_closest_marker("long_wait") is None)  # stable: the order within stays
 
 
 def shared_data(relative: str) -> Path:

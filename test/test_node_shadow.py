@@ -9,6 +9,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import pytest
 import rosnodes
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.qos import QoSProfile
@@ -23,6 +24,7 @@ from boat_twin.vessel.environment import Environment
 
 CURRENT = (0.4, -0.25)
 """The hidden current, east and north, m/s."""
+pytestmark = pytest.mark.long_wait  # a 165 s trial played at 5x, then the rolling diagnosis
 
 
 def _bag(path: Path) -> Path:
