@@ -24,7 +24,7 @@ from boat_twin.vessel.environment import Environment
 
 CURRENT = (0.4, -0.25)
 """The hidden current, east and north, m/s."""
-pytestmark = pytest.mark.long_wait  # a 165 s trial played at 5x, then the rolling diagnosis
+pytestmark = pytest.mark.cpu_burst  # a 165 s trial played at 5x, the rolling diagnosis in the node
 
 
 def _bag(path: Path) -> Path:
