@@ -30,7 +30,6 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 import numba
@@ -45,28 +44,6 @@ from boat_twin.vessel.simulate import SimulationRecord, simulate
 ANGLE = math.radians(20.0)
 DURATION_S = 75.0
 """Length of the ensembles' zigzags, s (the training sets' and the fleet ensembles')."""
-
-
-@dataclass(frozen=True)
-class PythonLoop:
-    """A scenario with its Python helm only: the simulator asks it at every step from its Python loop."""
-
-    scenario: Any
-
-    @property
-    def name(self) -> str:
-        return self.scenario.name
-
-    @property
-    def duration_s(self) -> float:
-        return self.scenario.duration_s
-
-    @property
-    def initial_surge_mps(self) -> float:
-        return self.scenario.initial_surge_mps
-
-    def helm(self, n_boats: int) -> Any:
-        return self.scenario.helm(n_boats)
 
 
 def load() -> str:
@@ -97,9 +74,9 @@ def same(a: SimulationRecord, b: SimulationRecord) -> bool:
 def single(params: Any) -> None:
     for duration, rounds in ((DURATION_S, 7), (600.0, 3)):
         zigzag = Zigzag(params, ANGLE, ANGLE, speed_mps=params.turn_speed_mps, duration_s=duration)
-        identical = same(simulate(params, zigzag), simulate(params, PythonLoop(zigzag)))  # type: ignore[arg-type]
+        identical = same(simulate(params, zigzag), simulate(params, zigzag, compiled_helm=False))
         measured = best(rounds, {"compiled": lambda z=zigzag: simulate(params, z),
-                                 "python": lambda z=zigzag: simulate(params, PythonLoop(z))})  # type: ignore[arg-type]
+                                 "python": lambda z=zigzag: simulate(params, z, compiled_helm=False)})
         (wall, cpu), (py_wall, py_cpu) = measured["compiled"], measured["python"]
         print(f"one boat, {duration:g} s zigzag 20/20: compiled helm {wall * 1e3:.1f} ms, CPU {cpu * 1e3:.1f} ms "
               f"({duration / wall:,.0f}x real time); Python step loop {py_wall * 1e3:.1f} ms, CPU {py_cpu * 1e3:.1f} "
@@ -221,7 +198,7 @@ def ensemble_runs(boats: int, config: TwinConfig, vessels: list[Any], client: An
 
         runs[f"Dask, {workers} processes x 1 thread"] = dask
     def python_loop() -> Any:
-        return simulate(params, PythonLoop(zigzag), boats=vessels)  # type: ignore[arg-type]
+        return simulate(params, zigzag, boats=vessels, compiled_helm=False)
 
     runs[f"Python step loop, {threads} threads"] = on_threads(threads, python_loop)
     runs["Python step loop, 1 thread"] = on_threads(1, python_loop)

@@ -16,7 +16,6 @@ import argparse
 import json
 import math
 import os
-import resource
 import socket
 import subprocess
 import sys
@@ -30,7 +29,7 @@ from boat_twin.config import TwinConfig
 from boat_twin.fleet.batch import run_batch
 from boat_twin.fleet.engine import LOCAL, open_client
 from boat_twin.fleet.ensemble import EnsembleSpec, ensemble_chunks, run_ensemble
-from boat_twin.fleet.jobs import DiagnoseJob
+from boat_twin.fleet.jobs import RUN_COLUMNS, DiagnoseJob
 from boat_twin.fleet.trials import expand_trials, name_trials
 from boat_twin.io.bags import write_bag
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
@@ -38,8 +37,6 @@ from boat_twin.vessel.scenarios import make_scenario
 
 KINDS = ("random", "zigzag-20-20", "thrust-steps")
 """Scenarios of the recordings, in turn."""
-RUN_COLUMNS = ("seconds", "cpu_s", "worker")
-"""Columns that say how a row was made, not what it found."""
 
 
 def recordings(folder: Path, count: int, duration_s: float) -> list[Path]:
@@ -65,18 +62,22 @@ def warm_up() -> None:
     simulate(config.vessel, make_scenario("random", config.vessel, np.random.default_rng(0), 5.0))
 
 
+def worker_peak_rss_mb(rows: list[dict]) -> dict[str, float]:
+    """Peak resident memory of every worker process over ``rows`` (each row's ``peak_rss_mb``), MB."""
+    peaks: dict[str, float] = {}
+    for row in rows:
+        peaks[row["worker"]] = max(peaks.get(row["worker"], 0.0), row["peak_rss_mb"])
+    return peaks
+
+
 def findings(rows: list[dict]) -> list[dict]:
     return [{k: v for k, v in row.items() if k not in RUN_COLUMNS} for row in rows]
 
 
-def worker_peak_rss_mb(client) -> dict[str, float]:
-    """Peak resident memory of every worker process so far, MB."""
-    return client.run(lambda: resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
-
-
 def batch(paths: list[Path], out: Path) -> list[dict]:
-    """Diagnose ``paths`` one after another here, then on a 2-worker local cluster (its first half, then all:
-    the second run resumes the first), and print the times, the ratio and the workers' memory."""
+    """Diagnose ``paths`` one after another here, then on a 2-worker local cluster, and print the times, the
+    ratio and the workers' memory (each row's ``peak_rss_mb``: its worker's peak so far, after the first half of
+    the batch's rows and after all)."""
     tasks = name_trials(expand_trials(paths))
     job = DiagnoseJob()
     warm_up()
@@ -88,19 +89,17 @@ def batch(paths: list[Path], out: Path) -> list[dict]:
         client.run(warm_up)
         ready_s = time.perf_counter() - start
         start = time.perf_counter()
-        run_batch(job, tasks[: len(tasks) // 2], out / "cluster", client)
-        half_mb = worker_peak_rss_mb(client)
         parallel = run_batch(job, tasks, out / "cluster", client).rows
         cluster_s = time.perf_counter() - start
-        full_mb = worker_peak_rss_mb(client)
     same = findings(parallel) == findings(serial)
     print(f"diagnose {len(tasks)} recordings: serial {serial_s:.1f} s, 2-worker local cluster {cluster_s:.1f} s "
           f"(after {ready_s:.1f} s starting it and loading the kernels), ratio {serial_s / cluster_s:.2f}x (target "
           f">= 1.8x); CPU of the tasks: serial {sum(r['cpu_s'] for r in serial):.1f} s, cluster "
           f"{sum(r['cpu_s'] for r in parallel):.1f} s; rows identical: {same}, errors: "
           f"{sum(r['status'] != 'ok' for r in parallel)}")
+    half, full = worker_peak_rss_mb(parallel[: len(parallel) // 2]), worker_peak_rss_mb(parallel)
     print("peak RSS per worker after half / all of the batch, MB: "
-          + ", ".join(f"{half_mb[w]:.0f} / {full_mb[w]:.0f}" for w in sorted(full_mb)))
+          + ", ".join(f"{half.get(w, float('nan')):.0f} / {full[w]:.0f}" for w in sorted(full)))
     return serial
 
 

@@ -29,6 +29,7 @@ from boat_twin.diagnose import hidden
 from boat_twin.fleet import engine
 from boat_twin.fleet.batch import ROW_FILE
 from boat_twin.fleet.ensemble import EnsembleSpec, run_ensemble
+from boat_twin.fleet.jobs import RUN_COLUMNS
 from boat_twin.fleet.trials import expand_trials, name_trials
 
 OTTER_MASS_KG = 1.10 * OTTER["mass_kg"]
@@ -155,7 +156,9 @@ def test_resume_after_a_killed_run_skips_complete_reports_and_force_redoes_them(
     assert [r["status"] for r in rows] == ["ok"] * 2 and rows[0] == killed_row
     code, stdout, _ = run_cli("identify", *good, "--each", "--out", out, "--scheduler", "sync", "--force")
     assert code == 0 and "(0 complete from an earlier run)" in stdout
-    assert json.loads(first.read_text())["worker"] == f"{socket.gethostname()}:{os.getpid()}"
+    redone = json.loads(first.read_text())
+    assert redone["worker"] == f"{socket.gethostname()}:{os.getpid()}"
+    assert 10.0 < redone["peak_rss_mb"] < 1e5  # this process's peak resident memory, MB (not kB, not bytes)
 
 
 BOAT_TWIN = str(Path(sys.executable).parent / "boat-twin")
@@ -333,9 +336,8 @@ def test_a_scheduler_and_two_workers_started_by_hand_give_the_serial_results(ott
                                   "--json")
         assert code == 0
         serial = json.loads(stdout)
-        strip = ("seconds", "cpu_s", "worker")
-        assert [{k: v for k, v in r.items() if k not in strip} for r in cluster] == \
-               [{k: v for k, v in r.items() if k not in strip} for r in serial]
+        assert [{k: v for k, v in r.items() if k not in RUN_COLUMNS} for r in cluster] == \
+               [{k: v for k, v in r.items() if k not in RUN_COLUMNS} for r in serial]
         assert all(not r["worker"].endswith(f":{os.getpid()}") for r in cluster)  # ran on the workers
     finally:
         for process in reversed(started):

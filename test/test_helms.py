@@ -3,7 +3,7 @@ asking the scenario's helm: same states, derivatives, steering, commands and com
 a command delay, a slow helm, per-boat coefficients, on numba's threads and in chunks of ticks."""
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -22,35 +22,13 @@ PARAMS = VesselParams()
 ANGLE = math.radians(20.0)
 
 
-@dataclass(frozen=True)
-class _PythonLoop:
-    """The scenario with its Python helm only: the simulator asks it from its step loop (the reference)."""
-
-    scenario: Any
-
-    @property
-    def name(self) -> str:
-        return self.scenario.name
-
-    @property
-    def duration_s(self) -> float:
-        return self.scenario.duration_s
-
-    @property
-    def initial_surge_mps(self) -> float:
-        return self.scenario.initial_surge_mps
-
-    def helm(self, n_boats: int) -> Any:
-        return self.scenario.helm(n_boats)
-
-
 def _same(compiled: SimulationRecord, reference: SimulationRecord) -> None:
     for name in ("t_s", "states", "derivatives", "steering_rad", "commands", "command_issued_s"):
         np.testing.assert_array_equal(getattr(compiled, name), getattr(reference, name), err_msg=name)
 
 
 def _both(params: VesselParams, scenario: Any, **kwargs: Any) -> tuple[SimulationRecord, SimulationRecord]:
-    return simulate(params, scenario, **kwargs), simulate(params, _PythonLoop(scenario), **kwargs)  # type: ignore[arg-type]
+    return simulate(params, scenario, **kwargs), simulate(params, scenario, compiled_helm=False, **kwargs)
 
 
 @pytest.mark.parametrize(("delay_s", "rate_hz"), [(0.0, 0.0), (0.25, 0.0), (0.13, 10.0)])
@@ -84,7 +62,7 @@ def test_an_ensemble_on_threads_and_in_chunks_is_the_python_helms_each_boat_alon
         joined = np.concatenate([getattr(c, name) for c in chunks])
         np.testing.assert_array_equal(joined, getattr(whole, name)[:, :3], err_msg=name)
     for b in (0, 41):
-        alone = simulate(params, _PythonLoop(zigzag), boats=boats[b:b + 1])  # type: ignore[arg-type]
+        alone = simulate(params, zigzag, boats=boats[b:b + 1], compiled_helm=False)
         np.testing.assert_array_equal(whole.states[:, b], alone.states[:, 0])
         np.testing.assert_array_equal(whole.commands[:, b], alone.commands[:, 0])
 

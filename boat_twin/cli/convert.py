@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write(to_json({
             "source": str(log_path), "out": str(args.out), "messages": total, "topics": counts,
             "summary": summary, "missing": trial.metadata.missing, "gaps": trial.metadata.gaps,
-            "start_time_s": trial.metadata.start_time_s, "time_base": log.time_base, "notes": notes,
+            "start_time_s": trial.metadata.start_time_s, "time_base": log.report.time_base, "notes": notes,
         }) + "\n")
         return 0
     lines = [f"wrote {args.out}: {total} messages"] + [f"  /{topic}: {n}" for topic, n in sorted(counts.items())]

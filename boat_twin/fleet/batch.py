@@ -11,7 +11,7 @@
   after every trial, each atomically and the two together with SIGINT and SIGTERM held back (they always
   agree), so that a killed run leaves the rows of the trials it finished. Each row has at least
   ``trial``, ``status`` ("ok" or "error"), ``error`` (null when ok), ``boat``, ``source``, ``duration_s``, the
-  verb's headline (the job's ``columns``), ``seconds``, ``cpu_s`` and ``worker``.
+  verb's headline (the job's ``columns``), ``seconds``, ``cpu_s``, ``worker`` and ``peak_rss_mb``.
 - A failing trial (bad file, a pipeline error, even a crash of its worker) is reported in its row and never stops
   the others.
 """
@@ -23,6 +23,7 @@ import io
 import json
 import os
 import re
+import resource
 import socket
 import sys
 import time
@@ -92,7 +93,8 @@ def run_task(job: Job, task: TrialTask, report_dir: str, one_thread: bool) -> di
 
     def timed() -> None:
         row.update(seconds=time.perf_counter() - start, cpu_s=time.process_time() - cpu,
-                   worker=f"{socket.gethostname()}:{os.getpid()}")
+                   worker=f"{socket.gethostname()}:{os.getpid()}",
+                   peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
 
     try:
         with ReportSet(out, (*job.outputs, ROW_FILE), force=True) as report:
@@ -113,7 +115,7 @@ def _crashed(task: TrialTask, job: Job, err: BaseException) -> dict[str, Any]:
     """The row of a trial whose task did not return (its worker died, the cluster lost it)."""
     return {"trial": task.name, "status": "error", "error": f"task lost: {type(err).__name__}: {err}",
             "boat": task.boat, "source": task.path, "duration_s": None, **dict.fromkeys(job.columns),
-            "seconds": None, "cpu_s": None, "worker": None}
+            **dict.fromkeys(RUN_COLUMNS)}
 
 
 def _cell(value: Any) -> Any:

@@ -31,6 +31,11 @@ SCHEDULER_HELP = ("where the tasks run: 'local' (default: a Dask cluster on this
 """Help text of ``--scheduler``."""
 MISSING = "dask and distributed are not installed (pip install 'boat_twin[fleet]')"
 """What is missing when the fleet extra is not installed."""
+LOCAL_WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
+"""Dask settings of a local cluster's workers: no statistical profiler. A fleet task is one long Python call, and
+the profiler's thread sampling its stack every 10 ms added CPU to every task (16 recordings diagnosed: the
+workers' CPU 17 % above the serial run's with it, 9 % without; benchmarks/bench_fleet.py), for a dashboard
+flame graph that would show one function. A cluster at an address keeps its own settings."""
 CONNECT_TIMEOUT_S = 10.0
 """How long to wait for a scheduler at an address, s."""
 
@@ -78,12 +83,14 @@ def open_client(scheduler: str = LOCAL, workers: int | None = None, quiet: bool 
             _say(f"{MISSING}: running the tasks one after another in this process")
         yield None
         return
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler == LOCAL:
         count = workers or default_workers()
-        with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=":0",
-                          silence_logs=logging.ERROR, env=single_thread_environment()) as cluster, \
+        with dask.config.set(LOCAL_WORKER_CONFIG), \
+                LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=":0",
+                             silence_logs=logging.ERROR, env=single_thread_environment()) as cluster, \
                 Client(cluster) as client:
             if not quiet:
                 _say(f"local Dask cluster: {count} worker process(es), 1 thread each; dashboard "

@@ -14,10 +14,10 @@ from boat_twin.fleet.outputs import DIAGNOSE_OUTPUTS, FOLLOW_OUTPUTS, IDENTIFY_O
 from boat_twin.io.trial import Trial
 
 COMMON_COLUMNS = ("trial", "status", "error", "boat", "source", "duration_s")
-"""Columns every summary row starts with (then the verb's :attr:`columns`, then ``seconds`` and ``worker``)."""
-RUN_COLUMNS = ("seconds", "cpu_s", "worker")
-"""Columns every summary row ends with: the task's wall time and the CPU time of its process meanwhile, s, and
-where it ran (host:pid)."""
+"""Columns every summary row starts with (then the verb's :attr:`columns`, then :data:`RUN_COLUMNS`)."""
+RUN_COLUMNS = ("seconds", "cpu_s", "worker", "peak_rss_mb")
+"""Columns every summary row ends with: the task's wall time and the CPU time of its process meanwhile, s, where
+it ran (host:pid), and the peak resident memory of that process so far, MB (flat over a batch: no leak)."""
 
 
 @dataclass(frozen=True)

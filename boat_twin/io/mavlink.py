@@ -249,14 +249,12 @@ def read_mavlink_log(
     plan = ReadPlan(log_format, calibration)
     rows, report = _read_rows(path, plan)
     tables, absolute = _on_log_clock(rows, report)
-    log = MavlinkLog(source, log_format, {}, {}, log_messages=report.log_messages,
-                     message_counts=report.message_counts, corrupt=report.corrupt, log_span_s=report.log_span_s,
-                     reboots=report.reboots, time_base=report.time_base, notes=report.notes)
+    log = MavlinkLog(source, log_format, {}, {}, report=report)
     _gnss_streams(log, remap, tables, absolute)
     _imu_stream(log, tables, absolute)
     _command_streams(log, plan, tables, absolute)
     if calibration is None:
-        log.notes.append("no calibration: commands not mapped")
+        log.report.notes.append("no calibration: commands not mapped")
     return log
 
 
@@ -305,7 +303,7 @@ def _gnss_streams(log: MavlinkLog, remap: dict[str, str], tables: dict[str, np.n
         values = tables[chosen][:, columns]
         ok = np.all(np.isfinite(values), axis=1)
         if np.count_nonzero(ok) < 2:
-            log.notes.append(f"{role}: fewer than 2 valid {chosen} samples")
+            log.report.notes.append(f"{role}: fewer than 2 valid {chosen} samples")
             continue
         log.streams[role] = Stream(absolute[chosen][ok], values[ok])
         log.topics[role] = chosen
@@ -338,7 +336,7 @@ def _imu_stream(log: MavlinkLog, tables: dict[str, np.ndarray], absolute: dict[s
         else:
             out[:, [6, 7, 1, 2, 3, 8]] = imu[:, 2:8]
         log.topics["imu"] = f"{imu_name} (no {att_name}: heading unknown)"
-        log.notes.append(f"no {att_name}: heading unknown")
+        log.report.notes.append(f"no {att_name}: heading unknown")
     else:
         return
     log.streams["imu"] = Stream(t, out)

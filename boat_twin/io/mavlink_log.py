@@ -23,35 +23,6 @@ accelerations x and y), then the rest of the attitude for writing full sensor_ms
 
 
 @dataclass
-class MavlinkLog:
-    """What one log gave, before gridding: per-role streams (SI, ENU/FLU; stamps on the log's clock, s,
-    in logged order) and how they were read. The ``imu`` stream has the columns :data:`IMU_COLUMNS`."""
-
-    source: str
-    log_format: str
-    streams: dict[str, Stream]
-    topics: dict[str, str]
-    """Role → the message (and field) it came from."""
-    constants: dict[str, float] = field(default_factory=dict)
-    """Command roles the calibration fixes to a constant (N or rad)."""
-    periodic_commands: set[str] = field(default_factory=set)
-    """Command roles read from periodic telemetry: a silence there is a gap, not a held command."""
-    log_messages: int = 0
-    message_counts: dict[str, int] = field(default_factory=dict)
-    corrupt: int = 0
-    log_span_s: tuple[float, float] = (math.nan, math.nan)
-    reboots: int = 0
-    time_base: str = ""
-    notes: list[str] = field(default_factory=list)
-
-    def non_monotone(self) -> dict[str, int]:
-        """Role → backward steps of its stamps, for the roles that have any."""
-        steps = {role: int(np.sum(np.diff(s.stamps_s) < 0)) for role, s in self.streams.items()}
-        return {role: n for role, n in steps.items() if n}
-
-
-
-@dataclass
 class ReadReport:
     """What a reader learnt about the file besides the rows: counts, span, clock, notes."""
 
@@ -67,6 +38,29 @@ class ReadReport:
     boot_offsets_s: np.ndarray | None = None
     """Per boot (a row's column 1), the offset from boot time to the log's absolute clock, s; None: the rows'
     times are already absolute."""
+
+
+@dataclass
+class MavlinkLog:
+    """What one log gave, before gridding: per-role streams (SI, ENU/FLU; stamps on the log's clock, s,
+    in logged order) and how they were read. The ``imu`` stream has the columns :data:`IMU_COLUMNS`."""
+
+    source: str
+    log_format: str
+    streams: dict[str, Stream]
+    topics: dict[str, str]
+    """Role → the message (and field) it came from."""
+    constants: dict[str, float] = field(default_factory=dict)
+    """Command roles the calibration fixes to a constant (N or rad)."""
+    periodic_commands: set[str] = field(default_factory=set)
+    """Command roles read from periodic telemetry: a silence there is a gap, not a held command."""
+    report: ReadReport = field(default_factory=ReadReport)
+    """What the reader learnt about the file (counts, span, clock); its ``notes`` gain the import's own."""
+
+    def non_monotone(self) -> dict[str, int]:
+        """Role → backward steps of its stamps, for the roles that have any."""
+        steps = {role: int(np.sum(np.diff(s.stamps_s) < 0)) for role, s in self.streams.items()}
+        return {role: n for role, n in steps.items() if n}
 
 
 class Rows:

@@ -129,7 +129,7 @@ def trial_from_log(log: MavlinkLog, origin: tuple[float, float, float] | None = 
         base = max(candidates, key=lambda s: np.unique(s.stamps_s[np.isfinite(s.stamps_s)]).size, default=None)
         if base is None or np.unique(base.stamps_s[np.isfinite(base.stamps_s)]).size < 2:
             raise InputError(f"{log.source}: no GNSS, attitude or command samples to build a trial from "
-                             f"({log.log_messages} messages in the file)")
+                             f"({log.report.log_messages} messages in the file)")
         streams["gnss_vel"] = Stream(base.stamps_s, np.full((base.stamps_s.size, 2), np.nan))
         placeholders.append("gnss_vel")
     clock = streams.get("gnss_vel") or streams["gnss_fix"]
@@ -151,8 +151,9 @@ def trial_from_log(log: MavlinkLog, origin: tuple[float, float, float] | None = 
     _command_gaps(trial, log)
     base_fields = {f.name: getattr(meta, f.name) for f in fields(TrialMetadata)}
     trial.metadata = MavlinkTrialMetadata(
-        **base_fields, log_format=log.log_format, log_messages=log.log_messages,
-        message_counts=dict(log.message_counts), corrupt=log.corrupt, log_span_s=log.log_span_s,
-        non_monotone=log.non_monotone(), reboots=log.reboots, time_base=log.time_base, notes=list(log.notes),
+        **base_fields, log_format=log.log_format, log_messages=log.report.log_messages,
+        message_counts=dict(log.report.message_counts), corrupt=log.report.corrupt, log_span_s=log.report.log_span_s,
+        non_monotone=log.non_monotone(), reboots=log.report.reboots, time_base=log.report.time_base,
+        notes=list(log.report.notes),
     )
     return trial

@@ -90,15 +90,18 @@ def simulate(
     initial_states: np.ndarray | None = None,
     extra_drag_N: np.ndarray | None = None,
     boats: Sequence[VesselParams] | None = None,
+    compiled_helm: bool = True,
 ) -> SimulationRecord:
     """Simulate ``n_boats`` identical boats through ``scenario`` for its whole duration.
 
     Unless ``initial_states`` (N, 6) is given, every boat starts at the origin heading east, moving ahead at
     the scenario's initial surge speed through the water. ``boats``: one vessel per boat instead (sway/yaw
     coefficients of their own, the resistance of ``params``, which the scenario's helm uses); ``n_boats`` is
-    then their number.
+    then their number. ``compiled_helm=False``: a closed-loop scenario's Python helm is asked at every step even
+    where the compiled kernel has the helm (the reference the compiled helms are tested and timed against).
     """
-    chunks = simulate_chunks(params, scenario, environment, n_boats, initial_states, extra_drag_N, boats=boats)
+    chunks = simulate_chunks(params, scenario, environment, n_boats, initial_states, extra_drag_N, boats=boats,
+                             compiled_helm=compiled_helm)
     return next(chunks)
 
 
@@ -111,6 +114,7 @@ def simulate_chunks(
     extra_drag_N: np.ndarray | None = None,
     chunk_ticks: int | None = None,
     boats: Sequence[VesselParams] | None = None,
+    compiled_helm: bool = True,
 ) -> Iterator[SimulationRecord]:
     """:func:`simulate` as consecutive records of at most ``chunk_ticks`` output ticks each (None: one record).
 
@@ -135,7 +139,7 @@ def simulate_chunks(
     dt_s = 1.0 / INTEGRATION_RATE_HZ
     helm = scenario.helm(states.shape[0])
     delay_s = params.command_delay_s
-    compiled = _compiled_helm(scenario)
+    compiled = _compiled_helm(scenario) if compiled_helm else None
     closed_loop = None if compiled is None else dynamics.closed_loop(compiled, states.shape[0], delay_s, dt_s)
     steering: np.ndarray | None = None
     thrust: np.ndarray | None = None
