@@ -3,15 +3,16 @@ MAVLink log the twin writes itself.
 
 Tests of a module that starts ROS 2 nodes (it imports ``test/rosnodes.py``) are marked ``ros_nodes``. `make test`
 runs the rest on every core (pytest-xdist) and these afterwards, apart: a live recorder that shares the cores with
-the CPU-bound tests lags the simulated clock and records commands late (test/test_ros_live.py, REAL_TIME_FACTOR).
+the CPU-bound tests lags the simulated clock and records commands late (test/liverun.py, REAL_TIME_FACTOR).
 The node tests mostly wait on their processes, so they run in two pytest-xdist workers of their own, a module
 each at a time (``--dist loadfile``: a module's node fixture starts once), each worker on its own ROS domain
 (test/rosnodes.py). The module marked ``long_wait`` (minutes of live recording at 10x real time) is collected
 first, so that one worker takes it while the other works through the rest and both end together; the modules
 marked ``cpu_burst`` (many node processes started at once, a diagnosis in a node, a probe flooding a node) are
-collected last, after the short ones, so that they do not coincide with the recording: a recorder kept from the
-cores stamps its commands late, and the identifier's effective mass came out 27 % high (1735 kg, 15 % allowed)
-when they ran beside it on the loaded machine.
+collected after the short ones, so that they do not coincide with the recording: a recorder kept from the cores
+stamps its commands late, and the identifier's effective mass came out 27 % high (1735 kg, 15 % allowed) when
+they ran beside it on the loaded machine. A second live recording (``collect_last``) comes after all of them, for
+the worker that frees first.
 
 Real third-party data is never part of the project: it stays in ``../shared/data`` beside the clone
 (``BOAT_TWIN_SHARED_DATA`` names another directory). A test that needs it takes :func:`shared_data` and skips
@@ -47,8 +48,9 @@ def pytest_configure(config: pytest.Config) -> None:
                                        "(CI=true, or `make test SLOW=1`)")
     config.addinivalue_line("markers", "long_wait: a module of minutes of waiting on live nodes, collected first "
                                        "(so that parallel workers end together)")
-    config.addinivalue_line("markers", "cpu_burst: a node test that loads the cores for seconds, collected last "
-                                       "(away from a live recording)")
+    config.addinivalue_line("markers", "cpu_burst: a node test that loads the cores for seconds, collected after "
+                                       "the short ones (away from the first live recording)")
+    config.addinivalue_line("markers", "collect_last: a second live recording, collected after every other test")
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
@@ -60,8 +62,9 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 
 
 def _collection_rank(item: pytest.Item) -> int:
-    """0 for a ``long_wait`` test, 2 for a ``cpu_burst`` one, 1 for the rest."""
-    return 0 if item.get_closest_marker("long_wait") else 2 if item.get_closest_marker("cpu_burst") else 1
+    """0 for a ``long_wait`` test, 2 for a ``cpu_burst`` one, 3 for a ``collect_last`` one, 1 for the rest."""
+    ranks = {"long_wait": 0, "cpu_burst": 2, "collect_last": 3}
+    return next((rank for name, rank in ranks.items() if item.get_closest_marker(name)), 1)
 
 
 def shared_data(relative: str) -> Path:
