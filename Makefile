@@ -38,8 +38,8 @@ lint: $(STAMP)
 
 # -rs: say why anything is skipped. -n auto: one pytest-xdist worker per core; then the node tests apart (a live
 # recorder sharing the cores with the CPU-bound tests lags the simulated clock: test/conftest.py), in two workers
-# of their own, a module each at a time (they mostly wait on their node processes: on the loaded machine 5 min
-# 29 s against 8 min 34 s one after another, for the same CPU, 224 s against 232 s). The long studies marked
+# of their own, a module each at a time (they mostly wait on their node processes: 3 min 25 s at load 1-4, 8 min
+# 34 s one after another at load 5-6, for the same CPU: docs/ros.md). The long studies marked
 # `slow` run with SLOW=1, which CI sets (.ci/run; also CI=true): a developer's run leaves them out.
 SLOW ?= $(if $(filter true,$(CI)),1,)
 TEST_MARK := not ros_nodes$(if $(SLOW),, and not slow)

@@ -6,18 +6,8 @@ runs the rest on every core (pytest-xdist) and these afterwards, apart: a live r
 the CPU-bound tests lags the simulated clock and records commands late (test/liverun.py, REAL_TIME_FACTOR).
 The node tests mostly wait on their processes, so they run in two pytest-xdist workers of their own, a module
 each at a time (``--dist loadfile``: a module's node fixture starts once), each worker on its own ROS domain
-(test/rosnodes.py). The module marked ``long_wait`` (minutes of live recording at 10x real time) is collected
-first, so that one worker takes it while the other works through the rest and both end together; the modules
-marked ``cpu_burst`` (many node processes started at once, a diagnosis in a node, a probe flooding a node) are
-collected after the short ones, so that they do not coincide with the recording: a recorder kept from the cores
-stamps its commands late, and the identifier's effective mass came out 27 % high (1735 kg, 15 % allowed) when
-they ran beside it on the loaded machine. A second live recording (``collect_last``) comes after all of them, for
-the worker that frees first.
+(test/rosnodes.py), in the order of :data:`NODE_MODULE_ORDER`.
 
-Real third-party data is never part of the project: it stays in ``../shared/data`` beside the clone
-(``BOAT_TWIN_SHARED_DATA`` names another directory). A test that needs it takes :func:`shared_data` and skips
-with one reason where it is absent; ``BOAT_TWIN_REQUIRE_SHARED_DATA=1`` (set by ``.ci/run`` when
-``../shared/data`` exists) turns that skip into a failure, so CI never passes without the real-log tests.
 """
 
 from __future__ import annotations
@@ -42,15 +32,24 @@ for _variable in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, BLAS_THREADS)
 
 
+NODE_MODULE_ORDER = (
+    "test_ros_live.py",
+    "test_node_stop.py", "test_node_simulator.py", "test_node_player.py", "test_node_clock.py", "test_node_start.py",
+    "test_ros_live_current.py", "test_node_identifier.py", "test_node_shadow.py", "test_node_campaign.py",
+)
+"""Node modules collected first, in this order (any other module follows): the live staircase (100 s of recording
+at 10x real time, then identify and diagnose it) takes one worker while the other runs modules of a node or two
+at a time (about 100 s); then the longest (the live manoeuvring run, 70 s) and those that load the cores for
+seconds (the identifier fed a trial, bag_player → shadow, the campaign's ten nodes at once): beside the
+staircase's recording they kept the recorder from the cores, which stamps commands late (the identifier's
+effective mass came out 27 % high, 1735 kg); last the short modules, for the worker that frees first. xdist
+hands a worker its next module before the current one ends, so the long ones go early."""
+
+
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "ros_nodes: starts ROS 2 node processes (run apart from the rest)")
     config.addinivalue_line("markers", "slow: a long study (minutes on 2 cores); `make test` runs it in CI only "
                                        "(CI=true, or `make test SLOW=1`)")
-    config.addinivalue_line("markers", "long_wait: a module of minutes of waiting on live nodes, collected first "
-                                       "(so that parallel workers end together)")
-    config.addinivalue_line("markers", "cpu_burst: a node test that loads the cores for seconds, collected after "
-                                       "the short ones (away from the first live recording)")
-    config.addinivalue_line("markers", "collect_last: a second live recording, collected after every other test")
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
@@ -58,13 +57,8 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
         module = getattr(item, "module", None)
         if module is not None and "rosnodes" in vars(module):
             item.add_marker(pytest.mark.ros_nodes)
-    items.sort(key=_collection_rank)  # stable: the order within a rank stays
-
-
-def _collection_rank(item: pytest.Item) -> int:
-    """0 for a ``long_wait`` test, 2 for a ``cpu_burst`` one, 3 for a ``collect_last`` one, 1 for the rest."""
-    ranks = {"long_wait": 0, "cpu_burst": 2, "collect_last": 3}
-    return next((rank for name, rank in ranks.items() if item.get_closest_marker(name)), 1)
+    order = {name: rank for rank, name in enumerate(NODE_MODULE_ORDER)}
+    items.sort(key=lambda item: order.get(item.path.name, len(order)))  # stable: the order within a module stays
 
 
 def shared_data(relative: str) -> Path:

@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 import math
 
-import pytest
 import rosnodes
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistStamped
@@ -22,8 +21,6 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from std_msgs.msg import Float64, Float64MultiArray
 
 from boat_twin.io import messages
-
-pytestmark = pytest.mark.cpu_burst  # ten nodes started at once, then four flooded with hostile messages
 
 PARAMETER_CASES = [
     # (node, hostile parameter, value as typed after -p NAME:=, what the error line names)

@@ -23,7 +23,6 @@ from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.params import load_params
 from boat_twin.vessel.scenarios import CommandProfile
 
-pytestmark = pytest.mark.cpu_burst  # the probe feeds a 335 s trial's 3350 velocities as fast as the node takes them
 ORDER = 2
 LEVELS_N, HOLDS_S = (300, 700, 1150, 500, 0), (80, 70, 60, 120, 5)
 """Four settled thrust levels (N + 2 for N = 2), up and down; the short idle closes the last segment."""

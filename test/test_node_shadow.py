@@ -9,7 +9,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import pytest
 import rosnodes
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.qos import QoSProfile
@@ -24,7 +23,6 @@ from boat_twin.vessel.environment import Environment
 
 CURRENT = (0.4, -0.25)
 """The hidden current, east and north, m/s."""
-pytestmark = pytest.mark.cpu_burst  # a 165 s trial played at 5x, the rolling diagnosis in the node
 
 
 def _bag(path: Path) -> Path:

@@ -15,7 +15,6 @@ from boat_twin.nodes.identifier import DEFAULT_ORDER
 from boat_twin.vessel.scenarios import thrust_steps
 
 CABLE_CASE = rosnodes.ROOT / "config" / "cable" / "default.yaml"
-pytestmark = pytest.mark.long_wait  # 93 s of wall time at 10x, then identify and diagnose the recording
 
 
 @pytest.fixture(scope="module")

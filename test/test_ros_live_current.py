@@ -13,8 +13,6 @@ from liverun import COMMAND_TIMEOUT_S, MANOEUVRE_REAL_TIME_FACTOR, LiveRun, boat
 from boat_twin.config import TwinConfig
 from boat_twin.vessel.scenarios import random_commands
 
-pytestmark = pytest.mark.collect_last  # a second live run (60 s at 4x): after the staircase's recording
-
 
 def test_diagnose_names_a_current_hidden_in_a_live_recording(tmp_path) -> None:
     config_file = tmp_path / "current.yaml"
