@@ -49,7 +49,7 @@ setup(
         ],
         "test": [
             "pytest>=7",
-            "pytest-xdist>=3",
+            "pytest-xdist>=3.6",  # --no-loadscope-reorder
             "mcap-ros2-support>=0.5",
             "catkin_pkg>=1.0",
             "hypothesis>=6",

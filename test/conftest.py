@@ -2,13 +2,12 @@
 MAVLink log the twin writes itself.
 
 Tests of a module that starts ROS 2 nodes (it imports ``test/rosnodes.py``) are marked ``ros_nodes``. `make test`
-runs the rest on every core (pytest-xdist) and these alone afterwards: a live recorder that shares the cores with
-other tests lags the simulated clock and records commands late (test/test_ros_live.py, REAL_TIME_FACTOR).
+runs the rest on every core (pytest-xdist) and these afterwards, apart: a live recorder that shares the cores with
+the CPU-bound tests lags the simulated clock and records commands late (test/liverun.py, REAL_TIME_FACTOR).
+The node tests mostly wait on their processes, so they run in two pytest-xdist workers of their own, a module
+each at a time (``--dist loadfile``: a module's node fixture starts once), each worker on its own ROS domain
+(test/rosnodes.py), in the order of :data:`NODE_MODULE_ORDER`.
 
-Real third-party data is never part of the project: it stays in ``../shared/data`` beside the clone
-(``BOAT_TWIN_SHARED_DATA`` names another directory). A test that needs it takes :func:`shared_data` and skips
-with one reason where it is absent; ``BOAT_TWIN_REQUIRE_SHARED_DATA=1`` (set by ``.ci/run`` when
-``../shared/data`` exists) turns that skip into a failure, so CI never passes without the real-log tests.
 """
 
 from __future__ import annotations
@@ -33,6 +32,20 @@ for _variable in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, BLAS_THREADS)
 
 
+NODE_MODULE_ORDER = (
+    "test_ros_live.py",
+    "test_node_stop.py", "test_node_simulator.py", "test_node_player.py", "test_node_clock.py", "test_node_start.py",
+    "test_ros_live_current.py", "test_node_identifier.py", "test_node_shadow.py", "test_node_campaign.py",
+)
+"""Node modules collected first, in this order (any other module follows): the live staircase (100 s of recording
+at 10x real time, then identify and diagnose it) takes one worker while the other runs modules of a node or two
+at a time (about 100 s); then the longest (the live manoeuvring run, 70 s) and those that load the cores for
+seconds (the identifier fed a trial, bag_player → shadow, the campaign's ten nodes at once): beside the
+staircase's recording they kept the recorder from the cores, which stamps commands late (the identifier's
+effective mass came out 27 % high, 1735 kg); last the short modules, for the worker that frees first. xdist
+hands a worker its next module before the current one ends, so the long ones go early."""
+
+
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "ros_nodes: starts ROS 2 node processes (run apart from the rest)")
     config.addinivalue_line("markers", "slow: a long study (minutes on 2 cores); `make test` runs it in CI only "
@@ -44,6 +57,8 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
         module = getattr(item, "module", None)
         if module is not None and "rosnodes" in vars(module):
             item.add_marker(pytest.mark.ros_nodes)
+    order = {name: rank for rank, name in enumerate(NODE_MODULE_ORDER)}
+    items.sort(key=lambda item: order.get(item.path.name, len(order)))  # stable: the order within a module stays
 
 
 def shared_data(relative: str) -> Path:

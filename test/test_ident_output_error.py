@@ -132,16 +132,18 @@ def test_closed_loop_speed_controller_trial() -> None:
 
 
 def test_slow_ramps_leave_the_mass_unidentified_and_say_so() -> None:
+    """A 5-minute ramp (300 surge time constants): the mass's 95 % interval, -60 to 176 kg about 58, is far
+    wider than ± half of it (with 10 minutes, -508 to 626 kg: the same verdict for twice the CPU)."""
     rng = np.random.default_rng(2)
-    ramp = 40.0 * (0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, 6000)))  # 0 to 40 N over 10 min, τ ≈ 1 s
+    ramp = 40.0 * (0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, 3000)))  # 0 to 40 N over 5 min, τ ≈ 1 s
     record, _ = run_boat(ramp, 20.0, rng)
-    result = identify_surge([record])
-    assert not result.mass_identified and "do not identify the mass" in result.mass_note
-    held = identify_surge([record], mass_kg=20.0)
-    assert held.selected.mass_fixed and held.selected.mass_kg == 20.0
-    samples = pipeline.identify_arrays(record.t_s, record.thrust_N, record.speed_mps)
+    samples = pipeline.identify_arrays(record.t_s, record.thrust_N, record.speed_mps)  # identify_surge inside
+    result = samples["output_error"]
+    assert not result["mass_identified"] and "do not identify the mass" in result["mass_note"]
     assert "effective_mass_kg" not in samples["model"]
     assert any("do not identify the mass" in w for w in samples["warnings"])
+    held = identify_surge([record], mass_kg=20.0)
+    assert held.selected.mass_fixed and held.selected.mass_kg == 20.0
 
 
 def test_a_resistance_above_the_thrust_that_held_a_speed_is_not_physical() -> None:
@@ -156,6 +158,7 @@ def test_a_resistance_above_the_thrust_that_held_a_speed_is_not_physical() -> No
     assert any("exceeds the largest thrust commanded (41 N), yet the boat sustained 1.50 m/s" in p for p in problems)
 
 
+@pytest.mark.slow  # a study over six boats (11 s on the loaded machine); seed 0's interval: test_ident_trials.py
 def test_interval_coverage_over_seeds() -> None:
     """Mass intervals of the richest candidate (12 I-splines) hold the truth on at least 5 of 6 independent boats
     (95 % nominal: P(≤ 4 of 6) = 3 %; measured 5 of 6, the sixth 0.7 % off: the basis' approximation of the

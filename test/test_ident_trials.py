@@ -57,7 +57,8 @@ def staircase(levels, holds_s) -> CommandProfile:
     return CommandProfile(f"steps{len(levels)}", times, rows, float(np.sum(holds_s)))
 
 
-@pytest.fixture(scope="module", params=[0, 1, 2])
+@pytest.fixture(scope="module", params=[0, pytest.param(1, marks=pytest.mark.slow),
+                                        pytest.param(2, marks=pytest.mark.slow)])
 def identified(request, tmp_path_factory):
     trial, _ = record(thrust_steps(CONFIG.vessel, LEVELS_N), request.param, tmp_path_factory.mktemp("bags"))
     t, f, v = trial_samples(trial)

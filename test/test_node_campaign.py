@@ -125,7 +125,10 @@ def test_hostile_messages_leave_the_nodes_alive_and_finite(tmp_path) -> None:
     assert tick[0] > 20 and alive == [True] * 4, (tick, alive, logs)
     assert [proc.process.returncode for proc in procs] == [0] * 4, logs
     assert all("Traceback" not in log for log in logs), logs
-    assert "e+300" not in logs[2] and "is not a velocity" in logs[2], logs[2]  # cable: refused, never solved for
+    # cable: refused (its one warning names the first refused velocity, NaN or ±1e300 as discovery lets it
+    # through first), never solved for
+    assert "is not a velocity" in logs[2] and all("is not a velocity" in line for line in logs[2].splitlines()
+                                                  if "e+300" in line), logs[2]
     fresh = {key: values[counted[key]:] for key, values in seen.items()}
     assert len(fresh["sim"]) > 10, {k: len(v) for k, v in fresh.items()}  # still publishing (10 Hz)
     assert all(_finite_or_nan([m.twist.linear.x, m.twist.linear.y]) and not math.isnan(m.twist.linear.x)
