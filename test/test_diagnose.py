@@ -524,7 +524,7 @@ def test_the_predictability_horizon_is_the_first_sample_where_the_response_stops
     """A window whose response to ± a prior-sized initial error is linear (however large) keeps every sample; one
     whose yaw-rate response grows faster on one side than it falls on the other is cut at the first sample where
     the second difference exceeds the noise level, in every signal from there on; unmeasured samples (NaN) never
-    cut a window."""
+    cut a window; one that departs from linear at its first compared sample is compared whole (a model far off)."""
     samples, windows = 50, 2
     t = np.arange(samples, dtype=float)
     linear = np.tile(np.concatenate([0.5 * t] * len(SIGNALS))[:, None], (1, windows))  # up to 25 noise levels
@@ -536,6 +536,9 @@ def test_the_predictability_horizon_is_the_first_sample_where_the_response_stops
     compared = predictable(base, [plus], [minus])
     assert compared[:, 0].all()
     assert compared[:31, 1].all() and not compared[31:, 1].any(), np.flatnonzero(~compared[:, 1])
+    plus[yaw.start + 10, 1] += 5.0  # departs from linear at the first compared sample: a model that cannot follow
+    np.testing.assert_array_equal(predictable(base, [plus], [minus], least=11).sum(axis=0), [samples, samples])
+    assert predictable(base, [plus], [minus]).sum(axis=0)[1] == 10  # without the floor: nothing compared
 
 
 def test_a_long_clean_run_astern_is_not_alarmed(tmp_path: Path) -> None:

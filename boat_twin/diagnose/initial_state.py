@@ -33,6 +33,7 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.twin.replay import (
     HEADING_SMOOTHING_S,
+    SETTLING_S,
     SIGNALS,
     SURGE_SMOOTHING_S,
     Windows,
@@ -104,7 +105,8 @@ class InitialStateProjection:
         base = stacked[0]
         columns = [np.where(np.isfinite(base) & np.isfinite(r), (r - base) / step, 0.0)
                    for r, (_, _, step) in zip(stacked[1:q + 1], NUISANCES, strict=True)]
-        compared = predictable(base, stacked[q + 1:2 * q + 1], stacked[2 * q + 1:])
+        least = int(round(SETTLING_S / windows.dt_s)) + 1  # the settling second and one compared sample
+        compared = predictable(base, stacked[q + 1:2 * q + 1], stacked[2 * q + 1:], least)
         return cls(np.stack(columns, axis=-1), stdev, compared)
 
     def compared_fraction(self) -> float:
@@ -125,13 +127,16 @@ class InitialStateProjection:
         return corrected, (step / self.stdev).T
 
 
-def predictable(base: np.ndarray, plus: list[np.ndarray], minus: list[np.ndarray]) -> np.ndarray:
+def predictable(base: np.ndarray, plus: list[np.ndarray], minus: list[np.ndarray], least: int = 0) -> np.ndarray:
     """(T, m) the samples of each window before its predictability horizon: the first sample where some
     signal's response to a nuisance of ± its prior standard deviation departs from linear by more than
     :data:`NONLINEAR_LIMIT` (normalized: in units of the signal's noise), i.e. where the window's best linear
     correction can no longer stand for the initial state the sensors leave uncertain. ``base``, ``plus``,
     ``minus``: (rows, m) stacked normalized residuals of the replay from the measured states and from each
-    nuisance ± its prior standard deviation.
+    nuisance ± its prior standard deviation. A window whose horizon falls before its sample ``least`` (its first
+    compared one) is compared whole: a replay that departs from linear at once is not an unstable course the
+    sensors' uncertainty explains but a model that cannot follow the data (a 55 kg boat against the default 6 m
+    twin), and a model far off its data is never an all-clear.
 
     On a course the model holds stably, a prior-sized error of the initial state changes the path linearly
     through the window (a heading 0.6° off turns it 0.6°) and the correction removes it: no sample is left out.
@@ -145,7 +150,9 @@ def predictable(base: np.ndarray, plus: list[np.ndarray], minus: list[np.ndarray
         second = 0.5 * (p + n) - base
         curvature = np.maximum(curvature, np.where(np.isfinite(second), np.abs(second), 0.0))
     worst = np.max(np.stack(np.split(curvature, signals)), axis=0)  # (T, m)
-    return np.cumsum(worst > NONLINEAR_LIMIT, axis=0) == 0
+    compared = np.cumsum(worst > NONLINEAR_LIMIT, axis=0) == 0
+    compared[:, compared.sum(axis=0) < least] = True
+    return compared
 
 
 def stack_signals(windows: Windows, predicted: dict[str, np.ndarray], sigma: dict[str, float]) -> np.ndarray:
