@@ -36,7 +36,8 @@ lint: $(STAMP)
 	$(RUFF) boat_twin test benchmarks launch setup.py
 	$(PY) -m mypy boat_twin  # configured in setup.cfg
 
-# -rs: say why anything is skipped. -n auto: one pytest-xdist worker per core; then the node tests apart (a live
+# -rs: say why anything is skipped. -n auto: one pytest-xdist worker per core, an idle one taking tests queued
+# for the other (--dist worksteal: the long tests do not leave one core idle at the end); then the node tests apart (a live
 # recorder sharing the cores with the CPU-bound tests lags the simulated clock: test/conftest.py), in two workers
 # of their own, a module each at a time (they mostly wait on their node processes: 3 min 25 s at load 1-4, 8 min
 # 34 s one after another at load 5-6, for the same CPU: docs/ros.md). The long studies marked
@@ -44,7 +45,7 @@ lint: $(STAMP)
 SLOW ?= $(if $(filter true,$(CI)),1,)
 TEST_MARK := not ros_nodes$(if $(SLOW),, and not slow)
 test: lint
-	$(PY) -m pytest -q -rs -n auto -m "$(TEST_MARK)" test
+	$(PY) -m pytest -q -rs -n auto --dist worksteal -m "$(TEST_MARK)" test
 	$(PY) -m pytest -q -rs -n 2 --dist loadfile --no-loadscope-reorder -m "ros_nodes$(if $(SLOW),, and not slow)" test
 
 demo: $(BASE_STAMP)

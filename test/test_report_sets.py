@@ -52,7 +52,9 @@ def _copy(old: Path, tmp_path: Path) -> Path:
 # --------------------------------------------------------------------------- a report set is one output
 
 
-@pytest.mark.parametrize(("signum", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143), (signal.SIGKILL, -9)])
+@pytest.mark.parametrize(("signum", "code"), [(signal.SIGINT, 130),  # SIGTERM and SIGKILL in CI (an identify each)
+                                             pytest.param(signal.SIGTERM, 143, marks=pytest.mark.slow),
+                                             pytest.param(signal.SIGKILL, -9, marks=pytest.mark.slow)])
 def test_a_signal_while_identify_writes_its_reports_keeps_the_old_set_whole(tmp_path, old_reports, capsys, signum,
                                                                              code) -> None:
     """Signalled once the new set is being written (its first files exist): the old set stays whole, never a
