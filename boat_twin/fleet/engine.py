@@ -33,9 +33,10 @@ MISSING = "dask and distributed are not installed (pip install 'boat_twin[fleet]
 """What is missing when the fleet extra is not installed."""
 LOCAL_WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
 """Dask settings of a local cluster's workers: no statistical profiler. A fleet task is one long Python call, and
-the profiler's thread sampling its stack every 10 ms added CPU to every task (16 recordings diagnosed: the
-workers' CPU 17 % above the serial run's with it, 9 % without; benchmarks/bench_fleet.py), for a dashboard
-flame graph that would show one function. A cluster at an address keeps its own settings."""
+the profiler's thread sampling its stack every 10 ms adds work to every task for a dashboard flame graph that
+would show one function (16 recordings diagnosed on the shared machine: the workers' CPU 17 % above the serial
+run's with it, 9 % without; on the idle machine the workers still use 5-14 % more, docs/fleet.md). A cluster at
+an address keeps its own settings."""
 CONNECT_TIMEOUT_S = 10.0
 """How long to wait for a scheduler at an address, s."""
 
