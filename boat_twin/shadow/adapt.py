@@ -240,15 +240,22 @@ def rejects(candidate: SurgeModel, current: SurgeModel, base: VesselParams, leve
         diff, cov = np.array([d_factor]), np.array([[var_f]])
     else:
         diff, cov = np.array([d_mass, d_factor]), np.array([[var_m, cov_mf], [cov_mf, var_f]])
-    q, g = diff.size, candidate.clusters
+    return hotelling_rejects(diff, cov, candidate.clusters, level)
+
+
+def hotelling_rejects(diff: np.ndarray, cov: np.ndarray, clusters: int, level: float = REJECT_LEVEL) -> bool:
+    """Whether a difference ``diff`` (q,) of a fit's estimates from a model's, with the fit's covariance ``cov``
+    (q, q) from ``clusters`` independent clusters, rejects the model at ``level``: Hotelling's T² against its F
+    bound, q·(g − 1)/(g − q)·F(q, g − q). False where it cannot be judged (too few clusters, a covariance that
+    is not finite or singular)."""
+    q, g = diff.size, clusters
     if g <= q + 1 or not np.all(np.isfinite(cov)):
         return False
     try:
         t2 = float(diff @ np.linalg.solve(cov, diff))
     except np.linalg.LinAlgError:
         return False
-    bound = q * (g - 1) / (g - q) * float(stats.f.ppf(level, q, g - q))
-    return t2 > bound
+    return t2 > q * (g - 1) / (g - q) * float(stats.f.ppf(level, q, g - q))
 
 
 Log = Callable[[str], None]

@@ -39,7 +39,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
@@ -51,7 +50,7 @@ from boat_twin.ident.manoeuvring import (
     fit_manoeuvring,
 )
 from boat_twin.io.trial import Trial
-from boat_twin.shadow.adapt import FACTOR_RANGE, MAX_WAIT_PERIODS, REJECT_LEVEL
+from boat_twin.shadow.adapt import FACTOR_RANGE, MAX_WAIT_PERIODS, REJECT_LEVEL, hotelling_rejects
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.vessel.params import VesselParams, derive_coefficients
 
@@ -154,15 +153,7 @@ class TurningModel:
         if not self.values:
             return False
         diff = np.array([math.log(self.values[k] / current[k]) for k in LIVE_KEYS])
-        cov = np.array(self.covariance)
-        q, g = diff.size, self.windows
-        if g <= q + 1 or not np.all(np.isfinite(cov)):
-            return False
-        try:
-            t2 = float(diff @ np.linalg.solve(cov, diff))
-        except np.linalg.LinAlgError:
-            return False
-        return t2 > q * (g - 1) / (g - q) * float(stats.f.ppf(level, q, g - q))
+        return hotelling_rejects(diff, np.array(self.covariance), self.windows, level)
 
 
 Log = Callable[[str], None]
