@@ -4,6 +4,7 @@ analyses are also checked on data whose equations and integration the package di
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -41,7 +42,9 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
     integrated with the motion); the IMU's yaw reads the true heading plus ``yaw_offset_rad``. Logged at 10 Hz
     with the twin's default sensor noise (GNSS velocity 0.05 m/s, position 2.1 m, delivered ``latency_s`` late;
     IMU yaw 3°, gyro 0.06°/s) and each GNSS fix lost with probability ``dropout``. The command log holds what
-    was commanded (the undelayed ``thrust_N``, ``steering_rad``)."""
+    was commanded (the undelayed ``thrust_N``, ``steering_rad``) as a recorder of stamped command messages gives
+    it (:func:`logged_commands`): each change at the log sample nearest the instant it was issued, and that
+    instant in ``command_switch_s``."""
     from boat_twin.io.trial import Trial, TrialMetadata
     from boat_twin.vessel.params import derive_coefficients
 
@@ -97,8 +100,11 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
             bridged_values = np.interp(time_s, time_s[kept], values[kept])
             gnss[key] = np.where(gap, np.nan, np.where(lost, bridged_values, values))
         bridged = lost & ~gap
-    thrust = np.array([thrust_N(ti) for ti in time_s])
-    angle = np.array([steering_rad(ti) for ti in time_s])
+    thrust, thrust_switch = logged_commands(thrust_N, n, 0.1)
+    angle, angle_switch = logged_commands(steering_rad, n, 0.1)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():  # the mean over the commands that changed at a sample, as the reader's
+        warnings.simplefilter("ignore", RuntimeWarning)
+        switch = np.nan_to_num(np.nanmean(np.stack([thrust_switch, angle_switch]), axis=0), nan=0.0)
     return Trial(
         t_s=time_s, thrust_left_N=thrust, thrust_right_N=thrust.copy(), angle_left_rad=angle,
         angle_right_rad=angle.copy(), lat_deg=np.full(n, np.nan), lon_deg=np.full(n, np.nan),
@@ -106,4 +112,27 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
         yaw_rate_radps=noisy(states[:, 5], math.radians(0.06)), accel_x_mps2=np.full(n, np.nan),
         accel_y_mps2=np.full(n, np.nan), metadata=TrialMetadata(source="independent integrator"), **gnss,
         **({"gnss_bridged": bridged} if bridged.any() else {}),
+        **({"command_switch_s": switch} if np.any(switch != 0.0) else {}),
     )
+
+
+def logged_commands(command: Callable[[float], float], n: int, period_s: float, resolution_s: float = 0.01
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """A piecewise-constant ``command(t)`` as the trial reader logs a stamped command stream on a grid of ``n``
+    samples ``period_s`` apart (boat_twin.io.trial: each value from the grid time nearest the instant it was
+    issued, a tie to the later): (n,) values and (n,) the instant each change was issued relative to its grid
+    time, s (NaN where nothing changed). Changes are found every ``resolution_s`` and located by bisection."""
+    fine = np.arange(int(round((n - 1) * period_s / resolution_s)) + 1) * resolution_s
+    values = np.array([command(t) for t in fine])
+    grid_values = np.full(n, values[0])
+    switch = np.full(n, np.nan)
+    for k in np.flatnonzero(values[1:] != values[:-1]):
+        early, late = fine[k], fine[k + 1]  # the old value at early, the new at late
+        for _ in range(40):
+            middle = 0.5 * (early + late)
+            early, late = (middle, late) if command(middle) == values[k] else (early, middle)
+        sample = int(math.floor(late / period_s + 0.5))  # the grid time nearest the change, a tie to the later
+        if sample < n:
+            grid_values[sample:] = values[k + 1]
+            switch[sample] = late - sample * period_s
+    return grid_values, switch

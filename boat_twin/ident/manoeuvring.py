@@ -50,6 +50,7 @@ from boat_twin.twin.replay import (
     SETTLING_S,
     SIGNALS,
     SURGE_SMOOTHING_S,
+    SWAY_OBSERVER_S,
     Prediction,
     Windows,
     cut_windows,
@@ -190,7 +191,11 @@ def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
     gyro as exact. Estimating it too (a third nuisance) removes that bias on the twin's zigzags but narrows the
     intervals below the replay's own error on the independent integrator's trials, so the fit keeps the timing
     it was validated with until that is resolved."""
-    windows = cut_windows(replace(trial, command_switch_s=None), window_s)
+    timed = replace(trial, command_switch_s=None)
+    try:
+        windows = cut_windows(timed, window_s, SWAY_OBSERVER_S)
+    except InputError:  # too short to spare the run-in: the first window starts without it
+        windows = cut_windows(timed, window_s)
     index = windows.start_index[None, :] + np.arange(windows.t_s.shape[0])[:, None]
     measured = {**windows.measured, LATERAL_ACCEL: trial.accel_y_mps2[index]}
     noise = {}

@@ -154,9 +154,10 @@ def delayed_commands(commands: np.ndarray, switch_s: np.ndarray, dt_s: float, de
     return moved, np.where(changed, switch_s[source] + rest, 0.0)
 
 
-def cut_windows(trial: Trial, window_s: float = 20.0) -> Windows:
+def cut_windows(trial: Trial, window_s: float = 20.0, earliest_s: float = 0.0) -> Windows:
     """Cut ``trial`` into consecutive, non-overlapping windows of ``window_s`` with the commands known
-    throughout and the sensors sampled at the start."""
+    throughout and the sensors sampled at the start, the first starting no earlier than ``earliest_s`` after the
+    trial's first sample."""
     t = trial.t_s
     if t.size < 3:
         raise InputError(f"{trial.metadata.source}: too few samples to diagnose ({t.size})")
@@ -174,7 +175,7 @@ def cut_windows(trial: Trial, window_s: float = 20.0) -> Windows:
     sensors = np.isfinite(trial.vel_east_mps) & np.isfinite(trial.yaw_rate_radps) & np.isfinite(trial.heading_rad)
     complete = np.convolve((~known).astype(int), np.ones(length, dtype=int), mode="full")[length - 1:] == 0
     candidate = sensors & complete
-    starts, i0 = [], 0
+    starts, i0 = [], int(np.searchsorted(t, t[0] + earliest_s - 1e-9))
     while i0 + length <= t.size:
         if candidate[i0]:
             starts.append(i0)
