@@ -42,6 +42,7 @@ from scipy.stats import t as student_t
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
+from boat_twin.ident.jackknife import jackknife_covariance
 from boat_twin.io.trial import Trial
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.twin.replay import (
@@ -177,6 +178,25 @@ class TrialData:
     """Signal → white-noise standard deviation measured on the trial (SI)."""
 
 
+START_SAMPLES = 3
+"""Gyro samples at a trial's start that :func:`turning_at_start` averages (the replay's initial yaw rate is their
+mean), -."""
+
+
+def turning_at_start(trial: Trial) -> bool:
+    """Whether the boat turns as the trial starts: the mean of the first :data:`START_SAMPLES` gyro samples more
+    than three of its standard errors (white noise measured on the trial) from zero. The replay's sway observer
+    starts from rest (:data:`~boat_twin.twin.replay.SWAY_OBSERVER_S` of run-in before each window, none before the
+    first sample): right for a trial that starts running straight, wrong for one cut from a stream mid-turn (the
+    sway then scales with the yaw rate, so a rate within the gyro's noise leaves a negligible error)."""
+    rate = trial.yaw_rate_radps
+    first = rate[:START_SAMPLES][np.isfinite(rate[:START_SAMPLES])]
+    noise = white_noise_stdev(rate)
+    if first.size == 0 or not np.isfinite(noise):
+        return False
+    return bool(abs(float(np.mean(first))) > 3.0 * noise / math.sqrt(first.size))
+
+
 def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
     """Cut ``trial`` into windows and measure its sensors' noise floor (a trial without a lateral accelerometer
     is fitted without it).
@@ -191,11 +211,10 @@ def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
     gyro as exact. Estimating it too (a third nuisance) removes that bias on the twin's zigzags but narrows the
     intervals below the replay's own error on the independent integrator's trials, so the fit keeps the timing
     it was validated with until that is resolved."""
-    timed = replace(trial, command_switch_s=None)
     try:
-        windows = cut_windows(timed, window_s, SWAY_OBSERVER_S)
+        windows = cut_windows(trial, window_s, SWAY_OBSERVER_S if turning_at_start(trial) else 0.0)
     except InputError:  # too short to spare the run-in: the first window starts without it
-        windows = cut_windows(timed, window_s)
+        windows = cut_windows(trial, window_s)
     index = windows.start_index[None, :] + np.arange(windows.t_s.shape[0])[:, None]
     measured = {**windows.measured, LATERAL_ACCEL: trial.accel_y_mps2[index]}
     noise = {}
@@ -243,12 +262,14 @@ def _steering_late(windows: Windows, samples: int) -> Windows:
 
 DIFFERENCE_STEP = 1e-4
 """Forward-difference step of the Jacobian in fitted coordinates (relative for the logarithmic parameters)."""
-INITIAL_STATE_NUISANCES = ((2, 0.005), (3, 0.02))
-"""Initial-state components every window estimates for itself (state index, difference step): heading (rad) and
-surge (m/s). The sensors give them with errors (±0.3° from the smoothed IMU heading, ±0.016 m/s from ±1 s of GNSS
-velocity) that persist through the window (the surge's time constant is tens of seconds; the heading error
-rotates the whole path), and those errors, not the signals' noise, dominated the coefficients' errors
-(docs/identification.md). The steps are of the size of those errors."""
+INITIAL_STATE_NUISANCES = ((2, 0.005), (3, 0.02), (5, 0.001))
+"""Initial-state components every window estimates for itself (state index, difference step): heading (rad),
+surge (m/s) and yaw rate (rad/s). The sensors give them with errors (±0.3° from the smoothed IMU heading,
+±0.016 m/s from ±1 s of GNSS velocity, ±0.035°/s from the 3-sample mean of the gyro) that persist through the
+window (the surge's time constant is tens of seconds; the heading error rotates the whole path), and those
+errors, not the signals' noise, dominated the coefficients' errors (docs/identification.md); the yaw rate's, taken
+as exact, is an error in a variable that biased a_r by about +5 % once the commands act at their issue times.
+The steps are of the size of those errors."""
 
 
 NUISANCE_PRIOR_WIDENING = 2.0
@@ -261,14 +282,16 @@ def nuisance_prior_stdev(data: TrialData) -> np.ndarray:
     """(q,) prior standard deviation of the :data:`INITIAL_STATE_NUISANCES` of a window of ``data``: heading (rad),
     the IMU heading noise averaged over the 2h + 1 samples of ±HEADING_SMOOTHING_S; surge (m/s), the GNSS velocity
     noise through the centre value of a local quadratic over the 2h + 1 samples of ±SURGE_SMOOTHING_S (variance
-    factor 3(3h² + 3h − 1) / ((2h − 1)(2h + 1)(2h + 3))); both × :data:`NUISANCE_PRIOR_WIDENING`."""
+    factor 3(3h² + 3h − 1) / ((2h − 1)(2h + 1)(2h + 3))); yaw rate (rad/s), the gyro noise over the 3-sample mean;
+    each × :data:`NUISANCE_PRIOR_WIDENING`."""
     dt = data.windows.dt_s
     h_heading = max(1, int(round(HEADING_SMOOTHING_S / dt)))
     h = max(2, int(round(SURGE_SMOOTHING_S / dt)))
     quadratic = 3.0 * (3 * h * h + 3 * h - 1) / ((2 * h - 1) * (2 * h + 1) * (2 * h + 3))
     velocity = 0.5 * (data.noise["vel_east_mps"] + data.noise["vel_north_mps"])
     heading = data.noise["heading_rad"] / math.sqrt(2 * h_heading + 1)
-    return NUISANCE_PRIOR_WIDENING * np.array([heading, velocity * math.sqrt(quadratic)])
+    yaw_rate = data.noise["yaw_rate_radps"] / math.sqrt(3.0)
+    return NUISANCE_PRIOR_WIDENING * np.array([heading, velocity * math.sqrt(quadratic), yaw_rate])
 
 
 class _Projection:
@@ -494,20 +517,6 @@ def _solve(problem: _Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return result.x, np.asarray(result.jac), result.fun
 
 
-def _sandwich(jac: np.ndarray, residuals: np.ndarray, clusters: np.ndarray) -> tuple[np.ndarray, int]:
-    """Cluster-robust covariance (JᵀJ)⁻¹·Σ_g (J_gᵀr_g)(J_gᵀr_g)ᵀ·(JᵀJ)⁻¹ · G/(G − p), and G."""
-    p = jac.shape[1]
-    bread = np.linalg.pinv(jac.T @ jac)
-    groups = np.unique(clusters)
-    meat = np.zeros((p, p))
-    score = jac * residuals[:, None]
-    for g in groups:
-        s = score[clusters == g].sum(axis=0)
-        meat += np.outer(s, s)
-    g_count = groups.size
-    return bread @ meat @ bread * g_count / max(g_count - p, 1), g_count
-
-
 def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float = WINDOW_S,
                     free: Sequence[str] = PARAMETER_KEYS) -> ManoeuvringFit:
     """Fit the manoeuvring coefficients ``free`` (keys of :data:`PARAMETER_KEYS`; every one by default) of
@@ -524,7 +533,7 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     problem = _Problem(data, base, start, free)
     x, jac, fun = _solve(problem)
     evaluations = problem.evaluations
-    cov, groups = _sandwich(jac, fun, problem.clusters())
+    cov, groups = jackknife_covariance(jac, fun, problem.clusters())
     stderr = np.sqrt(np.maximum(np.diag(cov), 0.0))
     quantile = float(student_t.ppf(0.975, max(groups - len(free), 1)))
     values = problem.values(x)

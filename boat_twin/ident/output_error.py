@@ -58,6 +58,7 @@ from scipy import optimize, special, stats
 from scipy.interpolate import BSpline
 from threadpoolctl import threadpool_limits
 
+from boat_twin.ident.jackknife import jackknife_covariance
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.vessel.resistance import TableResistance
@@ -426,14 +427,8 @@ def _cluster_covariance(problem: _Problem, residual: np.ndarray, jac: np.ndarray
         labels[offset: offset + t.size] = label + block
         label += int(block[-1]) + 1
         offset += t.size
-    j = jac[:, free]
-    information = j.T @ j
-    shifts = np.empty((label, j.shape[1]))
-    for g in range(label):  # one Gauss-Newton step of the fit without cluster g: its jackknife replicate
-        rows = labels == g
-        shifts[g] = np.linalg.pinv(information - j[rows].T @ j[rows]) @ (j[rows].T @ residual[rows])
-    centred = shifts - shifts.mean(axis=0)
-    return (label - 1) / max(label, 1) * centred.T @ centred, label, cluster_s
+    cov, _ = jackknife_covariance(jac[:, free], residual, labels)
+    return cov, label, cluster_s
 
 
 def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: list[Segment] | None = None,

@@ -82,7 +82,8 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
 
 def trial_samples(trial: Trial) -> Iterator[tuple[str, float, tuple[float, ...]]]:
     """The samples of ``trial`` as a live boat sends them, in time order: (kind, stamp s, values) for
-    :meth:`Shadow.add` (see the module docstring)."""
+    :meth:`Shadow.add` (see the module docstring); a command that changed between samples at the instant it was
+    issued (:attr:`~boat_twin.io.trial.Trial.command_switch_s`), as its own message was stamped."""
     sensors = {
         "gnss_fix": np.column_stack([trial.lat_deg, trial.lon_deg, np.zeros_like(trial.lat_deg)]),
         "gnss_vel": np.column_stack([trial.vel_east_mps, trial.vel_north_mps]),
@@ -93,14 +94,19 @@ def trial_samples(trial: Trial) -> Iterator[tuple[str, float, tuple[float, ...]]
     finite = {kind: np.all(np.isfinite(values[:, :2]), axis=1).tolist() for kind, values in sensors.items()}
     held = [math.nan] * 4
     sent = [-math.inf] * 4
+    switch = np.zeros(trial.t_s.size) if trial.command_switch_s is None else trial.command_switch_s
     for i, (t, command_row) in enumerate(zip(trial.t_s.tolist(), trial.commands.tolist(), strict=True)):
+        commands = []
         for k, value in enumerate(command_row):
             if math.isfinite(value) and (value != held[k] or t - sent[k] >= COMMAND_HEARTBEAT_S):
-                yield COMMAND_KINDS[k], t, (value,)
+                commands.append((COMMAND_KINDS[k], t + float(switch[i]) if value != held[k] else t, (value,)))
                 held[k], sent[k] = value, t
+        commands.sort(key=lambda command: command[1])
+        yield from (c for c in commands if c[1] <= t)
         for kind in SENSOR_KINDS:
             if finite[kind][i]:
                 yield kind, t, tuple(rows[kind][i])
+        yield from (c for c in commands if c[1] > t)  # issued after this sample's time: after its sensors
 
 
 def _entry(shadow: Shadow) -> dict[str, Any]:

@@ -1,0 +1,25 @@
+"""The delete-one-cluster jackknife covariance (CR3; MacKinnon, Nielsen & Webb 2023) of a least-squares fit, each
+replicate one Gauss-Newton step from the solution: the one copy the output-error surge fit
+(:mod:`boat_twin.ident.output_error`, clusters of consecutive time blocks) and the manoeuvring fit
+(:mod:`boat_twin.ident.manoeuvring`, replay windows as clusters) share.
+
+Unlike the plain sandwich (CR1), it carries the leverage of single clusters: a cluster that pulls the fit alone
+moves its replicate by what dropping it would, not by its score over the whole fit's information."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def jackknife_covariance(jac: np.ndarray, residual: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, int]:
+    """(p, p) covariance (G − 1)/G·Σ_g (d_g − d̄)(d_g − d̄)ᵀ of the fit with Jacobian ``jac`` (n, p) and residuals
+    ``residual`` (n,) at its solution, d_g = (JᵀJ − J_gᵀJ_g)⁺·J_gᵀr_g the step of the fit without cluster g (rows
+    whose ``labels`` (n,) are g); and G, the number of clusters."""
+    information = jac.T @ jac
+    groups = np.unique(labels)
+    shifts = np.empty((groups.size, jac.shape[1]))
+    for i, g in enumerate(groups):
+        rows = labels == g
+        shifts[i] = np.linalg.pinv(information - jac[rows].T @ jac[rows]) @ (jac[rows].T @ residual[rows])
+    centred = shifts - shifts.mean(axis=0)
+    return (groups.size - 1) / max(groups.size, 1) * centred.T @ centred, int(groups.size)
