@@ -126,21 +126,32 @@ def study_turning(boats: int, duration_s: float) -> None:
             turning = result.final["model"]["turning"]
             true = coefficients(truth.vessel)
             held = sum(turning["ci95"][k][0] <= true[k] <= turning["ci95"][k][1] for k in turning["ci95"])
+            latest = turning["latest_fit"]
+            latest_held = (sum(latest["ci95"][k][0] <= true[k] <= latest["ci95"][k][1] for k in latest["ci95"])
+                           if latest is not None and latest["ci95"] else None)
+            each = "; ".join(f"{k.split('_')[0]}{'' if k != 'yaw_quadratic_Nms2' else '2'} "
+                             f"{turning['coefficients'][k] / true[k] - 1:+.1%}"
+                             f"{'' if turning['ci95'][k][0] <= true[k] <= turning['ci95'][k][1] else '*'}"
+                             for k in turning["ci95"])
             ratios = [e["yaw_rate_innovation_ratio"] for e in result.timeline]
             error = turning["coefficients"]["yaw_damping_Nms"] / true["yaw_damping_Nms"] - 1
-            rows.append((turning["fitted"], held, error, ratios[0], ratios[-1]))
+            rows.append((turning["fitted"], held, error, ratios[0], ratios[-1], latest_held))
             ci = turning["ci95"].get("yaw_damping_Nms", [math.nan, math.nan])
             print(f"   {source} boat {b}: yaw damping ×{damping_f:.3f}, m33 ×{inertia_f:.3f}: "
                   f"{'adopted' if turning['fitted'] else 'NOT adopted'} ({turning['fits']} fits, "
                   f"{turning['swaps']} swaps), yaw damping {error:+.1%} [{ci[0] / true['yaw_damping_Nms'] - 1:+.1%}, "
                   f"{ci[1] / true['yaw_damping_Nms'] - 1:+.1%}], intervals holding the truth {held}/{len(LIVE_KEYS)}"
-                  f"; yaw-rate innovation ratio {ratios[0]:.2f} → {ratios[-1]:.2f}", flush=True)
+                  f" ({each}; * outside), latest fit's {latest_held}; yaw-rate innovation ratio {ratios[0]:.2f} → "
+                  f"{ratios[-1]:.2f}", flush=True)
         n = len(rows)
         adopted = [r for r in rows if r[0]]
         print(f"T  {source}: {n} boats, {duration_s / 60:.0f} min each: turning adopted on {len(adopted)}/{n}; "
               f"intervals holding the truth {sum(r[1] for r in adopted)}/{len(adopted) * len(LIVE_KEYS)} "
-              f"(target ~95 %); yaw-damping error median {np.median(np.abs([r[2] for r in rows])):.1%}, max "
-              f"{np.max(np.abs([r[2] for r in rows])):.1%}; yaw-rate innovation ratio first minute median "
+              f"(target ~95 %), the latest fit's {sum(r[5] or 0 for r in rows)}/"
+              f"{sum(r[5] is not None for r in rows) * len(LIVE_KEYS)}; yaw-damping error median "
+              f"{np.median(np.abs([r[2] for r in rows])):.1%}, max {np.max(np.abs([r[2] for r in rows])):.1%}; "
+              f"yaw-rate innovation ratio first minute "
+              f"median "
               f"{np.median([r[3] for r in rows]):.2f}, last {np.median([r[4] for r in rows]):.2f}; "
               f"{(time.process_time() - cpu) / n:.1f} s CPU per boat", flush=True)
 

@@ -102,7 +102,7 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
         bridged = lost & ~gap
     thrust, thrust_switch = logged_commands(thrust_N, n, 0.1)
     angle, angle_switch = logged_commands(steering_rad, n, 0.1)
-    with np.errstate(invalid="ignore"), warnings.catch_warnings():  # the mean over the commands that changed at a sample, as the reader's
+    with warnings.catch_warnings():  # the mean over the commands that changed at a sample, as the reader's
         warnings.simplefilter("ignore", RuntimeWarning)
         switch = np.nan_to_num(np.nanmean(np.stack([thrust_switch, angle_switch]), axis=0), nan=0.0)
     return Trial(

@@ -61,6 +61,7 @@ from boat_twin.twin.replay import (
     residual,
 )
 from boat_twin.vessel.params import MANOEUVRING_KEYS, derive_coefficients
+from boat_twin.vessel.resistance import CorrectedResistance
 
 WINDOW_S = 20.0
 """Replay window, s: several yaw and sway time constants (0.4-9 s at 6 m/s), short enough that the heading a
@@ -517,10 +518,40 @@ def _solve(problem: _Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return result.x, np.asarray(result.jac), result.fun
 
 
+SURGE_STEP = 0.01
+"""Relative step of the held surge mass and resistance for :func:`held_surge_covariance`'s sensitivity, -."""
+
+
+def _scaled_surge(base: TwinConfig, log_mass: float, log_resistance: float) -> TwinConfig:
+    """``base`` with its mass and resistance curve scaled by exp(``log_mass``), exp(``log_resistance``)."""
+    vessel = base.vessel
+    top = vessel.resistance.max_speed_mps
+    factor = math.exp(log_resistance)
+    resistance = CorrectedResistance(vessel.resistance, (0.0, top), (factor, factor))
+    return replace(base, vessel=replace(vessel, mass_kg=vessel.mass_kg * math.exp(log_mass), resistance=resistance))
+
+
+def held_surge_covariance(problem: _Problem, x: np.ndarray, jac: np.ndarray, surge_cov: np.ndarray) -> np.ndarray:
+    """What the held surge model's uncertainty adds to the covariance of the fitted parameters at ``x``:
+    S·Σ·Sᵀ with Σ = ``surge_cov``, the (2, 2) covariance of (ln m11, ln Fc scale) of the surge model held, and
+    S = −(JᵀJ)⁻¹·Jᵀ·J_s the fit's first-order response to it (J_s: the projected residuals' sensitivity to the
+    held mass and resistance, by forward differences of :data:`SURGE_STEP`)."""
+    residuals = problem(x)
+    columns = []
+    for log_mass, log_resistance in ((SURGE_STEP, 0.0), (0.0, SURGE_STEP)):
+        shifted = _Problem(problem.data, _scaled_surge(problem.base, log_mass, log_resistance), problem.start,
+                           [p.key for p in problem.free])
+        columns.append((shifted(x) - residuals) / SURGE_STEP)
+    response = -np.linalg.pinv(jac.T @ jac) @ (jac.T @ np.column_stack(columns))
+    return response @ surge_cov @ response.T
+
+
 def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float = WINDOW_S,
-                    free: Sequence[str] = PARAMETER_KEYS) -> ManoeuvringFit:
+                    free: Sequence[str] = PARAMETER_KEYS, surge_cov: np.ndarray | None = None) -> ManoeuvringFit:
     """Fit the manoeuvring coefficients ``free`` (keys of :data:`PARAMETER_KEYS`; every one by default) of
-    ``base`` (the prior; its surge and the others held) to ``trials``."""
+    ``base`` (the prior; its surge and the others held) to ``trials``. ``surge_cov``: the (2, 2) covariance of
+    (ln m11, ln of a factor on Fc(u)) of the surge model ``base`` holds, carried into the intervals
+    (:func:`held_surge_covariance`); None: the surge model is taken as exact."""
     if not trials:
         raise InputError("no trial to fit the manoeuvring coefficients to")
     unknown = sorted(set(free) - set(PARAMETER_KEYS))
@@ -534,6 +565,8 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     x, jac, fun = _solve(problem)
     evaluations = problem.evaluations
     cov, groups = jackknife_covariance(jac, fun, problem.clusters())
+    if surge_cov is not None and np.all(np.isfinite(surge_cov)):
+        cov = cov + held_surge_covariance(problem, x, jac, np.asarray(surge_cov, dtype=float))
     stderr = np.sqrt(np.maximum(np.diag(cov), 0.0))
     quantile = float(student_t.ppf(0.975, max(groups - len(free), 1)))
     values = problem.values(x)

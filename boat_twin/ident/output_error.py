@@ -58,8 +58,8 @@ from scipy import optimize, special, stats
 from scipy.interpolate import BSpline
 from threadpoolctl import threadpool_limits
 
-from boat_twin.ident.jackknife import jackknife_covariance
 from boat_twin.errors import InputError
+from boat_twin.ident.jackknife import jackknife_covariance
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.vessel.resistance import TableResistance
 

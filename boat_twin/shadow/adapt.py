@@ -131,6 +131,16 @@ class SurgeModel:
         return _ratio(np.asarray(self.resistance.force_N(np.asarray(speeds_mps)), dtype=float),
                       np.asarray(base.resistance.force_N(np.asarray(speeds_mps)), dtype=float))
 
+    def log_covariance(self, base: VesselParams) -> np.ndarray | None:
+        """(2, 2) covariance of (ln m₁₁, ln resistance factor) for a fit that holds this model
+        (:func:`~boat_twin.ident.manoeuvring.fit_manoeuvring`'s ``surge_cov``); None for the configured model."""
+        var_m, cov_mf, var_f = self.covariance
+        if not self.samples or not all(math.isfinite(v) for v in self.covariance):
+            return None
+        m11 = self.mass_kg * (1.0 + base.surge_added_mass_ratio)
+        k = self.resistance_factor
+        return np.array([[var_m / m11**2, cov_mf / (m11 * k)], [cov_mf / (m11 * k), var_f / k**2]])
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready (SI)."""
         out: dict[str, Any] = {

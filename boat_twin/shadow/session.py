@@ -194,7 +194,7 @@ class Shadow:
         def score(model: TurningModel) -> float:
             return prediction_error(held_out, model.config(plain))
 
-        return self.turning.update(training, plain, score)
+        return self.turning.update(training, plain, score, self.adapter.current.log_covariance(self.adapter.base))
 
     def surge_force_N(self, surge_mps: float) -> float:
         """The surge force besides resistance now, N: the held thrust commands delivered (the engines' envelope

@@ -201,10 +201,11 @@ class TurningAdapter:
     def _back_off(self) -> None:
         self.wait_s = min(2.0 * self.wait_s, MAX_WAIT_PERIODS * self.period_s)
 
-    def update(self, training: Trial, plain: TwinConfig, score: Score) -> bool:
+    def update(self, training: Trial, plain: TwinConfig, score: Score, surge_cov: np.ndarray | None = None) -> bool:
         """Fit a candidate on ``training`` and adopt it, or revert, by the module docstring's rule; ``plain``: the
-        twin as it predicts now but with the configured turning (its surge model held by the fit). True when the
-        coefficients changed."""
+        twin as it predicts now but with the configured turning (its surge model held by the fit; ``surge_cov``,
+        the covariance of its logarithms of m₁₁ and the resistance factor, carried into the intervals). True when
+        the coefficients changed."""
         if training.t_s.size < 2 or training.t_s[-1] - training.t_s[0] < MIN_TRAINING_S:
             return False
         self.excitation = steering_excitation(training)
@@ -218,7 +219,7 @@ class TurningAdapter:
         try:  # coefficients far off make replays diverge, which the fit scores as such: no warning to log
             with np.errstate(all="ignore"), warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
-                fit = fit_manoeuvring([training], self.current.config(plain), free=LIVE_KEYS)
+                fit = fit_manoeuvring([training], self.current.config(plain), free=LIVE_KEYS, surge_cov=surge_cov)
             candidate: TurningModel | None = TurningModel.from_fit(fit)
         except (InputError, ValueError, np.linalg.LinAlgError):
             candidate = None
