@@ -10,9 +10,12 @@ B. flapping: a twin started at the true model; adoptions and reversals over the 
 T. the live turning adaptation (boat_twin.shadow.turning): boats whose yaw damping and yaw inertia differ from the
    default twin by a random −25 … +25 %, followed from the default twin; whether the turning coefficients are
    adopted, how often their 95 % intervals hold the truth, the yaw-damping error, the yaw-rate innovation ratio
-   in the first minute and the last, and CPU per boat.
+   in the first minute and the last, and CPU per boat;
+O. T's independent boats fitted offline (fit_manoeuvring over the live coefficients, from the true boat, on the
+   stretch the live fit trains on at the end: 300-770 s), the commands at their issue times and on the log's
+   grid (``command_switch_s`` dropped): how often the intervals hold the truth, the largest errors.
 
-Run: .venv/bin/python benchmarks/bench_live_adapt.py [--boats 6] [--duration-s 900] [--only BAT]
+Run: .venv/bin/python benchmarks/bench_live_adapt.py [--boats 6] [--duration-s 900] [--only BATO]
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ import argparse
 import math
 import sys
 import time
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +32,7 @@ import pymap3d
 
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.hidden import scenario
+from boat_twin.ident.manoeuvring import fit_manoeuvring
 from boat_twin.io.trial import Trial
 from boat_twin.shadow.follow import follow_trial
 from boat_twin.shadow.session import ShadowSettings
@@ -156,12 +160,34 @@ def study_turning(boats: int, duration_s: float) -> None:
               f"{(time.process_time() - cpu) / n:.1f} s CPU per boat", flush=True)
 
 
+def study_offline(boats: int, duration_s: float) -> None:
+    rng = np.random.default_rng(7)  # T's boats
+    for b in range(boats):
+        damping_f, inertia_f = rng.uniform(0.75, 1.25, 2)
+        base = TwinConfig(vessel=replace(TwinConfig().vessel, steering_rate_radps=0.0))
+        derived = coefficients(base.vessel)
+        truth = replace(base, vessel=replace(base.vessel, manoeuvring={
+            "yaw_damping_Nms": derived["yaw_damping_Nms"] * damping_f, "m33_kgm2": derived["m33_kgm2"] * inertia_f}))
+        trial = independent(truth, duration_s, 80 + b)
+        n = trial.t_s.size
+        stretch = replace(trial, **{f.name: getattr(trial, f.name)[3000:7701] for f in fields(trial)
+                                    if isinstance(getattr(trial, f.name), np.ndarray)
+                                    and getattr(trial, f.name).shape[:1] == (n,)})
+        true = coefficients(truth.vessel)
+        for timing, data in (("issue times", stretch), ("log grid", replace(stretch, command_switch_s=None))):
+            fit = fit_manoeuvring([data], truth, free=LIVE_KEYS)
+            held = sum(fit.ci95[k][0] <= true[k] <= fit.ci95[k][1] for k in LIVE_KEYS)
+            errors = ", ".join(f"{k} {fit.values[k] / true[k] - 1:+.1%}" for k in LIVE_KEYS)
+            print(f"O  independent boat {b}, {timing}: intervals holding the truth {held}/{len(LIVE_KEYS)}; {errors}",
+                  flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--boats", type=int, default=6, help="boats per source in A")
     parser.add_argument("--duration-s", type=float, default=900.0, help="trial length, s")
     parser.add_argument("--flap-seeds", type=int, default=3, help="trials in B")
-    parser.add_argument("--only", default="BAT", help="studies to run, by letter (default: all)")
+    parser.add_argument("--only", default="BATO", help="studies to run, by letter (default: all)")
     args = parser.parse_args()
     if "B" in args.only:
         study_flapping(args.duration_s, args.flap_seeds)
@@ -169,6 +195,8 @@ def main() -> None:
         study_coverage(args.boats, args.duration_s)
     if "T" in args.only:
         study_turning(args.boats, args.duration_s)
+    if "O" in args.only:
+        study_offline(args.boats, args.duration_s)
 
 
 if __name__ == "__main__":
