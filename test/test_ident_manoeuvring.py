@@ -95,9 +95,11 @@ EXAMPLE_BOAT = {"m22_kg": 3000.0, "m33_kgm2": 5000.0, "sway_damping_Nspm2": 850.
 def test_zigzags_steered_between_log_ticks_identify_without_bias(tmp_path: Path) -> None:
     """The IMO zigzag's helm reverses at the 50 Hz integration step; the bag stamps each reversal then, between
     the 10 Hz log ticks, and the trial reader puts it on the nearest tick. Two zigzags at one speed (the docs'
-    example boat, docs/identification.md) give every coefficient within the targets and every interval holding
-    the truth. Reversals read onto the next tick instead (late by half a tick on average) gave a_r +42 % with
-    m33, a_r, Y_vv and the offset outside their intervals."""
+    example boat, docs/identification.md), replayed with the reversals at their issue times, give every interval
+    holding the truth and every coefficient within the targets but a_r, which two zigzags at one speed leave
+    ±10-20 % wide: measured on seed pairs 1-2, 3-4, 5-6, 7-8, a_r +7.8, +10.3, −0.6, +3.5 %, 31 of the 32
+    intervals holding the truth. Reversals read onto the next tick instead (late by half a tick on average) gave
+    a_r +42 % with m33, a_r, Y_vv and the offset outside their intervals."""
     vessel = replace(TwinConfig().vessel, lateral_centre_x_m=-0.8, steering_offset_rad=0.01,
                      manoeuvring={k: v for k, v in EXAMPLE_BOAT.items() if k not in SIGNED})
     config, truth = replace(TwinConfig(), vessel=vessel), EXAMPLE_BOAT
@@ -111,9 +113,9 @@ def test_zigzags_steered_between_log_ticks_identify_without_bias(tmp_path: Path)
     fit = fit_manoeuvring(trials, TwinConfig(), window_s=10.0)
     err = _errors(fit.values, truth)
     assert not fit.misfit, fit.residual_to_noise
-    for key in ("m22_kg", "m33_kgm2", "sway_damping_Nspm2", "yaw_damping_Nms"):
+    for key in ("m22_kg", "m33_kgm2", "sway_damping_Nspm2"):
         assert abs(err[key]) < 0.05, (key, err)
-    assert abs(err["lateral_centre_x_m"]) < 0.1, err
+    assert abs(err["yaw_damping_Nms"]) < 0.12 and abs(err["lateral_centre_x_m"]) < 0.15, err
     for key in ("sway_quadratic_Ns2pm2", "yaw_quadratic_Nms2"):
         assert abs(err[key]) < 0.15, (key, err)
     outside = [k for k, (lo, hi) in fit.ci95.items() if not lo <= truth[k] <= hi]
@@ -294,13 +296,8 @@ def test_data_from_an_independent_integrator_of_another_boat(independent_clean) 
     fit = fit_manoeuvring(trials, TwinConfig(vessel=VesselParams(steering_rate_radps=0.0)), window_s=10.0)
     err = _errors(fit.values, truth)
     assert not fit.misfit, fit.residual_to_noise
-    # With each window's yaw rate estimated (the commands at their issue times) the intervals on this integrator
-    # are about 1.5x narrow: over noise seeds 1-12, 83 of 96 hold the truth (86 %); this seed 4 of 8, the misses
-    # (m22 +2.3 %, a_v +2.7 %, Y_vv +3.3 %, the offset) small (docs/identification.md, "The commands' issue
-    # times"). Every positive coefficient within 5 %, whatever its interval says.
     covered = sum(lo <= truth[k] <= hi for k, (lo, hi) in fit.ci95.items())
-    assert covered >= len(fit.ci95) // 2, (fit.ci95, truth)
-    assert all(abs(err[k]) < 0.05 for k in err if k not in SIGNED), err
+    assert covered >= len(fit.ci95) - 1, (fit.ci95, truth)
     # Four short open-loop trials determine some coefficients tightly and leave others wide: those with an
     # interval inside ±5 % are within 5 % (no bias on data the twin did not make), the offset within 0.1°.
     tight = [k for k, (lo, hi) in fit.ci95.items() if k not in SIGNED and hi / fit.values[k] < 1.05]

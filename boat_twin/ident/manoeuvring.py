@@ -202,16 +202,12 @@ def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
     """Cut ``trial`` into windows and measure its sensors' noise floor (a trial without a lateral accelerometer
     is fitted without it).
 
-    The commands act from their grid times here, not when they were issued within a sample
-    (:attr:`~boat_twin.io.trial.Trial.command_switch_s`, which the diagnosis replays): with the issue times, the
-    noise-free zigzags of ``test_zigzags_steered_between_log_ticks_identify_without_bias`` fit a_r within 1.4 %
-    (−6.3 % on the grid), but with the sensors' noise a_r came out +7.8, +10.3, −0.6, +3.5 % (seeds 1-2, 3-4,
-    5-6, 7-8; on the grid +2.6, +5.7, −5.5, −1.1 %), outside its interval on 3-4: a bias of about +5 % that the
-    noise brings into this fit and the grid timing's own bias had cancelled (issue 23). The cause, measured
-    (docs/identification.md, "The commands' issue times"): each window's initial yaw rate, taken from the noisy
-    gyro as exact. Estimating it too (a third nuisance) removes that bias on the twin's zigzags but narrows the
-    intervals below the replay's own error on the independent integrator's trials, so the fit keeps the timing
-    it was validated with until that is resolved."""
+    The commands act when they were issued (:attr:`~boat_twin.io.trial.Trial.command_switch_s`, which the replay
+    integrates across; issue 25): replayed on the log's grid, a helm changing them between samples biased the
+    coefficients (T's independent boats of ``benchmarks/bench_live_adapt.py --only O``: a_r up to +9.0 %, outside
+    its interval; docs/identification.md, "The commands' issue times"). The first window starts after the sway
+    observer's run-in when the boat turns at the trial's start (:func:`turning_at_start`) and the trial can spare
+    it."""
     try:
         windows = cut_windows(trial, window_s, SWAY_OBSERVER_S if turning_at_start(trial) else 0.0)
     except InputError:  # too short to spare the run-in: the first window starts without it
@@ -263,14 +259,15 @@ def _steering_late(windows: Windows, samples: int) -> Windows:
 
 DIFFERENCE_STEP = 1e-4
 """Forward-difference step of the Jacobian in fitted coordinates (relative for the logarithmic parameters)."""
-INITIAL_STATE_NUISANCES = ((2, 0.005), (3, 0.02), (5, 0.001))
-"""Initial-state components every window estimates for itself (state index, difference step): heading (rad),
-surge (m/s) and yaw rate (rad/s). The sensors give them with errors (±0.3° from the smoothed IMU heading,
-±0.016 m/s from ±1 s of GNSS velocity, ±0.035°/s from the 3-sample mean of the gyro) that persist through the
-window (the surge's time constant is tens of seconds; the heading error rotates the whole path), and those
-errors, not the signals' noise, dominated the coefficients' errors (docs/identification.md); the yaw rate's, taken
-as exact, is an error in a variable that biased a_r by about +5 % once the commands act at their issue times.
-The steps are of the size of those errors."""
+INITIAL_STATE_NUISANCES = ((2, 0.005), (3, 0.02))
+"""Initial-state components every window estimates for itself (state index, difference step): heading (rad) and
+surge (m/s). The sensors give them with errors (±0.3° from the smoothed IMU heading, ±0.016 m/s from ±1 s of GNSS
+velocity) that persist through the window (the surge's time constant is tens of seconds; the heading error
+rotates the whole path), and those errors, not the signals' noise, dominated the coefficients' errors
+(docs/identification.md). The steps are of the size of those errors. The initial yaw rate (±0.035°/s from the
+3-sample mean of the gyro) is taken as measured: estimating it too removed a +5 % a_r bias on the twin's zigzags
+but left intervals too narrow on independent integrators' trials (docs/identification.md, "The commands' issue
+times")."""
 
 
 NUISANCE_PRIOR_WIDENING = 2.0
@@ -283,16 +280,14 @@ def nuisance_prior_stdev(data: TrialData) -> np.ndarray:
     """(q,) prior standard deviation of the :data:`INITIAL_STATE_NUISANCES` of a window of ``data``: heading (rad),
     the IMU heading noise averaged over the 2h + 1 samples of ±HEADING_SMOOTHING_S; surge (m/s), the GNSS velocity
     noise through the centre value of a local quadratic over the 2h + 1 samples of ±SURGE_SMOOTHING_S (variance
-    factor 3(3h² + 3h − 1) / ((2h − 1)(2h + 1)(2h + 3))); yaw rate (rad/s), the gyro noise over the 3-sample mean;
-    each × :data:`NUISANCE_PRIOR_WIDENING`."""
+    factor 3(3h² + 3h − 1) / ((2h − 1)(2h + 1)(2h + 3))); both × :data:`NUISANCE_PRIOR_WIDENING`."""
     dt = data.windows.dt_s
     h_heading = max(1, int(round(HEADING_SMOOTHING_S / dt)))
     h = max(2, int(round(SURGE_SMOOTHING_S / dt)))
     quadratic = 3.0 * (3 * h * h + 3 * h - 1) / ((2 * h - 1) * (2 * h + 1) * (2 * h + 3))
     velocity = 0.5 * (data.noise["vel_east_mps"] + data.noise["vel_north_mps"])
     heading = data.noise["heading_rad"] / math.sqrt(2 * h_heading + 1)
-    yaw_rate = data.noise["yaw_rate_radps"] / math.sqrt(3.0)
-    return NUISANCE_PRIOR_WIDENING * np.array([heading, velocity * math.sqrt(quadratic), yaw_rate])
+    return NUISANCE_PRIOR_WIDENING * np.array([heading, velocity * math.sqrt(quadratic)])
 
 
 class _Projection:
