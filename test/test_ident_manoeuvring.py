@@ -313,9 +313,10 @@ def test_commands_changed_between_log_samples_act_at_their_issue_times() -> None
     """The independent integrator's helm (test/independent.py) changes the steering every 2-6 s and the thrust
     every 10-30 s at any instant; its log keeps each change at the nearest 10 Hz sample and when it was issued
     (``command_switch_s``, as the trial reader does for stamped command messages). The fit of the live turning
-    coefficients from the true boat replays them then: every coefficient within 2 % (measured: within 0.6 %,
-    m33's interval just missing). Replayed on the log's grid instead (``command_switch_s`` dropped, the fit until
-    issue 25) m22 came out −2.7 % and a_r −5.7 % (seeds 1-4: errors up to 6.3 %)."""
+    coefficients from the true boat replays them then: every coefficient within 2 % (measured on seeds 1-4:
+    within 2.0 %, 18 of the 20 intervals holding the truth; this seed within 0.8 %, m33's interval just missing).
+    Replayed on the log's grid instead (``command_switch_s`` dropped, the fit until issue 25) m22 came out −2.6 %
+    and a_r −5.1 % (seeds 1-4: errors up to 6.3 %)."""
     rng = np.random.default_rng(1)
     base = TwinConfig(vessel=VesselParams(steering_rate_radps=0.0))  # the integrator's outboards swing instantly
     derived = derive_coefficients(base.vessel)
