@@ -44,7 +44,7 @@ from boat_twin.files import (
     to_json,
 )
 from boat_twin.fleet.jobs import COMMON_COLUMNS, RUN_COLUMNS
-from boat_twin.fleet.trials import TrialTask
+from boat_twin.fleet.trials import TrialTask, trial_bytes
 
 ROW_FILE = "row.json"
 """A trial's summary row in its report directory, written last: the mark of a complete report."""
@@ -224,12 +224,14 @@ def run_batch(job: Job, tasks: Sequence[TrialTask], out: Path, client: Any = Non
 
 def _run_on_dask(client: Any, job: Job, tasks: Sequence[TrialTask], out: Path,
                  finished: Callable[[TrialTask, dict[str, Any]], None]) -> None:
-    """One Dask task per trial; rows recorded as they complete, in any order."""
+    """One Dask task per trial, the largest recordings first (a long trial started last would leave the other
+    workers idle at the end); rows recorded as they complete, in any order."""
     from distributed import as_completed
 
+    by_size = sorted(((trial_bytes(task), task) for task in tasks), key=lambda pair: -pair[0])
     futures = {client.submit(run_task, job, task, str(out / task.name), True, pure=False,
-                             key=f"{job.verb}-{task.name}-{os.getpid()}-{i}"): task
-               for i, task in enumerate(tasks)}
+                             key=f"{job.verb}-{task.name}-{os.getpid()}-{i}", priority=size): task
+               for i, (size, task) in enumerate(by_size)}
     try:
         for future in as_completed(futures):
             task = futures[future]
