@@ -374,3 +374,16 @@ def test_a_cluster_starts_the_largest_recordings_first(tmp_path) -> None:
     assert [r["trial"] for r in rows] == [t.name for t in tasks]  # the summary keeps the order given
     started = sorted(rows, key=lambda r: r["started_ns"])
     assert [r["trial"] for r in started] == ["large", "bag", "medium", "small"]
+
+
+def test_a_trial_that_failed_under_force_is_tried_again_though_its_older_report_stays(otters, tmp_path) -> None:
+    trial, out = tmp_path / "day0.mcap", tmp_path / "out"
+    shutil.copyfile(otters / "otter-a" / "day0.mcap", trial)
+    assert run_cli("identify", trial, "--each", "--out", out, "--scheduler", "sync")[0] == 0
+    older = (out / "day0" / ROW_FILE).read_text()
+    trial.write_bytes(b"\x89MCAP0\r\n cut short")
+    assert run_cli("identify", trial, "--each", "--out", out, "--scheduler", "sync", "--force")[0] == 2
+    assert (out / "day0" / ROW_FILE).read_text() == older  # the failure lost nothing
+    code, stdout, _ = run_cli("identify", trial, "--each", "--out", out, "--scheduler", "sync")
+    assert code == 2 and "(0 complete from an earlier run)" in stdout  # tried again, not taken from the old report
+    assert summary(out)[0][0]["status"] == "error"
