@@ -57,7 +57,7 @@ from scipy import stats
 from boat_twin.errors import InputError
 from boat_twin.ident import output_error
 from boat_twin.ident.output_error import ResistanceBasis, SurgeFit, SurgeRecord, spline_basis
-from boat_twin.vessel.params import VesselParams
+from boat_twin.vessel.params import VesselParams, derive_coefficients
 from boat_twin.vessel.resistance import CorrectedResistance, ResistanceModel
 
 ADOPT_MARGIN = 0.05
@@ -388,9 +388,18 @@ class SurgeAdapter:
         return True
 
     def _physical(self, model: SurgeModel) -> bool:
+        """Within :data:`FACTOR_RANGE` of the configured boat, and a boat whose turning can be derived (the
+        reference turn balanced by this resistance and mass: a held mass with a lighter curve can make it
+        directionally unstable)."""
         low, high = FACTOR_RANGE
         mass = model.mass_kg / self.base.mass_kg
-        return bool(low <= mass <= high and low <= model.resistance_factor <= high)
+        if not (low <= mass <= high and low <= model.resistance_factor <= high):
+            return False
+        try:
+            derive_coefficients(model.vessel(self.base))
+        except InputError:
+            return False
+        return True
 
     def revert(self, why: str = "asked") -> bool:
         """Go back to the model replaced last (logged); False when there is none."""
