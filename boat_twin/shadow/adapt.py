@@ -84,7 +84,7 @@ MAX_WAIT_PERIODS = 4.0
 """While fits keep confirming the current model, the time between updates doubles up to this many periods."""
 MIN_FACTOR_FORCE_SHARE = 0.02
 """Fitted speeds where the configured resistance is below this share of its largest there (near rest) carry no
-knot of :meth:`SurgeModel.over_base`: their ratio of two near-zero forces is noise, -."""
+knot of :func:`over_configured`: their ratio of two near-zero forces is noise, -."""
 FACTOR_RANGE = (0.3, 3.0)
 """Physical range of the mass and resistance factors relative to the configured boat, -: a fit outside is a
 stand-in for something else (a current, a fault) and is not adopted."""
@@ -104,7 +104,8 @@ class SurgeModel:
     samples: int = 0
     """Samples the fit used (0: the configured model, not fitted)."""
     resistance: ResistanceModel | None = None
-    """The fitted curve (None: the configured curve × ``resistance_factor``)."""
+    """The fitted curve over the fitted speeds, the configured one scaled beyond (:func:`over_configured`; None:
+    the configured curve × ``resistance_factor``)."""
     curve: str = "configured"
     """Which curve: ``configured``, or the fitted basis (``baseline``, ``spline-K``)."""
     mass_held: bool = False
@@ -120,34 +121,13 @@ class SurgeModel:
     """The fit and the horizon it was made on (None: the configured model), for :func:`with_basis_spread`."""
 
     def vessel(self, base: VesselParams) -> VesselParams:
-        """``base`` with this mass and resistance: a fitted curve is the data's only over the speeds it was fitted
-        on (:meth:`over_base`), the configured curve scaled beyond them."""
+        """``base`` with this mass and resistance."""
         if self.resistance is not None:
-            return replace(base, mass_kg=self.mass_kg, resistance=self.over_base(base))
+            return replace(base, mass_kg=self.mass_kg, resistance=self.resistance)
         top = base.resistance.max_speed_mps
         scaled: ResistanceModel = CorrectedResistance(base.resistance, (0.0, top),
                                                       (self.resistance_factor, self.resistance_factor))
         return replace(base, mass_kg=self.mass_kg, resistance=scaled)
-
-    def over_base(self, base: VesselParams) -> ResistanceModel:
-        """The fitted curve as the configured one times a factor of speed: the fit's own ratio Fc/Fc₀ at its
-        :attr:`speeds_mps` (the fitted speeds' quantiles), held at the end values below and above them. Outside
-        the speeds it saw the fit says nothing (its a·u + b·u² extrapolates freely), yet the twin's turning
-        coefficients are derived from the resistance at the reference turn's speed (6 m/s): a boat followed at
-        10-14 m/s, fitted within 0.5 % of its mass and resistance there, was given Fc(6 m/s) 20 % off its own and
-        turned so much worse that the velocity-vector held-out score never let it in (bench_live_adapt twin
-        boat 5)."""
-        assert self.resistance is not None
-        speeds = np.unique(np.asarray(self.speeds_mps, dtype=float))
-        reference = np.asarray(base.resistance.force_N(speeds), dtype=float)
-        fitted = np.asarray(self.resistance.force_N(speeds), dtype=float)
-        usable = reference > MIN_FACTOR_FORCE_SHARE * float(np.max(reference, initial=0.0))
-        if np.count_nonzero(usable) < 2:
-            return CorrectedResistance(base.resistance, (0.0, base.resistance.max_speed_mps),
-                                       (self.resistance_factor, self.resistance_factor))
-        ratio = np.maximum(fitted[usable] / reference[usable], FACTOR_RANGE[0] / 10.0)
-        return CorrectedResistance(base.resistance, tuple(float(u) for u in speeds[usable]),
-                                   tuple(float(k) for k in ratio))
 
     def factor_over(self, base: VesselParams, speeds_mps: tuple[float, ...]) -> float:
         """This model's resistance over ``base``'s Fc₀, least squares over ``speeds_mps``, -."""
@@ -172,6 +152,25 @@ class SurgeModel:
 
 def _ratio(force_N: np.ndarray, reference_N: np.ndarray) -> float:
     return float(force_N @ reference_N / max(float(reference_N @ reference_N), 1e-300))
+
+
+def over_configured(fitted: ResistanceModel, speeds_mps: np.ndarray, base: VesselParams,
+                    factor: float) -> ResistanceModel:
+    """A fitted curve as the configured one times a factor of speed: the fit's own ratio Fc/Fc₀ at ``speeds_mps``
+    (the fitted speeds' quantiles), held at the end values below and above them (``factor`` throughout when too
+    few of them are clear of rest). Outside the speeds it saw the fit says nothing (its a·u + b·u² runs free),
+    yet the twin's turning coefficients are derived from the resistance at the reference turn's speed (6 m/s): a
+    boat followed at 10-14 m/s, fitted within 0.5 % of its mass and resistance there, was given Fc(6 m/s) 16-63 %
+    above its own and turned so wrongly that the velocity-vector held-out score never let it in
+    (bench_live_adapt twin boat 5)."""
+    speeds = np.unique(np.asarray(speeds_mps, dtype=float))
+    reference = np.asarray(base.resistance.force_N(speeds), dtype=float)
+    usable = reference > MIN_FACTOR_FORCE_SHARE * float(np.max(reference, initial=0.0))
+    if np.count_nonzero(usable) < 2:
+        return CorrectedResistance(base.resistance, (0.0, base.resistance.max_speed_mps), (factor, factor))
+    ratio = np.asarray(fitted.force_N(speeds[usable]), dtype=float) / reference[usable]
+    return CorrectedResistance(base.resistance, tuple(float(u) for u in speeds[usable]),
+                               tuple(float(k) for k in np.maximum(ratio, FACTOR_RANGE[0] / 10.0)))
 
 
 def horizon_record(t_s: np.ndarray, force_N: np.ndarray, speed_mps: np.ndarray, latency_s: float) -> SurgeRecord:
@@ -248,8 +247,9 @@ def _model(fit: SurgeFit, record: SurgeRecord, base: VesselParams, current: Surg
     half = q * math.sqrt(max(var_factor, 0.0))
     mass = current.mass_kg if held else fit.mass_kg / added
     mass_ci = current.mass_ci95_kg if held else (fit.mass_ci95_kg[0] / added, fit.mass_ci95_kg[1] / added)
+    resistance = over_configured(fit.resistance_model(), speeds, base, factor)
     return SurgeModel(mass, factor, mass_ci, (factor - half, factor + half), int(record.t_s.size),
-                      fit.resistance_model(), fit.basis.name, held, tuple(float(s) for s in speeds),
+                      resistance, fit.basis.name, held, tuple(float(s) for s in speeds),
                       (var_mass, cov_mass, var_factor), fit.clusters, fit, record)
 
 
