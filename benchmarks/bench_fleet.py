@@ -22,6 +22,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -74,6 +75,39 @@ def findings(rows: list[dict]) -> list[dict]:
     return [{k: v for k, v in row.items() if k not in RUN_COLUMNS} for row in rows]
 
 
+def half_batch(tasks: list, out: Path, ready: Any, go: Any, seconds: Any) -> None:
+    """(In a plain child process.) Load the kernels, wait for the sibling, diagnose ``tasks`` one after another and
+    put the wall time on ``seconds``."""
+    warm_up()
+    ready.release()
+    go.wait()
+    start = time.perf_counter()
+    run_batch(DiagnoseJob(), tasks, out)
+    seconds.put(time.perf_counter() - start)
+
+
+def plain_pair(tasks: list, out: Path) -> float:
+    """The machine's ceiling for two processes: the batch split in two (alternate trials) and diagnosed by two plain
+    processes at once, no Dask; the wall time of the slower, s. Two processes on two cores are not twice one:
+    they share the memory bus and the last-level cache, and on a virtual machine the cores may be one physical
+    core's two hyper-threads."""
+    import multiprocessing
+
+    context = multiprocessing.get_context("spawn")
+    ready, go, seconds = context.Semaphore(0), context.Event(), context.Queue()
+    children = [context.Process(target=half_batch, args=(tasks[i::2], out / f"half{i}", ready, go, seconds))
+                for i in range(2)]
+    for child in children:
+        child.start()
+    for _ in children:
+        ready.acquire()
+    go.set()
+    slower = max(seconds.get() for _ in children)
+    for child in children:
+        child.join()
+    return slower
+
+
 def batch(paths: list[Path], out: Path) -> list[dict]:
     """Diagnose ``paths`` one after another here, then on a 2-worker local cluster, and print the times, the
     ratio and the workers' memory (each row's ``peak_rss_mb``: its worker's peak so far, after the first half of
@@ -91,12 +125,15 @@ def batch(paths: list[Path], out: Path) -> list[dict]:
         start = time.perf_counter()
         parallel = run_batch(job, tasks, out / "cluster", client).rows
         cluster_s = time.perf_counter() - start
+    pair_s = plain_pair(tasks, out / "pair")
     same = findings(parallel) == findings(serial)
     print(f"diagnose {len(tasks)} recordings: serial {serial_s:.1f} s, 2-worker local cluster {cluster_s:.1f} s "
           f"(after {ready_s:.1f} s starting it and loading the kernels), ratio {serial_s / cluster_s:.2f}x (target "
           f">= 1.8x); CPU of the tasks: serial {sum(r['cpu_s'] for r in serial):.1f} s, cluster "
           f"{sum(r['cpu_s'] for r in parallel):.1f} s; rows identical: {same}, errors: "
           f"{sum(r['status'] != 'ok' for r in parallel)}")
+    print(f"the machine's ceiling: two plain processes (no Dask) on half the batch each {pair_s:.1f} s, ratio "
+          f"{serial_s / pair_s:.2f}x; the cluster reaches {pair_s / cluster_s:.2f} of it")
     half, full = worker_peak_rss_mb(parallel[: len(parallel) // 2]), worker_peak_rss_mb(parallel)
     print("peak RSS per worker after half / all of the batch, MB: "
           + ", ".join(f"{half.get(w, float('nan')):.0f} / {full[w]:.0f}" for w in sorted(full)))

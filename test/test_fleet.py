@@ -27,10 +27,10 @@ from boat_twin.cli import main
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose import hidden
 from boat_twin.fleet import engine
-from boat_twin.fleet.batch import ROW_FILE
+from boat_twin.fleet.batch import ROW_FILE, run_batch
 from boat_twin.fleet.ensemble import EnsembleSpec, run_ensemble
 from boat_twin.fleet.jobs import RUN_COLUMNS
-from boat_twin.fleet.trials import expand_trials, name_trials
+from boat_twin.fleet.trials import expand_trials, name_trials, trial_bytes
 
 OTTER_MASS_KG = 1.10 * OTTER["mass_kg"]
 """The independent Otter's surge mass (test_other_boat.integrate)."""
@@ -347,3 +347,43 @@ def test_a_scheduler_and_two_workers_started_by_hand_give_the_serial_results(ott
                 process.wait(timeout=10)
             except subprocess.TimeoutExpired:
                 process.kill()
+
+
+class StartTimeJob:
+    """A job that only notes when its trial started (the order a cluster runs the trials in)."""
+
+    verb, columns, outputs = "probe", ("started_ns",), ()
+
+    def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict:
+        return {"started_ns": time.monotonic_ns()}
+
+
+def test_a_cluster_starts_the_largest_recordings_first(tmp_path) -> None:
+    pytest.importorskip("distributed")
+    sizes = {"small": 100, "large": 3000, "medium": 1000}
+    for name, size in sizes.items():
+        (tmp_path / f"{name}.mcap").write_bytes(b"\0" * size)
+    (tmp_path / "bag").mkdir()
+    metadata = "rosbag2_bagfile_information: {}\n"
+    (tmp_path / "bag" / "metadata.yaml").write_text(metadata)
+    (tmp_path / "bag" / "bag_0.mcap").write_bytes(b"\0" * 2000)
+    tasks = name_trials(expand_trials([tmp_path]))
+    assert {t.name: trial_bytes(t) for t in tasks} == {**sizes, "bag": 2000 + len(metadata)}
+    with engine.open_client(engine.LOCAL, 1, quiet=True) as client:
+        rows = run_batch(StartTimeJob(), tasks, tmp_path / "out", client).rows
+    assert [r["trial"] for r in rows] == [t.name for t in tasks]  # the summary keeps the order given
+    started = sorted(rows, key=lambda r: r["started_ns"])
+    assert [r["trial"] for r in started] == ["large", "bag", "medium", "small"]
+
+
+def test_a_trial_that_failed_under_force_is_tried_again_though_its_older_report_stays(otters, tmp_path) -> None:
+    trial, out = tmp_path / "day0.mcap", tmp_path / "out"
+    shutil.copyfile(otters / "otter-a" / "day0.mcap", trial)
+    assert run_cli("identify", trial, "--each", "--out", out, "--scheduler", "sync")[0] == 0
+    older = (out / "day0" / ROW_FILE).read_text()
+    trial.write_bytes(b"\x89MCAP0\r\n cut short")
+    assert run_cli("identify", trial, "--each", "--out", out, "--scheduler", "sync", "--force")[0] == 2
+    assert (out / "day0" / ROW_FILE).read_text() == older  # the failure lost nothing
+    code, stdout, _ = run_cli("identify", trial, "--each", "--out", out, "--scheduler", "sync")
+    assert code == 2 and "(0 complete from an earlier run)" in stdout  # tried again, not taken from the old report
+    assert summary(out)[0][0]["status"] == "error"

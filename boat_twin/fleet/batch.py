@@ -5,8 +5,9 @@
 - ``DIR/<trial name>/`` holds each trial's own report (what the verb writes for one trial) and ``row.json``,
   its summary row, written as one set (:class:`~boat_twin.files.ReportSet`): the whole new report appears at
   once when the trial is done, or nothing of it (an error, an interrupt, a killed worker keep the old report
-  whole). A trial with ``row.json`` is complete, and a later run skips it (resume) unless ``force``. A trial
-  that failed has no new report (an earlier complete one stays) and is tried again.
+  whole). A trial with ``row.json`` is complete, and a later run skips it (resume) unless ``force`` or its row in
+  the last summary says it failed. A trial that failed has no new report (an earlier complete one stays) and is
+  tried again by the next run.
 - ``DIR/summary.csv`` and ``DIR/summary.json`` (a list of rows, one per trial in the order given) are rewritten
   after every trial, each atomically and the two together with SIGINT and SIGTERM held back (they always
   agree), so that a killed run leaves the rows of the trials it finished. Each row has at least
@@ -44,7 +45,7 @@ from boat_twin.files import (
     to_json,
 )
 from boat_twin.fleet.jobs import COMMON_COLUMNS, RUN_COLUMNS
-from boat_twin.fleet.trials import TrialTask
+from boat_twin.fleet.trials import TrialTask, trial_bytes
 
 ROW_FILE = "row.json"
 """A trial's summary row in its report directory, written last: the mark of a complete report."""
@@ -149,6 +150,18 @@ def _clean_leftovers(out: Path, tasks: Sequence[TrialTask]) -> None:
         OutputClaim(out / name, force=True, kind="reports").release()
 
 
+def _failed_last_time(out: Path) -> set[str]:
+    """The trials whose row in ``out``'s summary from the last run says they failed: an older complete report of
+    theirs (kept by the failure) is not the latest attempt's result, so a resume runs them again."""
+    try:
+        rows = json.loads((out / SUMMARY_JSON).read_text())
+    except (OSError, ValueError):
+        return set()
+    if not isinstance(rows, list):
+        return set()
+    return {row["trial"] for row in rows if isinstance(row, dict) and row.get("status") == "error" and "trial" in row}
+
+
 def _complete_row(report_dir: Path) -> dict[str, Any] | None:
     """The row of an earlier complete report in ``report_dir``, or None."""
     try:
@@ -196,8 +209,9 @@ def run_batch(job: Job, tasks: Sequence[TrialTask], out: Path, client: Any = Non
         _clean_leftovers(out, tasks)
         rows: dict[str, dict[str, Any]] = {}
         if not force:
+            failed = _failed_last_time(out)
             for task in tasks:
-                earlier = _complete_row(out / task.name)
+                earlier = None if task.name in failed else _complete_row(out / task.name)
                 if earlier is not None:
                     rows[task.name] = earlier
         resumed = len(rows)
@@ -224,12 +238,14 @@ def run_batch(job: Job, tasks: Sequence[TrialTask], out: Path, client: Any = Non
 
 def _run_on_dask(client: Any, job: Job, tasks: Sequence[TrialTask], out: Path,
                  finished: Callable[[TrialTask, dict[str, Any]], None]) -> None:
-    """One Dask task per trial; rows recorded as they complete, in any order."""
+    """One Dask task per trial, the largest recordings first (a long trial started last would leave the other
+    workers idle at the end); rows recorded as they complete, in any order."""
     from distributed import as_completed
 
+    by_size = sorted(((trial_bytes(task), task) for task in tasks), key=lambda pair: -pair[0])
     futures = {client.submit(run_task, job, task, str(out / task.name), True, pure=False,
-                             key=f"{job.verb}-{task.name}-{os.getpid()}-{i}"): task
-               for i, task in enumerate(tasks)}
+                             key=f"{job.verb}-{task.name}-{os.getpid()}-{i}", priority=size): task
+               for i, (size, task) in enumerate(by_size)}
     try:
         for future in as_completed(futures):
             task = futures[future]

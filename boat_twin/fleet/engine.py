@@ -31,12 +31,18 @@ SCHEDULER_HELP = ("where the tasks run: 'local' (default: a Dask cluster on this
 """Help text of ``--scheduler``."""
 MISSING = "dask and distributed are not installed (pip install 'boat_twin[fleet]')"
 """What is missing when the fleet extra is not installed."""
-LOCAL_WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
-"""Dask settings of a local cluster's workers: no statistical profiler. A fleet task is one long Python call, and
-the profiler's thread sampling its stack every 10 ms adds work to every task for a dashboard flame graph that
-would show one function (16 recordings diagnosed on the shared machine: the workers' CPU 17 % above the serial
-run's with it, 9 % without; on the idle machine the workers still use 5-14 % more, docs/fleet.md). A cluster at
-an address keeps its own settings."""
+LOCAL_CLUSTER_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "2s",
+    "distributed.worker.memory.monitor-interval": "1s",
+}
+"""Dask settings of a local cluster, tuned for fleet tasks (each one long Python call of seconds to minutes) rather
+than Dask's default of many millisecond tasks: no statistical profiler (a thread sampling each task's stack every
+10 ms for a flame graph that would show one function), and the event-loop health check (every 20 ms by default),
+the system monitor (500 ms) and the memory monitor of each worker and nanny (100 ms) at 1-2 s. Together they took
+3-8 % of the workers' CPU away from the tasks (docs/fleet.md); a worker over its memory limit is still stopped
+within a second. A cluster at an address keeps its own settings."""
 CONNECT_TIMEOUT_S = 10.0
 """How long to wait for a scheduler at an address, s."""
 
@@ -89,7 +95,7 @@ def open_client(scheduler: str = LOCAL, workers: int | None = None, quiet: bool 
 
     if scheduler == LOCAL:
         count = workers or default_workers()
-        with dask.config.set(LOCAL_WORKER_CONFIG), \
+        with dask.config.set(LOCAL_CLUSTER_CONFIG), \
                 LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=":0",
                              silence_logs=logging.ERROR, env=single_thread_environment()) as cluster, \
                 Client(cluster) as client:

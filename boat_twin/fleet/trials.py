@@ -58,6 +58,18 @@ def _found_in(root: Path, csv: bool, skip: Path | None) -> list[Path]:
     return sorted(p for p in found if not _inside(p, skip))
 
 
+def trial_bytes(task: TrialTask) -> int:
+    """The size of ``task``'s recording on disk (a rosbag2 directory's files summed; 0 when missing), bytes: the
+    batch's guess of its cost, to start the longest trials first."""
+    path = Path(task.path)
+    try:
+        if path.is_dir():
+            return sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
+        return path.stat().st_size
+    except OSError:
+        return 0
+
+
 def expand_trials(items: list[Path], csv: bool = False, skip: Path | None = None) -> list[tuple[Path, str]]:
     """(absolute path, boat) of every trial ``items`` name: a trial (file or rosbag2 directory, kept even when
     missing: its row will say so), a directory of trials (searched recursively; ``skip``, the batch's own

@@ -155,7 +155,7 @@ def _interp_row(table: np.ndarray, step: float, speed: float, out: np.ndarray) -
 @numba.njit(cache=True)
 def _derivative(state: np.ndarray, thrust: float, mass: float, coeffs: np.ndarray, table: np.ndarray,
                 step: float, row: np.ndarray, out: np.ndarray) -> None:
-    """d/dt of [u, ∂u/∂w_j..., ∂u/∂m, ∂u/∂u0] for m·du/dt = T − Fc(u)."""
+    """d/dt of [u, ∂u/∂w_j..., ∂u/∂m, ∂u/∂u0] for m·du/dt = T − Fc(u) (of u alone when ``state`` holds u only)."""
     u = state[0]
     _interp_row(table, step, u, row)
     p = coeffs.shape[0]
@@ -167,6 +167,8 @@ def _derivative(state: np.ndarray, thrust: float, mass: float, coeffs: np.ndarra
         slope += coeffs[j] * row[p + j]
     force *= sign
     out[0] = (thrust - force) / mass
+    if state.shape[0] == 1:
+        return
     for j in range(p):
         out[1 + j] = (-sign * row[j] - slope * state[1 + j]) / mass
     out[1 + p] = -(thrust - force) / mass**2 - slope * state[1 + p] / mass
@@ -175,15 +177,17 @@ def _derivative(state: np.ndarray, thrust: float, mass: float, coeffs: np.ndarra
 
 @numba.njit(cache=True)
 def _simulate(t_s: np.ndarray, thrust: np.ndarray, u0: float, mass: float, coeffs: np.ndarray,
-              table: np.ndarray, step: float, max_step: float) -> np.ndarray:
-    """Speed and its sensitivities at every sample, shape (n, p + 3): [u, ∂u/∂w_j..., ∂u/∂m, ∂u/∂u0]."""
+              table: np.ndarray, step: float, max_step: float, sensitivities: bool) -> np.ndarray:
+    """Speed and its sensitivities at every sample, shape (n, p + 3): [u, ∂u/∂w_j..., ∂u/∂m, ∂u/∂u0]; without
+    ``sensitivities`` the speed alone, shape (n, 1), the same values (its RK4 stages do not depend on the rest)."""
     n = t_s.shape[0]
     p = coeffs.shape[0]
-    width = p + 3
+    width = p + 3 if sensitivities else 1
     out = np.empty((n, width))
     state = np.zeros(width)
+    if sensitivities:
+        state[width - 1] = 1.0
     state[0] = u0
-    state[width - 1] = 1.0
     row = np.empty(2 * p)
     k1, k2, k3, k4, tmp = np.empty(width), np.empty(width), np.empty(width), np.empty(width), np.empty(width)
     out[0] = state
@@ -191,15 +195,19 @@ def _simulate(t_s: np.ndarray, thrust: np.ndarray, u0: float, mass: float, coeff
         interval = t_s[i + 1] - t_s[i]
         sub = max(1, int(np.ceil(interval / max_step - 1e-9)))
         h = interval / sub
-        for _ in range(sub):
+        for _ in range(sub):  # RK4, element by element: no temporary arrays in the hot loop
             _derivative(state, thrust[i], mass, coeffs, table, step, row, k1)
-            tmp[:] = state + 0.5 * h * k1
+            for j in range(width):
+                tmp[j] = state[j] + 0.5 * h * k1[j]
             _derivative(tmp, thrust[i], mass, coeffs, table, step, row, k2)
-            tmp[:] = state + 0.5 * h * k2
+            for j in range(width):
+                tmp[j] = state[j] + 0.5 * h * k2[j]
             _derivative(tmp, thrust[i], mass, coeffs, table, step, row, k3)
-            tmp[:] = state + h * k3
+            for j in range(width):
+                tmp[j] = state[j] + h * k3[j]
             _derivative(tmp, thrust[i], mass, coeffs, table, step, row, k4)
-            state += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            for j in range(width):
+                state[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
         out[i + 1] = state
     return out
 
@@ -345,16 +353,32 @@ class _Problem:
             return x[: self.p], float(x[self.p]), x[self.p + 1:]
         return x[: self.p], float(self.mass_given), x[self.p:]
 
+    def _run(self, x: np.ndarray, s: int, sensitivities: bool) -> np.ndarray:
+        """Segment ``s`` simulated at ``x`` (:func:`_simulate`'s columns)."""
+        coeffs, mass, u0 = self.unpack(x)
+        seg = self.segments[s]
+        rec = self.records[seg.record]
+        return _simulate(rec.t_s[seg.start:seg.stop], rec.thrust_N[seg.start:seg.stop], float(u0[s]), mass,
+                         np.ascontiguousarray(coeffs, dtype=float), self.table, self.step, MAX_STEP_S,
+                         sensitivities)
+
+    def residual(self, x: np.ndarray) -> np.ndarray:
+        """Residuals (simulated |u| − measured) alone: :meth:`simulate`'s first value, at a fraction of its cost."""
+        self.evaluations += 1
+        rows = []
+        for s, seg in enumerate(self.segments):
+            speed, _ = rice_mean(self._run(x, s, False)[:, 0], self.noise_mps[seg.record])
+            rows.append(speed - self.records[seg.record].speed_mps[seg.start:seg.stop])
+        return np.concatenate(rows)
+
     def simulate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Residuals (simulated |u| − measured) and their Jacobian with respect to ``x``."""
-        coeffs, mass, u0 = self.unpack(x)
         self.evaluations += 1
         n_free = self.p + (self.mass_given is None)
         rows, jac_rows = [], []
         for s, seg in enumerate(self.segments):
             rec = self.records[seg.record]
-            out = _simulate(rec.t_s[seg.start:seg.stop], rec.thrust_N[seg.start:seg.stop], float(u0[s]), mass,
-                            np.ascontiguousarray(coeffs, dtype=float), self.table, self.step, MAX_STEP_S)
+            out = self._run(x, s, True)
             speed, slope = rice_mean(out[:, 0], self.noise_mps[seg.record])
             sign = slope[:, None]
             rows.append(speed - rec.speed_mps[seg.start:seg.stop])
@@ -395,16 +419,13 @@ def _initial_guess(problem: _Problem) -> np.ndarray:
     if problem.mass_given is not None:
         return np.concatenate([coeffs, u0])
     slope = float(np.median(slopes @ coeffs)) or 1.0
-    best = None
-    for tau_s in np.geomspace(0.3, 300.0, 13):
-        x = np.concatenate([coeffs, [tau_s * slope], u0])
-        residual, jac = problem.simulate(x)
-        cost = float(np.sum(residual**2))
-        if np.isfinite(cost) and _finite_squares(jac) and (best is None or cost < best[0]):
-            best = (cost, x)
-    if best is None:
-        raise InputError("the surge model diverges for every trial mass: check the thrust and speed units")
-    return best[1]
+    trials = [np.concatenate([coeffs, [tau_s * slope], u0]) for tau_s in np.geomspace(0.3, 300.0, 13)]
+    with np.errstate(over="ignore", invalid="ignore"):
+        costs = [float(np.sum(problem.residual(x) ** 2)) for x in trials]
+    for k in np.argsort(costs, kind="stable"):  # the cheapest whose sensitivities stay finite
+        if np.isfinite(costs[k]) and _finite_squares(problem.simulate(trials[k])[1]):
+            return trials[k]
+    raise InputError("the surge model diverges for every trial mass: check the thrust and speed units")
 
 
 def _cluster_covariance(problem: _Problem, residual: np.ndarray, jac: np.ndarray, free: np.ndarray
