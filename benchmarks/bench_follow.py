@@ -194,11 +194,14 @@ def study_probe(duration_s: float = 600.0) -> None:
         result = follow_trial(read_trial(path), TwinConfig())
     ratios = [e["speed_innovation_ratio"] or math.nan for e in result.timeline]
     flagged = [e["t_s"] / 60.0 for e in result.timeline if e["unexplained"]]
-    named = sorted({c for e in result.timeline for c in e["causes"]})
+    named = [f"{c['name']} at {d['span_s'][0]:.0f}-{d['span_s'][1]:.0f} s" for d in result.diagnoses
+             for c in d["causes"]]  # every run's, not only those a minute's timeline entry shows
+    model = result.final["model"]
     print(f"E  out-of-catalogue fault (steering thrust loss), random {duration_s / 60:.0f} min: speed ratio "
           f"{np.nanmin(ratios):.2f}-{np.nanmax(ratios):.2f}; 'unexplained' from minute "
-          f"{flagged[0] if flagged else math.nan:.0f}, held at the end: {result.final['unexplained']}; causes named: "
-          f"{', '.join(named) or 'none'} (target: none)")
+          f"{flagged[0] if flagged else math.nan:.0f}, held at the end: {result.final['unexplained']}; causes named "
+          f"in {len(result.diagnoses)} runs: {', '.join(named) or 'none'} (target: none); surge / turning models "
+          f"adopted: {model['swaps']} / {model['turning']['swaps']} (target: 0)")
 
 
 def main() -> None:

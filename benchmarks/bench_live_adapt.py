@@ -7,6 +7,9 @@ A. interval coverage: boats whose mass and resistance differ from the default tw
    from the twin's kernel, thrust and steering changing at random);
 B. flapping: a twin started at the true model; adoptions and reversals over the trial (the true model should
    stay, surge and turning), the largest relative mass change adopted;
+Z. constant-thrust zigzags (20°/20°) of the configured boat, followed from it: the mass is seen only in the
+   speed each turn costs; the mass intervals of the fits standing at each minute once the horizon is full, and what
+   is adopted;
 T. the live turning adaptation (boat_twin.shadow.turning): boats whose yaw damping and yaw inertia differ from the
    default twin by a random −25 … +25 %, followed from the default twin; whether the turning coefficients are
    adopted, how often their 95 % intervals hold the truth, the yaw-damping error, the yaw-rate innovation ratio
@@ -15,7 +18,7 @@ O. T's independent boats fitted offline (fit_manoeuvring over the live coefficie
    stretch the live fit trains on at the end: 300-770 s), the commands at their issue times and on the log's
    grid (``command_switch_s`` dropped): how often the intervals hold the truth, the largest errors.
 
-Run: .venv/bin/python benchmarks/bench_live_adapt.py [--boats 6] [--duration-s 900] [--only BATO]
+Run: .venv/bin/python benchmarks/bench_live_adapt.py [--boats 6] [--duration-s 900] [--only BAZTO]
 """
 
 from __future__ import annotations
@@ -113,6 +116,32 @@ def study_flapping(duration_s: float, seeds: int) -> None:
               f"{result.final['model']['turning']['fits']} fits, {len(turning)} adoptions or reversals", flush=True)
 
 
+def study_zigzag(duration_s: float, seeds: int) -> None:
+    config = TwinConfig()
+    true_mass = config.vessel.mass_kg
+    held, fits, errors = 0, 0, []
+    for seed in range(5, 5 + seeds):
+        run = run_sea_trial(config, scenario("zigzag", config.vessel, np.random.default_rng(seed), duration_s), seed)
+        result = follow_trial(measured_trial(run.record, 0, config, np.random.default_rng(seed + 100)), config,
+                              NO_DIAGNOSIS)
+        full: list[dict] = []  # each fit once (a fit stands for several minutes while the model is confirmed)
+        for m in result.models:
+            fit = m["latest_fit"]
+            if m["t_s"] >= 600.0 and fit is not None and not fit["mass_held"] and fit not in full:
+                full.append(fit)
+        inside_ci = sum(inside(f["mass_ci95_kg"], true_mass) for f in full)
+        held, fits = held + inside_ci, fits + len(full)
+        errors += [f["mass_kg"] / true_mass - 1 for f in full]
+        surge = result.final["model"]["surge"]
+        masses = ", ".join(f"{f['mass_kg']:.0f}" for f in full)
+        print(f"   zigzag seed {seed}: fits from minute 10 {masses} kg, "
+              f"intervals holding {true_mass:.0f} kg {inside_ci}/{len(full)}; adopted {result.final['model']['swaps']}"
+              f" time(s), final {surge['mass_kg']:.0f} kg", flush=True)
+    print(f"Z  constant-thrust zigzags, {seeds} trials of {duration_s / 60:.0f} min: full-horizon fits' mass "
+          f"intervals hold the truth {held}/{fits}; mass error median {np.median(errors):+.1%}, range "
+          f"{min(errors):+.1%} … {max(errors):+.1%}", flush=True)
+
+
 def study_turning(boats: int, duration_s: float) -> None:
     rng = np.random.default_rng(7)
     for source, make in (("twin", twin_trial), ("independent", independent)):
@@ -187,12 +216,15 @@ def main() -> None:
     parser.add_argument("--boats", type=int, default=6, help="boats per source in A")
     parser.add_argument("--duration-s", type=float, default=900.0, help="trial length, s")
     parser.add_argument("--flap-seeds", type=int, default=3, help="trials in B")
-    parser.add_argument("--only", default="BATO", help="studies to run, by letter (default: all)")
+    parser.add_argument("--zigzag-seeds", type=int, default=4, help="trials in Z")
+    parser.add_argument("--only", default="BAZTO", help="studies to run, by letter (default: all)")
     args = parser.parse_args()
     if "B" in args.only:
         study_flapping(args.duration_s, args.flap_seeds)
     if "A" in args.only:
         study_coverage(args.boats, args.duration_s)
+    if "Z" in args.only:
+        study_zigzag(args.duration_s, args.zigzag_seeds)
     if "T" in args.only:
         study_turning(args.boats, args.duration_s)
     if "O" in args.only:

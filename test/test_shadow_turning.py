@@ -79,8 +79,8 @@ def _check_adopted(result, truth: VesselParams, trial: Trial, base: TwinConfig) 
 
 def test_the_twin_adopts_the_turning_of_a_boat_that_turns_otherwise() -> None:
     """Yaw damping +25 %, yaw inertia −20 %: the twin's trial of random thrust and steering (8 minutes; on its
-    constant-thrust zigzags the live surge fit's mass comes out ~12 % high, docs/live-twin.md, and the turning
-    fit, which holds it, absorbs that)."""
+    constant-thrust zigzags the live surge fit's mass came out up to 12 % high before the fit read the surge along
+    the heading, docs/live-twin.md, and the turning fit, which holds it, absorbed that)."""
     base = TwinConfig()
     truth = replace(base, vessel=_turning_otherwise(base.vessel, yaw_damping_Nms=1.25, m33_kgm2=0.8))
     trial = _twin_trial(truth, "random", 480.0, 3)
