@@ -71,11 +71,13 @@ zigzags at one thrust: with the thrust changing (random commands) it stays at 1.
 window's surge transient) and that gate refused every fit of a boat yawing 25 % otherwise; stretches the model
 misfits gave 2.8-4.4 (a 470 s random-commands horizon of the configured boat at 9-13 m/s, whose fit moved the
 coefficients 3-8 % and was adopted without this gate)."""
-ADOPT_MARGIN = 0.25
-"""Turning coefficients replace others only if their held-out error is this share lower. Measured: fits on the
-configured boat that passed the other tests (random-commands stretches its replay misfits a little, velocity
-residuals 1.8-2.0× the noise) improved it by 5.7-6.8 %, and by 14 % making up for a surge mass 12 % off; fits of
-a boat yawing 25 % otherwise by 93-99 % (held-out error ÷ 14 to ÷ 190)."""
+ADOPT_MARGIN = 0.5
+"""Turning coefficients replace others only if their held-out error is this share lower. Measured (issue 25, the
+held-out windows started after the sway observer's run-in: before, the first window's missing sway made the
+score 9.9-24 on the configured boat and hid the rest): a fit of the configured boat making up for a surge mass
+0.8 % high and its curve (``bench_live_adapt.py`` B, seed 1: m22 ×1.018, a_v ×1.037) improved it by 37 %
+(2.36 → 1.48), which the 25 % margin of before adopted; fits of boats yawing up to 25 % otherwise by many-fold
+(study T: every one adopted with this margin)."""
 MIN_WINDOWS = 8
 """Replay windows (of :data:`~boat_twin.ident.manoeuvring.WINDOW_S`) the training stretch must hold: Hotelling's
 test of the :data:`LIVE_KEYS` on G windows has G − 5 degrees of freedom, and on 6 (a 120 s stretch) it can reject
