@@ -8,7 +8,8 @@ C. a clean 1-hour trial of the default boat: causes named and ``unexplained`` pe
 D. an independent integrator's boat (straight line, m·du/dt = T − a·u − b·u|u|, written here apart from the
    package): the adapted twin's speed prediction (innovation RMS on a fresh trial) against the offline
    identification's (``identify`` on the same recording, its twin);
-E. an actuator fault outside the catalogue: the live diagnosis says ``unexplained`` and names nothing.
+E. an actuator fault outside the catalogue: the live diagnosis says ``unexplained`` and names nothing (the causes
+   the catalogue named in windows that left structure while the twin misfit, withheld, printed beside).
 
 Run: .venv/bin/python benchmarks/bench_follow.py [--hour-s 3600] [--only ABDEC]
 """
@@ -196,11 +197,14 @@ def study_probe(duration_s: float = 600.0) -> None:
     flagged = [e["t_s"] / 60.0 for e in result.timeline if e["unexplained"]]
     named = [f"{c['name']} at {d['span_s'][0]:.0f}-{d['span_s'][1]:.0f} s" for d in result.diagnoses
              for c in d["causes"]]  # every run's, not only those a minute's timeline entry shows
+    withheld = [f"{c['name']} {c['size']:.2f} at {d['span_s'][0]:.0f}-{d['span_s'][1]:.0f} s" for d in result.diagnoses
+                for c in d["withheld"]]  # what the catalogue named in windows left with structure while misfitting
     model = result.final["model"]
     print(f"E  out-of-catalogue fault (steering thrust loss), random {duration_s / 60:.0f} min: speed ratio "
           f"{np.nanmin(ratios):.2f}-{np.nanmax(ratios):.2f}; 'unexplained' from minute "
           f"{flagged[0] if flagged else math.nan:.0f}, held at the end: {result.final['unexplained']}; causes named "
-          f"in {len(result.diagnoses)} runs: {', '.join(named) or 'none'} (target: none); surge / turning models "
+          f"in {len(result.diagnoses)} runs: {', '.join(named) or 'none'} (target: none; withheld: "
+          f"{', '.join(withheld) or 'none'}); surge / turning models "
           f"adopted: {model['swaps']} / {model['turning']['swaps']} (target: 0)")
 
 

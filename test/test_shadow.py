@@ -20,7 +20,14 @@ from boat_twin.diagnose.hidden import scenario
 from boat_twin.io.trial import Trial
 from boat_twin.shadow.adapt import SurgeAdapter, SurgeModel
 from boat_twin.shadow.follow import follow_trial, trial_samples
-from boat_twin.shadow.rolling import UNEXPLAINED_RUNS, DiagnosisJob, RecentStreams, RollingDiagnosis, RollingResult
+from boat_twin.shadow.rolling import (
+    UNEXPLAINED_RUNS,
+    Cause,
+    DiagnosisJob,
+    RecentStreams,
+    RollingDiagnosis,
+    RollingResult,
+)
 from boat_twin.shadow.session import Shadow, ShadowSettings
 from boat_twin.shadow.sync import ShadowTwin
 from boat_twin.twin.sea_trial import measured_trial, run_sea_trial
@@ -344,6 +351,28 @@ def test_live_unexplained_needs_the_twin_to_misfit_on_consecutive_runs() -> None
     assert [run(600.0 + 50.0 * i, True, True) for i in range(3)] == [False, True, True]  # held while it persists
     assert not run(750.0, False, True)  # a run without structure clears it
     assert not run(800.0, True, True)  # and the count starts again
+
+
+def test_live_names_no_cause_in_a_window_that_leaves_structure_while_the_twin_misfits() -> None:
+    """A cause the catalogue names in a window that still leaves structure while the twin's innovations misfit is
+    withheld, never held (an out-of-catalogue actuator fault named a thrust asymmetry 0.15 in one such window:
+    bench_follow E); a cause that leaves no structure (a water current, bench_follow B), or a window flagged alone
+    while the twin fits, is named as before."""
+    rolling = RollingDiagnosis(RecentStreams(130.0))
+    asymmetry = Cause("thrust_asymmetry", {"left_factor": 0.85, "right_factor": 1.0},
+                      {"left_factor": [0.8, 0.9], "right_factor": [0.95, 1.05]}, 0.15, "- (largest |factor − 1|)")
+
+    def run(t_s: float, structure: bool, misfit: bool) -> RollingResult:
+        job = DiagnosisJob(t_s, t_s - 130.0, None, TwinConfig(), misfit=misfit)
+        return rolling.finish(job, ([asymmetry], structure))
+
+    flagged = run(100.0, True, True)
+    assert not flagged.causes and flagged.withheld == [asymmetry] and not flagged.unexplained
+    held = run(150.0, True, True)  # the second such run: unexplained, and still nothing named beside it
+    assert held.unexplained and not held.causes and held.to_dict()["withheld"][0]["name"] == "thrust_asymmetry"
+    named = run(200.0, False, True)  # the cause leaves no structure: named, the streak cleared
+    assert named.causes == [asymmetry] and not named.withheld and not named.unexplained
+    assert run(250.0, True, False).causes == [asymmetry]  # structure in the window alone, the twin fitting
 
 
 @pytest.mark.slow

@@ -12,6 +12,14 @@ in). The window holds the last ``window_s`` of samples; the causes held are thos
 samples: 11 of 12 runs of a clean hour). So a run's flag counts only while the twin's own innovations misfit
 (speed or yaw rate above ``misfit_ratio`` × their stated spread over the last minute, the ratio the schedule
 uses), and the live diagnosis says ``unexplained`` once :data:`UNEXPLAINED_RUNS` consecutive runs counted.
+
+A run whose flag counts names nothing: the causes its catalogue would name are ``withheld`` (kept in the record
+and logged, never held, never put into the twin). The window's own verdict is that structure remains after them,
+and the twin's innovations say the misfit is real: a cause named there explains part of something outside the
+catalogue, a partial relabel a user would act on. An actuator fault the catalogue lacks (the outboards losing up
+to 30 % of their thrust when steered) had one window of ten name a thrust asymmetry of 0.15 that way (it removed
+74 % of the velocity and yaw-rate misfit's excess, the rule's floor being 70 %, and left them 4.6× their noise);
+a water current, once fully in the window, leaves no structure and is named as before (docs/live-twin.md).
 """
 
 from __future__ import annotations
@@ -58,6 +66,11 @@ class Cause:
     """The effect's magnitude in ``size_unit``."""
     size_unit: str
 
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready."""
+        return {"name": self.name, "parameters": self.parameters, "ci95": self.ci95, "size": self.size,
+                "size_unit": self.size_unit}
+
 
 @dataclass
 class RollingResult:
@@ -66,6 +79,9 @@ class RollingResult:
     t_s: float
     span_s: tuple[float, float]
     causes: list[Cause] = field(default_factory=list)
+    withheld: list[Cause] = field(default_factory=list)
+    """Causes the catalogue named in a window that left structure while the twin misfit: not held (module
+    docstring)."""
     unexplained: bool = False
     """Structure left in :data:`UNEXPLAINED_RUNS` consecutive runs while the twin misfit (module docstring)."""
     structure_left: bool = False
@@ -79,8 +95,7 @@ class RollingResult:
         """JSON-ready."""
         return {"t_s": self.t_s, "span_s": list(self.span_s), "unexplained": self.unexplained,
                 "structure_left": self.structure_left, "misfit": self.misfit, "error": self.error,
-                "causes": [{"name": c.name, "parameters": c.parameters, "ci95": c.ci95, "size": c.size,
-                            "size_unit": c.size_unit} for c in self.causes]}
+                "causes": [c.to_dict() for c in self.causes], "withheld": [c.to_dict() for c in self.withheld]}
 
 
 class RecentStreams:
@@ -175,10 +190,15 @@ class RollingDiagnosis:
             result.error = outcome
             self.log(f"rolling diagnosis at {job.t_s:.0f} s: {outcome}")
         else:
-            result.causes, result.structure_left = outcome
-            self._streak = self._streak + 1 if result.structure_left and job.misfit else 0
+            causes, result.structure_left = outcome
+            counts = result.structure_left and job.misfit
+            result.causes, result.withheld = ([], causes) if counts else (causes, [])
+            self._streak = self._streak + 1 if counts else 0
             result.unexplained = self._streak >= UNEXPLAINED_RUNS
             named = ", ".join(f"{c.name} ({c.size:.3g} {c.size_unit})" for c in result.causes) or "no cause"
+            if result.withheld:
+                named += " (withheld, the window leaving structure while the twin misfits: " + ", ".join(
+                    f"{c.name} {c.size:.3g} {c.size_unit}" for c in result.withheld) + ")"
             note = ("; something stays unexplained" if result.unexplained
                     else "; structure left while the twin misfits" if self._streak
                     else "; structure left in the window, the twin's innovations at their noise"
