@@ -164,17 +164,21 @@ class Shadow:
 
     def model_held(self) -> bool:
         """Whether the adaptation holds the model now: while the live diagnosis holds ``unexplained`` (a cause
-        the catalogue lacks, seen on consecutive runs while the twin misfits) no surge or turning model is adopted
-        or reverted. A fit on data holding such a cause takes it into the coefficients it has: on the
-        out-of-catalogue probe (outboards losing up to 30 % of their thrust when steered) the surge fit's
-        resistance ×1.074 predicted the held-out data 11 % better and was adopted — the fault published and saved
-        as a drag increase, the very relabelling the diagnosis refuses. Logged when the hold starts and ends."""
+        the catalogue lacks, seen on consecutive runs while the twin misfits) or its latest run left structure
+        while the twin misfit (the first of those runs), no surge or turning model is adopted or reverted. A fit
+        on data holding such a cause takes it into the coefficients it has: on the out-of-catalogue probe
+        (outboards losing up to 30 % of their thrust when steered) the surge fit's resistance ×1.074 predicted the
+        held-out data 11 % better and was adopted — the fault published and saved as a drag increase, the very
+        relabelling the diagnosis refuses; a current switched on mid-trial, whose first window held the switch,
+        had 1,328 kg ×1.004 adopted after that window, and the next two windows, against that model, were not
+        explained (the current named 3.9 min after the switch instead of 2.3). Logged when the hold starts and
+        ends."""
         latest = self.rolling.latest
-        held = bool(latest is not None and latest.unexplained)
+        held = bool(latest is not None and (latest.unexplained or (latest.structure_left and latest.misfit)))
         if held != self._held:
             self._held = held
-            self.log("model adaptation held: the live diagnosis holds `unexplained` (a cause the model lacks "
-                     "would be fitted into its coefficients)" if held else
+            self.log("model adaptation held: the live diagnosis holds `unexplained` or left structure while the "
+                     "twin misfits (a cause the model lacks would be fitted into its coefficients)" if held else
                      "model adaptation resumed: the live diagnosis no longer holds `unexplained`")
         return held
 
