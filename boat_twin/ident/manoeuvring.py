@@ -520,9 +520,7 @@ SURGE_STEP = 0.01
 def _scaled_surge(base: TwinConfig, log_mass: float, log_resistance: float) -> TwinConfig:
     """``base`` with its mass and resistance curve scaled by exp(``log_mass``), exp(``log_resistance``)."""
     vessel = base.vessel
-    top = vessel.resistance.max_speed_mps
-    factor = math.exp(log_resistance)
-    resistance = CorrectedResistance(vessel.resistance, (0.0, top), (factor, factor))
+    resistance = CorrectedResistance.scaled(vessel.resistance, math.exp(log_resistance))
     return replace(base, vessel=replace(vessel, mass_kg=vessel.mass_kg * math.exp(log_mass), resistance=resistance))
 
 

@@ -126,10 +126,8 @@ class SurgeModel:
         """``base`` with this mass and resistance."""
         if self.resistance is not None:
             return replace(base, mass_kg=self.mass_kg, resistance=self.resistance)
-        top = base.resistance.max_speed_mps
-        scaled: ResistanceModel = CorrectedResistance(base.resistance, (0.0, top),
-                                                      (self.resistance_factor, self.resistance_factor))
-        return replace(base, mass_kg=self.mass_kg, resistance=scaled)
+        return replace(base, mass_kg=self.mass_kg,
+                       resistance=CorrectedResistance.scaled(base.resistance, self.resistance_factor))
 
     def factor_over(self, base: VesselParams, speeds_mps: tuple[float, ...]) -> float:
         """This model's resistance over ``base``'s Fc₀, least squares over ``speeds_mps``, -."""
@@ -182,7 +180,7 @@ def over_configured(fitted: ResistanceModel, speeds_mps: np.ndarray, base: Vesse
     reference = np.asarray(base.resistance.force_N(speeds), dtype=float)
     usable = reference > MIN_FACTOR_FORCE_SHARE * float(np.max(reference, initial=0.0))
     if np.count_nonzero(usable) < 2:
-        return CorrectedResistance(base.resistance, (0.0, base.resistance.max_speed_mps), (factor, factor))
+        return CorrectedResistance.scaled(base.resistance, factor)
     ratio = np.asarray(fitted.force_N(speeds[usable]), dtype=float) / reference[usable]
     return CorrectedResistance(base.resistance, tuple(float(u) for u in speeds[usable]),
                                tuple(float(k) for k in np.maximum(ratio, FACTOR_RANGE[0] / 10.0)))

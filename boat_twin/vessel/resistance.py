@@ -153,6 +153,11 @@ class CorrectedResistance:
         (beyond the last knot k is constant, so the quadratic tail of Fc_base·k continues it)."""
         return max(self.base.max_speed_mps, float(self.speeds_mps[-1]))
 
+    @classmethod
+    def scaled(cls, base: ResistanceModel, factor: float) -> CorrectedResistance:
+        """``base`` × a constant ``factor`` (-) at every speed."""
+        return cls(base, (0.0, base.max_speed_mps), (factor, factor))
+
     def factor(self, speed_mps: np.ndarray | float) -> np.ndarray:
         """k(|u|), -."""
         return np.interp(np.abs(np.asarray(speed_mps, dtype=float)), self.speeds_mps, self.factors)
