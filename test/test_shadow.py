@@ -9,6 +9,7 @@ import math
 from dataclasses import replace
 from pathlib import Path
 
+import independent
 import numpy as np
 import pymap3d
 import pytest
@@ -22,7 +23,6 @@ from boat_twin.shadow.adapt import SurgeAdapter, SurgeModel
 from boat_twin.shadow.follow import follow_trial, trial_samples
 from boat_twin.shadow.rolling import (
     UNEXPLAINED_RUNS,
-    Cause,
     DiagnosisJob,
     RecentStreams,
     RollingDiagnosis,
@@ -31,6 +31,7 @@ from boat_twin.shadow.rolling import (
 from boat_twin.shadow.session import Shadow, ShadowSettings
 from boat_twin.shadow.sync import ShadowTwin
 from boat_twin.twin.sea_trial import measured_trial, run_sea_trial
+from boat_twin.vessel.params import VesselParams
 from boat_twin.vessel.resistance import CorrectedResistance
 
 NO_DIAGNOSIS = ShadowSettings(diagnose=False)
@@ -350,7 +351,7 @@ def test_live_unexplained_needs_the_twin_to_misfit_on_consecutive_runs() -> None
 
     def run(t_s: float, structure: bool, misfit: bool) -> bool:
         job = DiagnosisJob(t_s, t_s - 130.0, None, TwinConfig(), misfit=misfit)
-        return rolling.finish(job, ([], structure)).unexplained
+        return rolling.finish(job, ([], [], structure)).unexplained
 
     assert UNEXPLAINED_RUNS == 2
     assert not any(run(50.0 * i, True, False) for i in range(10))  # the clean hour's windows: structure, no misfit
@@ -360,25 +361,37 @@ def test_live_unexplained_needs_the_twin_to_misfit_on_consecutive_runs() -> None
 
 
 def test_live_names_no_cause_in_a_window_that_leaves_structure_while_the_twin_misfits() -> None:
-    """A cause the catalogue names in a window that still leaves structure while the twin's innovations misfit is
-    withheld, never held (an out-of-catalogue actuator fault named a thrust asymmetry 0.15 in one such window:
-    bench_follow E); a cause that leaves no structure (a water current, bench_follow B), or a window flagged alone
-    while the twin fits, is named as before."""
-    rolling = RollingDiagnosis(RecentStreams(130.0))
-    asymmetry = Cause("thrust_asymmetry", {"left_factor": 0.85, "right_factor": 1.0},
-                      {"left_factor": [0.8, 0.9], "right_factor": [0.95, 1.05]}, 0.15, "- (largest |factor − 1|)")
+    """The live run passes the twin's misfit to the diagnosis, whose one rule (diagnose.search.withheld) withholds
+    every cause of a window that leaves structure while the twin's innovations misfit (an out-of-catalogue
+    actuator fault named a thrust asymmetry 0.15 in one such window: bench_follow E): the run records them as
+    ``withheld``, never held; a window flagged alone while the twin fits names its causes (a 130 s window's own
+    noise floor is too uncertain to judge). The independent integrator's boat, a 0.8 m/s current switched on at
+    35 s of a 200 s window: the catalogue's current leaves the east velocity 3× its noise."""
+    params = VesselParams(steering_rate_radps=0.0)
+    data = independent.boat_trial(params, _diagnosis_steps, _diagnosis_turns, 200.0, np.random.default_rng(1))
+    on = data.t_s >= 35.0
+    data = replace(data, vel_east_mps=data.vel_east_mps + np.where(on, 0.8, 0.0),
+                   east_m=data.east_m + np.where(on, 0.8 * (data.t_s - 35.0), 0.0))
+    rolling = RollingDiagnosis(RecentStreams(200.0))
+    runs = []
+    for t_s, misfit in ((200.0, True), (250.0, True), (300.0, False)):
+        job = DiagnosisJob(t_s, t_s - 200.0, data, TwinConfig(vessel=params), misfit=misfit)
+        runs.append(rolling.finish(job, job.compute()))
+    flagged, held, fitting = runs
+    assert flagged.structure_left and not flagged.causes and [c.name for c in flagged.withheld] == ["water_current"]
+    assert not flagged.unexplained and held.unexplained and not held.causes  # the second such run: unexplained
+    assert held.to_dict()["withheld"][0]["size"] == pytest.approx(0.8, abs=0.1)
+    assert [c.name for c in fitting.causes] == ["water_current"] and not fitting.withheld and not fitting.unexplained
 
-    def run(t_s: float, structure: bool, misfit: bool) -> RollingResult:
-        job = DiagnosisJob(t_s, t_s - 130.0, None, TwinConfig(), misfit=misfit)
-        return rolling.finish(job, ([asymmetry], structure))
 
-    flagged = run(100.0, True, True)
-    assert not flagged.causes and flagged.withheld == [asymmetry] and not flagged.unexplained
-    held = run(150.0, True, True)  # the second such run: unexplained, and still nothing named beside it
-    assert held.unexplained and not held.causes and held.to_dict()["withheld"][0]["name"] == "thrust_asymmetry"
-    named = run(200.0, False, True)  # the cause leaves no structure: named, the streak cleared
-    assert named.causes == [asymmetry] and not named.withheld and not named.unexplained
-    assert run(250.0, True, False).causes == [asymmetry]  # structure in the window alone, the twin fitting
+def _diagnosis_steps(t_s: float) -> float:
+    """Thrust per engine, N: 400 and 800 in turn every 15 s."""
+    return 400.0 + 400.0 * (int(max(t_s, 0.0) // 15.0) % 2)
+
+
+def _diagnosis_turns(t_s: float) -> float:
+    """Steering, rad: a course held 20 s, then 10 s of 12° to port, in turn (every heading visited)."""
+    return math.radians(12.0) if t_s % 30.0 > 20.0 else 0.0
 
 
 @pytest.mark.slow

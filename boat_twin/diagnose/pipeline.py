@@ -18,7 +18,7 @@ from boat_twin.data.dyda2021 import PAPER_COEFFICIENTS, PAPER_ORDERS
 from boat_twin.diagnose.defaults import WINDOW_S
 from boat_twin.diagnose.effects import catalogue
 from boat_twin.diagnose.report import DiagnosisResult, result_dict
-from boat_twin.diagnose.search import Diagnosis, Selection, forward_select
+from boat_twin.diagnose.search import Candidate, Diagnosis, Selection, forward_select, withheld
 from boat_twin.diagnose.structure import residual_structure
 from boat_twin.diagnose.table import TableDiagnosis, diagnose_table, table_result
 from boat_twin.errors import InputError
@@ -39,27 +39,56 @@ class TrialDiagnosis:
     baseline_prediction: Prediction
     extended_prediction: Prediction
     result: DiagnosisResult
+    withheld: list[Candidate]
+    """Named candidates not presented as the verdict (:func:`~boat_twin.diagnose.search.withheld`): ``extended``
+    leaves them out."""
+
+    @property
+    def presented(self) -> list[Candidate]:
+        """The named candidates the verdict presents, in the order they joined the model."""
+        return [c for c in self.selection.named if all(c is not w for w in self.withheld)]
 
 
 def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
-                   progress: Any = None) -> TrialDiagnosis:
-    """Diagnose ``trial`` against the model ``base``: the library entry point of ``diagnose TRIAL``."""
+                   progress: Any = None, misfit: bool | None = None) -> TrialDiagnosis:
+    """Diagnose ``trial`` against the model ``base``: the library entry point of ``diagnose TRIAL``. ``misfit``:
+    evidence from outside the trial whether the model misfits (the live twin's innovations), which decides with
+    the structure left whether the named causes are withheld (:func:`~boat_twin.diagnose.search.withheld`);
+    None: the trial's own residuals decide."""
     if not np.any(np.isfinite(trial.speed_mps)):
         raise InputError(f"{trial.metadata.source}: the speed over ground is unknown throughout (a GNSS velocity "
                          "component NaN in every sample, or no velocity or fix): nothing to diagnose")
     windows = cut_windows(trial, window_s)
     diagnosis = Diagnosis(windows, base, progress)
     selection = forward_select(diagnosis, catalogue(base, trial.speed_mps))
-    extended = diagnosis.config(selection.final.effects, selection.final.values)
     baseline_prediction = selection.baseline.residuals.prediction
-    extended_prediction = selection.final.residuals.prediction
-    signatures = residual_structure(windows, selection.final.residuals.values, extended_prediction,
-                                    diagnosis.folds)
+    signatures = residual_structure(windows, selection.final.residuals.values,
+                                    selection.final.residuals.prediction, diagnosis.folds)
+    held_back = withheld(selection.named, signatures, misfit)
+    extended, extended_prediction = _presented_model(diagnosis, selection, held_back)
     result = result_dict(windows, selection, baseline_prediction, extended_prediction, signatures, None,
-                         diagnosis.sigma)
+                         diagnosis.sigma, held_back)
     result["windows"]["compared_fraction"] = diagnosis.projection.compared_fraction()
     result["evaluations"] = diagnosis.evaluations
-    return TrialDiagnosis(windows, selection, base, extended, baseline_prediction, extended_prediction, result)
+    return TrialDiagnosis(windows, selection, base, extended, baseline_prediction, extended_prediction, result,
+                          held_back)
+
+
+def _presented_model(diagnosis: Diagnosis, selection: Selection,
+                     held_back: list[Candidate]) -> tuple[TwinConfig, Prediction]:
+    """The extended model with the causes the verdict presents (at their values in the final fit) and its
+    replay: a withheld cause is not put into the model a user loads."""
+    final = selection.final
+    if not held_back:
+        return diagnosis.config(final.effects, final.values), final.residuals.prediction
+    names = {c.effect.name for c in held_back}
+    kept = [(e, v) for e, v, _ in final.split() if e.name not in names]
+    if not kept:
+        return diagnosis.base, selection.baseline.residuals.prediction
+    effects = [e for e, _ in kept]
+    values = np.concatenate([v for _, v in kept])
+    config = diagnosis.config(effects, values)
+    return config, diagnosis.residuals(config).prediction
 
 
 def diagnose_paper_table(model_order: int) -> tuple[dict[str, Any], TableDiagnosis, TableResistance | None]:

@@ -10,13 +10,14 @@ from matplotlib.figure import Figure
 from boat_twin.diagnose.search import (
     BIC_THRESHOLD,
     MIN_HELDOUT_GAIN,
+    MIN_MISFIT_SHARE,
     TIMING_ALIASES,
     Candidate,
     Fit,
     Selection,
     ci95,
 )
-from boat_twin.diagnose.structure import Signature, SignatureResult
+from boat_twin.diagnose.structure import MISFIT_FACTOR, Signature, SignatureResult
 from boat_twin.diagnose.table import TableDiagnosis
 from boat_twin.twin.replay import SIGNALS, Prediction, Windows, residual
 
@@ -63,6 +64,22 @@ class VerdictResult(TypedDict):
     gain: dict[str, float]
 
 
+class WithheldResult(TypedDict):
+    """A cause the catalogue accepted that leaves real, structured misfit in what it explains: not the verdict
+    (:func:`~boat_twin.diagnose.search.withheld`)."""
+
+    effect: str
+    parameters: dict[str, float]
+    ci95: dict[str, list[float]]
+    claims: list[str]
+    """The signals carrying its held-out gain."""
+    misfit_share: float
+    """Share of those signals' misfit above the noise floor it removed when it joined (held out)."""
+    misfit_left: dict[str, float]
+    """Per claimed signal, the residual RMS over its noise floor after every accepted cause."""
+    reason: str
+
+
 class AmbiguousResult(TypedDict):
     """Causes the trial cannot tell apart: none of them named."""
 
@@ -86,9 +103,12 @@ class _DiagnosisResultBase(TypedDict):
     """{"rmse": signal → RMSE} of the model with the named effects."""
     candidates: list[CandidateResult]
     verdict: list[VerdictResult]
+    withheld: list[WithheldResult]
+    """Causes the catalogue accepted but not presented: structure left in what they explain (empty: none)."""
     ambiguous: AmbiguousResult | None
     unexplained: bool
-    """True when a signal stays above the misfit factor times its noise after the named effects."""
+    """True when structure is left after every cause the catalogue accepted (a signal above the misfit factor
+    times its noise, or a residual the situation predicts), withheld ones included."""
     signature: list[SignatureResult]
     """Per unexplained signal: misfit, held-out R², correlated regressors, worst time (Signature.to_dict)."""
     extended_model: str | None
@@ -154,28 +174,55 @@ AMBIGUITY_REASONS = {
 """Why a trial's candidates were reported as ``ambiguous``, by the rule that found them (:mod:`search`)."""
 
 
-def verdict(selection: Selection) -> list[VerdictResult]:
-    """The named effects with their final parameters, 95 % intervals and held-out gain per signal."""
+def _final_values(selection: Selection, candidate: Candidate) -> tuple[dict[str, float], dict[str, list[float]]]:
+    """A named candidate's parameters in the final model and their 95 % intervals, named with their units."""
+    values, stderr = next((v, s) for e, v, s in selection.final.split() if e.name == candidate.effect.name)
+    lo, hi = ci95(values, stderr)
+    return candidate.effect.named(values), {
+        n: [float(a), float(b)] for n, a, b in zip(candidate.effect.parameter_names, lo, hi, strict=True)}
+
+
+def verdict(selection: Selection, withheld: list[Candidate] | None = None) -> list[VerdictResult]:
+    """The named effects not ``withheld`` with their final parameters, 95 % intervals and held-out gain per
+    signal."""
     out: list[VerdictResult] = []
     previous = selection.baseline
-    final = {e.name: (v, s) for e, v, s in selection.final.split()}
+    held_back = {id(c) for c in withheld or []}
     for candidate in selection.named:
-        values, stderr = final[candidate.effect.name]
-        lo, hi = ci95(values, stderr)
-        out.append({
-            "effect": candidate.effect.name,
-            "parameters": candidate.effect.named(values),
-            "ci95": {n: [float(a), float(b)] for n, a, b in zip(candidate.effect.parameter_names, lo, hi,
-                                                                  strict=True)},
-            "gain": _signal_gain(candidate.fit, previous),
-        })
+        if id(candidate) not in held_back:
+            parameters, interval = _final_values(selection, candidate)
+            out.append({"effect": candidate.effect.name, "parameters": parameters, "ci95": interval,
+                        "gain": _signal_gain(candidate.fit, previous)})
         previous = candidate.fit
     return out
 
 
+def withheld_dicts(selection: Selection, withheld: list[Candidate],
+                   signatures: list[Signature]) -> list[WithheldResult]:
+    """The ``withheld`` causes with their parameters, what they explain and the misfit they leave there."""
+    left = {s.signal: s.misfit for s in signatures}
+    out: list[WithheldResult] = []
+    for candidate in withheld:
+        parameters, interval = _final_values(selection, candidate)
+        misfit_left = {s: left[s] for s in candidate.claims if s in left}
+        worst = max(misfit_left.values(), default=float("nan"))
+        out.append({"effect": candidate.effect.name, "parameters": parameters, "ci95": interval,
+                    "claims": list(candidate.claims), "misfit_share": float(candidate.share),
+                    "misfit_left": misfit_left,
+                    "reason": (f"it removes {candidate.share:.0%} of the misfit it claims (the rule asks "
+                               f"{MIN_MISFIT_SHARE:.0%}) but leaves it {worst:.1f}x the noise with structure "
+                               f"(above {MISFIT_FACTOR:g}x): a part of something outside the catalogue"
+                               if worst > MISFIT_FACTOR else
+                               "structure is left while the model misfits (the live twin's innovations): a part "
+                               "of something outside the catalogue")})
+    return out
+
+
 def result_dict(windows: Windows, selection: Selection, baseline: Prediction, extended: Prediction,
-                signatures: list[Signature], extended_model: str | None, sigma: dict[str, float]) -> DiagnosisResult:
-    """The ``--json`` contract (SI units)."""
+                signatures: list[Signature], extended_model: str | None, sigma: dict[str, float],
+                withheld: list[Candidate] | None = None) -> DiagnosisResult:
+    """The ``--json`` contract (SI units); ``withheld``: named candidates not presented as the verdict
+    (:func:`~boat_twin.diagnose.search.withheld`), ``extended`` the prediction of the model without them."""
     candidates = [_candidate_dict(c, i) for i, r in enumerate(selection.rounds) for c in r]
     return {
         "trial": windows.trial.metadata.source,
@@ -184,7 +231,8 @@ def result_dict(windows: Windows, selection: Selection, baseline: Prediction, ex
         "baseline": {"rmse": signal_rmse(windows, baseline)},
         "extended": {"rmse": signal_rmse(windows, extended)},
         "candidates": candidates,
-        "verdict": verdict(selection),
+        "verdict": verdict(selection, withheld),
+        "withheld": withheld_dicts(selection, withheld or [], signatures),
         "ambiguous": ambiguity(selection),
         "unexplained": bool(signatures),
         "signature": [s.to_dict() for s in signatures],
@@ -206,7 +254,8 @@ def text_report(result: DiagnosisResult) -> str:
         lines.append(f"  {s:16s} {base[s]:10.4f}      {ext[s]:10.4f}  {UNITS[s]}")
     if not result["verdict"] and result["unexplained"]:
         lines.append("verdict     UNEXPLAINED: the model is off the data and no catalogue effect explains it "
-                     "(see the unexplained lines below)")
+                     "(see the unexplained lines below" + (", and the partial causes withheld)"
+                                                           if result.get("withheld") else ")"))
     elif not result["verdict"] and compared < 1.0:
         lines.append("verdict     no significant discrepancy a catalogue effect explains, in the "
                      f"{100 * compared:.0f} % of the time the replay can predict: the rest is not judged "
@@ -221,6 +270,11 @@ def text_report(result: DiagnosisResult) -> str:
         gains = ", ".join(f"{s} {g:+.0%}" for s, g in v["gain"].items() if abs(g) >= 0.005)
         lines.append(f"verdict     {v['effect']}: " + "; ".join(parts))
         lines.append(f"            held-out gain: {gains}")
+    for w in result.get("withheld", []):
+        parts = [f"{k} = {val:.4g} [{w['ci95'][k][0]:.4g}, {w['ci95'][k][1]:.4g}]" for k, val in
+                 w["parameters"].items()]
+        lines.append(f"withheld    {w['effect']} (not the verdict): " + "; ".join(parts))
+        lines.append(f"            {w['reason']}")
     if result["ambiguous"]:
         amb = result["ambiguous"]
         lines.append(f"ambiguous   {' or '.join(amb['effects'])} (round {amb['round']}, neither named): "

@@ -55,7 +55,7 @@ from scipy.stats import t as student_t
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.effects import EFFECTS, Effect
 from boat_twin.diagnose.initial_state import InitialStateProjection, stack_signals
-from boat_twin.diagnose.structure import MISFIT_FACTOR
+from boat_twin.diagnose.structure import MISFIT_FACTOR, Signature
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.twin.replay import SIGNALS, Prediction, Windows, predict
@@ -400,6 +400,29 @@ class Selection:
     ambiguous: list[Candidate] = field(default_factory=list)
     """Candidates the decision rule would name but this trial cannot tell apart (one heading: a wind and one of
     :data:`WIND_ALIASES`; or two of :data:`TIMING_ALIASES` within |BIC_THRESHOLD|); none of them is named."""
+
+
+def withheld(named: list[Candidate], signatures: list[Signature], misfit: bool | None = None) -> list[Candidate]:
+    """The named causes not to present as the verdict: a cause that leaves the misfit it explains real and
+    structured explains only part of something outside the catalogue, a partial relabel a user would act on. Empty
+    when no structure is left (``signatures``, :func:`~boat_twin.diagnose.structure.residual_structure` of the
+    final model); otherwise, with ``misfit`` None (a whole trial: its own residuals judge), each cause whose
+    claimed signals (:attr:`Candidate.claims`) include one left above
+    :data:`~boat_twin.diagnose.structure.MISFIT_FACTOR` times its noise floor; with ``misfit`` given (evidence
+    from outside the data diagnosed that the model misfits: the live twin's innovations, where a 130 s window's
+    own noise floor is too uncertain to judge), every cause when it is True, none when False.
+
+    One rule for the offline and the live diagnosis (:mod:`boat_twin.shadow.rolling` passes ``misfit``). An
+    actuator fault the catalogue lacks (the outboards losing up to 30 % of their thrust when steered, random
+    commands) was named a thrust asymmetry that removed 74 % of its signals' misfit in excess of the noise
+    (:data:`MIN_MISFIT_SHARE` is 70 %) and left them 4.6× their noise; two causes of the catalogue at once, the
+    second named in the next round, leave nothing and are both presented."""
+    if not signatures:
+        return []
+    if misfit is not None:
+        return list(named) if misfit else []
+    left = {s.signal for s in signatures if s.misfit > MISFIT_FACTOR}
+    return [c for c in named if left.intersection(c.claims)]
 
 
 def below_floor(candidate: Candidate) -> bool:

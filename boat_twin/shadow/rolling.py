@@ -190,9 +190,8 @@ class RollingDiagnosis:
             result.error = outcome
             self.log(f"rolling diagnosis at {job.t_s:.0f} s: {outcome}")
         else:
-            causes, result.structure_left = outcome
+            result.causes, result.withheld, result.structure_left = outcome
             counts = result.structure_left and job.misfit
-            result.causes, result.withheld = ([], causes) if counts else (causes, [])
             self._streak = self._streak + 1 if counts else 0
             result.unexplained = self._streak >= UNEXPLAINED_RUNS
             named = ", ".join(f"{c.name} ({c.size:.3g} {c.size_unit})" for c in result.causes) or "no cause"
@@ -208,8 +207,8 @@ class RollingDiagnosis:
         return result
 
 
-Outcome = tuple[list[Cause], bool] | str
-"""A run's causes and unexplained flag, or why it could not diagnose."""
+Outcome = tuple[list[Cause], list[Cause], bool] | str
+"""A run's causes, the causes it withheld and its unexplained flag, or why it could not diagnose."""
 
 
 @dataclass
@@ -226,22 +225,24 @@ class DiagnosisJob:
     """The twin's innovations misfit when the job was taken."""
 
     def compute(self) -> Outcome:
-        """The named causes and the unexplained flag, or why there are none."""
+        """The named causes, those withheld and the unexplained flag, or why there are none. The twin's misfit
+        is the evidence the diagnosis withholds causes by (:func:`~boat_twin.diagnose.search.withheld`)."""
         if self.trial is None:
             return self.error
         try:
-            diagnosis = diagnose_trial(self.trial, self.base)
+            diagnosis = diagnose_trial(self.trial, self.base, misfit=self.misfit)
         except InputError as err:
             return str(err)
-        return causes_of(diagnosis), bool(diagnosis.result["unexplained"])
+        return causes_of(diagnosis), causes_of(diagnosis, withheld=True), bool(diagnosis.result["unexplained"])
 
 
-def causes_of(diagnosis: TrialDiagnosis) -> list[Cause]:
-    """The named causes of a diagnosis with their sizes."""
+def causes_of(diagnosis: TrialDiagnosis, withheld: bool = False) -> list[Cause]:
+    """The causes a diagnosis names (or, ``withheld``, those it withholds) with their sizes."""
     out = []
-    for candidate in diagnosis.selection.named:
+    entries = diagnosis.result["withheld"] if withheld else diagnosis.result["verdict"]
+    for candidate in diagnosis.withheld if withheld else diagnosis.presented:
         effect = candidate.effect
-        verdict = next(v for v in diagnosis.result["verdict"] if v["effect"] == effect.name)
-        out.append(Cause(effect.name, dict(verdict["parameters"]), dict(verdict["ci95"]), float(candidate.size),
+        entry = next(v for v in entries if v["effect"] == effect.name)
+        out.append(Cause(effect.name, dict(entry["parameters"]), dict(entry["ci95"]), float(candidate.size),
                          effect.spec.size_unit))
     return out
