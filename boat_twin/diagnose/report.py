@@ -205,14 +205,14 @@ def withheld_dicts(selection: Selection, withheld: list[Candidate],
     for candidate in withheld:
         parameters, interval = _final_values(selection, candidate)
         misfit_left = {s: left[s] for s in candidate.claims if s in left}
-        worst = max(misfit_left.values(), default=float("nan"))
+        worst = max(misfit_left, key=lambda s: misfit_left[s], default="")
         out.append({"effect": candidate.effect.name, "parameters": parameters, "ci95": interval,
                     "claims": list(candidate.claims), "misfit_share": float(candidate.share),
                     "misfit_left": misfit_left,
-                    "reason": (f"it removes {candidate.share:.0%} of the misfit it claims (the rule asks "
-                               f"{MIN_MISFIT_SHARE:.0%}) but leaves it {worst:.1f}x the noise with structure "
-                               f"(above {MISFIT_FACTOR:g}x): a part of something outside the catalogue"
-                               if worst > MISFIT_FACTOR else
+                    "reason": (f"it removes {candidate.share:.0%} of its signals' misfit (the rule asks "
+                               f"{MIN_MISFIT_SHARE:.0%}) but leaves {worst} {misfit_left[worst]:.1f}x its noise, "
+                               f"with structure (above {MISFIT_FACTOR:g}x): it explains a part of something "
+                               "outside the catalogue" if worst and misfit_left[worst] > MISFIT_FACTOR else
                                "structure is left while the model misfits (the live twin's innovations): a part "
                                "of something outside the catalogue")})
     return out

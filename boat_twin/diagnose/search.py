@@ -31,6 +31,10 @@ Method (docs/diagnosis.md states it with the numbers):
   them within :data:`~boat_twin.diagnose.structure.MISFIT_FACTOR` of it. A cause that lowers an 8× misfit by
   12-20 % stays a candidate. **And** it raises no signal's held-out misfit by more than :data:`MAX_MISFIT_RISE`
   (:func:`misfit_rise`): a cause that buys one signal's fit with another's stands in for one outside the catalogue.
+- Withheld: after forward selection, a named cause whose claimed signals the final model still leaves above
+  :data:`~boat_twin.diagnose.structure.MISFIT_FACTOR` times their noise, with structure left, explains only part
+  of something outside the catalogue: it is reported ``withheld``, not the verdict (:func:`withheld`, the rule the
+  live diagnosis shares).
 - One heading: on a trial whose heading stays within :data:`ONE_HEADING_SPREAD_RAD` (circular standard
   deviation), a wind is a constant force in the body frame, as a water current, a thrust asymmetry, a steering
   offset or a resistance change are (:data:`WIND_ALIASES`). When the best named candidate of a round is the wind

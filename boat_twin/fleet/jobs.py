@@ -103,10 +103,11 @@ class DiagnoseJob:
     window_s: float | None = None
     verb = "diagnose"
     outputs = DIAGNOSE_OUTPUTS
-    columns = ("verdict", "unexplained", "ambiguous", "misfit_x_noise", "misfit_extended_x_noise")
+    columns = ("verdict", "unexplained", "ambiguous", "withheld", "misfit_x_noise", "misfit_extended_x_noise")
     """The headline: the named effects; whether a structured residual is left that no catalogue effect explains;
-    the candidates the trial cannot tell apart; the largest signal RMSE over its noise before and after the named
-    effects, -."""
+    the candidates the trial cannot tell apart; the causes withheld from the verdict (they leave real, structured
+    misfit in what they explain: :func:`~boat_twin.diagnose.search.withheld`); the largest signal RMSE over its
+    noise before and after the named effects, -."""
 
     def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict[str, Any]:
         """Diagnose the trial at ``path``, write its report into ``out`` (``named``: the directory its texts
@@ -123,6 +124,7 @@ class DiagnoseJob:
         ambiguous = result["ambiguous"]
         return {"duration_s": duration_s(trial), "verdict": [v["effect"] for v in result["verdict"]],
                 "unexplained": result["unexplained"], "ambiguous": ambiguous["effects"] if ambiguous else [],
+                "withheld": [w["effect"] for w in result["withheld"]],
                 "misfit_x_noise": _misfit(result["baseline"]["rmse"], result["noise"]),
                 "misfit_extended_x_noise": _misfit(result["extended"]["rmse"], result["noise"])}
 

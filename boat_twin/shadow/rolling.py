@@ -16,7 +16,10 @@ uses), and the live diagnosis says ``unexplained`` once :data:`UNEXPLAINED_RUNS`
 A run whose flag counts names nothing: the causes its catalogue would name are ``withheld`` (kept in the record
 and logged, never held, never put into the twin). The window's own verdict is that structure remains after them,
 and the twin's innovations say the misfit is real: a cause named there explains part of something outside the
-catalogue, a partial relabel a user would act on. An actuator fault the catalogue lacks (the outboards losing up
+catalogue, a partial relabel a user would act on. The rule is the offline diagnosis' own
+(:func:`~boat_twin.diagnose.search.withheld`), the run passing the twin's misfit as its evidence that the misfit
+is real (offline, a cause's own signals left above twice their noise are; a 130 s window's noise floor is too
+uncertain for that here). An actuator fault the catalogue lacks (the outboards losing up
 to 30 % of their thrust when steered) had one window of ten name a thrust asymmetry of 0.15 that way (it removed
 74 % of the velocity and yaw-rate misfit's excess, the rule's floor being 70 %, and left them 4.6× their noise);
 a water current, once fully in the window, leaves no structure and is named as before (docs/live-twin.md).
