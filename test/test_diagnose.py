@@ -32,8 +32,9 @@ from boat_twin.diagnose.search import (
     Fit,
     misfit_rise,
     misfit_share,
+    withheld,
 )
-from boat_twin.diagnose.structure import MISFIT_FACTOR
+from boat_twin.diagnose.structure import MISFIT_FACTOR, Signature
 from boat_twin.diagnose.table import runs_test_p
 from boat_twin.io.bags import read_trial, write_bag
 from boat_twin.io.trial import Trial
@@ -669,3 +670,27 @@ def test_two_catalogue_causes_are_both_named_when_the_first_leaves_the_second_in
     assert result["withheld"] == [] and not result["unexplained"], result["signature"]
     assert result["verdict"][0]["parameters"]["delay_s"] == pytest.approx(0.45, abs=0.03)
     assert result["verdict"][1]["parameters"]["north_mps"] == pytest.approx(0.3, abs=0.03)
+
+
+def test_the_withheld_rule_judges_each_cause_by_what_it_explains_and_withholds_the_causes_named_after_it() -> None:
+    """``search.withheld``, the one rule of the offline and the live diagnosis: nothing is withheld without
+    structure left; offline, a cause whose claimed signals stay above MISFIT_FACTOR × the noise is, with every cause
+    named after it (fitted against a model that held it), while one named before it stands; live, the twin's
+    misfit decides for all."""
+    effects = catalogue(TwinConfig(), np.linspace(0.5, 9.0, 200))
+    fit = _fit([1.0, 1.0, 1.0, 1.0])
+    current = Candidate(effects["water_current"], fit, -500.0, 0.3, False, False, claims=("vel_east_mps",))
+    turning = Candidate(effects["manoeuvring"], fit, -300.0, 0.2, False, False, claims=("yaw_rate_radps",))
+    shape = Candidate(effects["resistance_shape"], fit, -50.0, 0.1, False, False, claims=("vel_north_mps",))
+    named = [current, turning, shape]
+
+    def left(signal: str, misfit: float) -> list[Signature]:
+        return [Signature(signal, misfit, 0.3, ("speed",), 10.0)]
+
+    assert withheld(named, []) == [] and withheld(named, [], misfit=True) == []
+    assert withheld(named, left("yaw_rate_radps", 2.1)) == [turning, shape]  # the first named stands
+    assert withheld(named, left("vel_east_mps", 2.1)) == named
+    assert withheld(named, left("heading_rad", 5.0)) == []  # structure in a signal no cause claims: unexplained
+    assert withheld(named, left("yaw_rate_radps", 1.9)) == []  # structure within 2x the noise: not withheld
+    assert withheld(named, left("yaw_rate_radps", 1.9), misfit=True) == named  # live: the twin misfits
+    assert withheld(named, left("vel_east_mps", 5.0), misfit=False) == []  # live: the twin fits

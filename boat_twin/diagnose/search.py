@@ -414,7 +414,10 @@ def withheld(named: list[Candidate], signatures: list[Signature], misfit: bool |
     claimed signals (:attr:`Candidate.claims`) include one left above
     :data:`~boat_twin.diagnose.structure.MISFIT_FACTOR` times its noise floor; with ``misfit`` given (evidence
     from outside the data diagnosed that the model misfits: the live twin's innovations, where a 130 s window's
-    own noise floor is too uncertain to judge), every cause when it is True, none when False.
+    own noise floor is too uncertain to judge), every cause when it is True, none when False. The causes named
+    after a withheld one are withheld with it: they were fitted and judged against a model that held it (a
+    steering dead band on a 130 s zigzag: ``manoeuvring`` leaves the yaw rate 2.1× its noise, and the
+    ``resistance_shape`` named next would otherwise be the verdict alone).
 
     One rule for the offline and the live diagnosis (:mod:`boat_twin.shadow.rolling` passes ``misfit``). An
     actuator fault the catalogue lacks (the outboards losing up to 30 % of their thrust when steered, random
@@ -426,7 +429,8 @@ def withheld(named: list[Candidate], signatures: list[Signature], misfit: bool |
     if misfit is not None:
         return list(named) if misfit else []
     left = {s.signal for s in signatures if s.misfit > MISFIT_FACTOR}
-    return [c for c in named if left.intersection(c.claims)]
+    first = next((i for i, c in enumerate(named) if left.intersection(c.claims)), len(named))
+    return list(named[first:])
 
 
 def below_floor(candidate: Candidate) -> bool:
