@@ -18,8 +18,8 @@ and logged, never held, never put into the twin). The window's own verdict is th
 and the twin's innovations say the misfit is real: a cause named there explains part of something outside the
 catalogue, a partial relabel a user would act on. The rule is the offline diagnosis' own
 (:func:`~boat_twin.diagnose.search.withheld`), the run passing the twin's misfit as its evidence that the misfit
-is real (offline, a cause's own signals left above twice their noise are; a 130 s window's noise floor is too
-uncertain for that here). An actuator fault the catalogue lacks (the outboards losing up
+is real (offline the evidence is a cause's own signals left above twice their noise; a 130 s window's noise floor
+is too uncertain for that here). An actuator fault the catalogue lacks (the outboards losing up
 to 30 % of their thrust when steered) had one window of ten name a thrust asymmetry of 0.15 that way (it removed
 74 % of the velocity and yaw-rate misfit's excess, the rule's floor being 70 %, and left them 4.6× their noise);
 a water current, once fully in the window, leaves no structure and is named as before (docs/live-twin.md).
