@@ -125,10 +125,10 @@ SURGE_FACTORS = (
 )
 """The held surge model's mass and resistance scale, fitted with the coefficients when asked (``free``): the
 coefficients then depend on the given surge model's shape only, and its scale's uncertainty on the stretch enters
-their intervals through the joint jackknife. Each window's surge settles to the thrust–resistance balance within
-a few seconds, so a resistance 1 % off leaves a speed ~0.5 % off through every window, which the coefficients
-otherwise absorbed through the m22·v·r surge coupling: holding a curve 1 % high moved a_v +9 % (issue 25,
-docs/live-twin.md)."""
+their intervals through the joint jackknife. Each window's surge relaxes towards the thrust–resistance balance
+(time constant 4-18 s at 3-12 m/s on the configured boat, within a 20 s window), so a resistance 1 % off pulls the
+predicted speed up to ~0.5 % off, which the coefficients otherwise absorbed through the m22·v·r surge coupling
+and the speed in every lift term: holding a curve 1 % high moved a_v +9 % (issue 25, docs/live-twin.md)."""
 SURGE_FACTOR_KEYS = tuple(p.key for p in SURGE_FACTORS)
 FITTABLE = PARAMETERS + SURGE_FACTORS
 """Every parameter ``free`` may name, in the order of the correlation matrix."""
