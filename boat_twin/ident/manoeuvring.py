@@ -56,6 +56,7 @@ from boat_twin.twin.replay import (
     Prediction,
     Windows,
     cut_windows,
+    delayed_commands,
     measured_motion,
     predict,
     predict_vessels,
@@ -264,14 +265,21 @@ def prediction_error(data: TrialData, config: TwinConfig) -> float:
 
 def _steering_late(windows: Windows, samples: int) -> Windows:
     """``windows`` with the steering commands (not the thrust) acting ``samples`` samples late: each sample's
-    steering is the trial's from ``samples`` earlier (the first held)."""
-    commands = windows.trial.commands
-    late = commands.copy()
-    late[samples:, 2:4] = commands[:-samples, 2:4]
-    late[:samples, 2:4] = commands[0, 2:4]
-    trial = replace(windows.trial, angle_left_rad=late[:, 2], angle_right_rad=late[:, 3])
-    index = windows.start_index[None, :] + np.arange(windows.t_s.shape[0])[:, None]
-    return replace(windows, commands=late[index], trial=trial)
+    steering is the trial's from ``samples`` earlier (the first held), and each steering change keeps its issue
+    time within its sample (:attr:`~boat_twin.io.trial.Trial.command_switch_s`, moved with it; a thrust change
+    keeps its own, the steering's where both change at one sample): every change exactly ``samples`` samples
+    late."""
+    trial, dt = windows.trial, windows.dt_s
+    switch = np.zeros(len(trial)) if trial.command_switch_s is None else trial.command_switch_s
+    moved, moved_switch = delayed_commands(trial.commands, switch, dt, samples * dt)
+    late = trial.commands.copy()
+    late[:, 2:4] = moved[:, 2:4]
+    steered = np.concatenate([[False], np.any(late[1:, 2:4] != late[:-1, 2:4], axis=1)])
+    thrust = np.concatenate([[False], np.any(late[1:, :2] != late[:-1, :2], axis=1)])
+    late_switch = np.where(steered, moved_switch, np.where(thrust, switch, 0.0))
+    trial = replace(trial, angle_left_rad=late[:, 2], angle_right_rad=late[:, 3],
+                    command_switch_s=late_switch if np.any(late_switch != 0.0) else None)
+    return replace(windows, commands=late[windows.index], trial=trial)
 
 
 DIFFERENCE_STEP = 1e-4
