@@ -160,3 +160,6 @@ def test_the_turning_intervals_hold_the_truth_when_the_twins_surge_model_is_off(
     mass, low_mass, high_mass = candidate.surge_factors["surge_mass_factor"]
     factor, low, high = candidate.surge_factors["resistance_factor"]
     assert low_mass <= 1.0 / 0.97 <= high_mass and low <= 1.0 / 1.02 <= high, candidate.surge_factors
+    reported = adapter.to_dict(plain.vessel)["latest_fit"]["surge_factors"]
+    assert reported["resistance_factor"] == {"value": pytest.approx(factor), "ci95": [pytest.approx(low),
+                                                                                      pytest.approx(high)]}
