@@ -16,7 +16,8 @@ T. the live turning adaptation (boat_twin.shadow.turning): boats whose yaw dampi
    in the first minute and the last, and CPU per boat;
 O. T's independent boats fitted offline (fit_manoeuvring over the live coefficients, from the true boat, on the
    stretch the live fit trains on at the end: 300-770 s), the commands at their issue times and on the log's
-   grid (``command_switch_s`` dropped): how often the intervals hold the truth, the largest errors.
+   grid (``command_switch_s`` dropped), and at the issue times with the surge model's scale fitted as the live fit
+   does (``SURGE_FACTORS``): how often the intervals hold the truth, the errors.
 
 Run: .venv/bin/python benchmarks/bench_live_adapt.py [--boats 6] [--duration-s 900] [--only BAZTO]
 """
@@ -35,7 +36,7 @@ import pymap3d
 
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.hidden import scenario
-from boat_twin.ident.manoeuvring import fit_manoeuvring
+from boat_twin.ident.manoeuvring import SURGE_FACTOR_KEYS, fit_manoeuvring
 from boat_twin.io.trial import Trial
 from boat_twin.shadow.follow import follow_trial
 from boat_twin.shadow.session import ShadowSettings
@@ -203,8 +204,10 @@ def study_offline(boats: int, duration_s: float) -> None:
                                     if isinstance(getattr(trial, f.name), np.ndarray)
                                     and getattr(trial, f.name).shape[:1] == (n,)})
         true = coefficients(truth.vessel)
-        for timing, data in (("issue times", stretch), ("log grid", replace(stretch, command_switch_s=None))):
-            fit = fit_manoeuvring([data], truth, free=LIVE_KEYS)
+        for timing, data, free in (("issue times", stretch, LIVE_KEYS),
+                                   ("log grid", replace(stretch, command_switch_s=None), LIVE_KEYS),
+                                   ("issue times, surge scale fitted", stretch, LIVE_KEYS + SURGE_FACTOR_KEYS)):
+            fit = fit_manoeuvring([data], truth, free=free)
             held = sum(fit.ci95[k][0] <= true[k] <= fit.ci95[k][1] for k in LIVE_KEYS)
             errors = ", ".join(f"{k} {fit.values[k] / true[k] - 1:+.1%}" for k in LIVE_KEYS)
             print(f"O  independent boat {b}, {timing}: intervals holding the truth {held}/{len(LIVE_KEYS)}; {errors}",

@@ -98,8 +98,9 @@ def test_zigzags_steered_between_log_ticks_identify_without_bias(tmp_path: Path)
     example boat, docs/identification.md), replayed with the reversals at their issue times, give every interval
     holding the truth and every coefficient within the targets but a_r, which two zigzags at one speed leave
     ±10-20 % wide: measured on seed pairs 1-2, 3-4, 5-6, 7-8, a_r +7.8, +10.3, −0.6, +3.5 %, 31 of the 32
-    intervals holding the truth. Reversals read onto the next tick instead (late by half a tick on average) gave
-    a_r +42 % with m33, a_r, Y_vv and the offset outside their intervals."""
+    intervals holding the truth (12 seed pairs: a_r +5.0 % on average, every a_r interval holding it: the initial
+    yaw rate's bias, docs/identification.md, not removed). Reversals read onto the next tick instead (late by half
+    a tick on average) gave a_r +42 % with m33, a_r, Y_vv and the offset outside their intervals."""
     vessel = replace(TwinConfig().vessel, lateral_centre_x_m=-0.8, steering_offset_rad=0.01,
                      manoeuvring={k: v for k, v in EXAMPLE_BOAT.items() if k not in SIGNED})
     config, truth = replace(TwinConfig(), vessel=vessel), EXAMPLE_BOAT
@@ -336,6 +337,22 @@ def test_commands_changed_between_log_samples_act_at_their_issue_times() -> None
     assert not fit.misfit and all(abs(e) < 0.02 for e in err.values()), err
     covered = sum(fit.ci95[k][0] <= truth[k] <= fit.ci95[k][1] for k in truth)
     assert covered >= len(truth) - 1, (fit.ci95, truth)
+
+
+def test_the_steering_timing_check_moves_each_command_with_its_issue_time() -> None:
+    """The steering-timing check replays the steering one sample late; a change issued between log samples must
+    move with its issue time (``command_switch_s``). The independent integrator's boat reversing its steering
+    every 6.03 s (between samples) and acting on it 0.1 s late: the check's linearized delay is 0.089-0.091 s on
+    seeds 1-3 (0.165 s for a 0.2 s delay); with the issue times left on their samples (before issue 25) it was
+    0.047-0.048 s (0.092 s)."""
+    base = TwinConfig(vessel=VesselParams(steering_rate_radps=0.0))  # the integrator's outboards swing instantly
+    trial = independent.boat_trial(base.vessel, lambda t: 300.0 + 500.0 * ((t // 40.3) % 2),
+                                   lambda t: math.radians(15.0) * (1.0 if (t // 6.03) % 2 else -1.0), 200.0,
+                                   np.random.default_rng(1), initial_surge_mps=4.0, delay_s=0.1)
+    assert trial.command_switch_s is not None and np.count_nonzero(trial.command_switch_s) > 20
+    fit = fit_manoeuvring([trial], base, free=("m22_kg", "m33_kgm2", "sway_damping_Nspm2", "yaw_damping_Nms",
+                                               "yaw_quadratic_Nms2"))
+    assert fit.steering_timing["delay_s"] == pytest.approx(0.1, abs=0.025), fit.steering_timing
 
 
 @pytest.mark.slow

@@ -11,8 +11,9 @@ noise measured from the trial itself (:func:`~boat_twin.signal_noise.white_noise
 heading and surge are estimated with it (profiled out: :data:`INITIAL_STATE_NUISANCES`), since the sensors'
 errors in them last through the window and would otherwise bias the coefficients.
 
-Held, not fitted: surge (m11 and the resistance Fc, from the thrust–speed identification or the given model),
-the thrust envelope and the outboards' position (x_e, y_e). The yaw equation divided by m33 holds the engine
+Held, not fitted: surge (m11 and the resistance Fc, from the thrust–speed identification or the given model;
+a caller may have its scale fitted with the coefficients, :data:`SURGE_FACTORS`), the thrust envelope and the
+outboards' position (x_e, y_e). The yaw equation divided by m33 holds the engine
 lever arm only as x_e/m33 (and a_r/m33, x_c·a_v/m33, ...): a wrong x_e rescales m33 and every yaw coefficient
 together, which the trials cannot tell apart; the fit takes x_e as given.
 
@@ -55,6 +56,7 @@ from boat_twin.twin.replay import (
     Prediction,
     Windows,
     cut_windows,
+    delayed_commands,
     measured_motion,
     predict,
     predict_vessels,
@@ -118,9 +120,24 @@ PARAMETERS = (
 )
 """What the fit can identify, in the order of the correlation matrix."""
 PARAMETER_KEYS = tuple(p.key for p in PARAMETERS)
+SURGE_FACTORS = (
+    Parameter("surge_mass_factor", "held displacement mass (m11 with it) over the given model's, -", True),
+    Parameter("resistance_factor", "held resistance Fc(u) over the given model's curve, -", True),
+)
+"""The held surge model's mass and resistance scale, fitted with the coefficients when asked (``free``): the
+coefficients then depend on the given surge model's shape only, and its scale's uncertainty on the stretch enters
+their intervals through the joint jackknife. Each window's surge relaxes towards the thrust–resistance balance
+(time constant 4-18 s at 3-12 m/s on the configured boat, within a 20 s window), so a resistance 1 % off pulls the
+predicted speed up to ~0.5 % off, which the coefficients otherwise absorbed through the m22·v·r surge coupling
+and the speed in every lift term: holding a curve 1 % high moved a_v +9 % (issue 25, docs/live-twin.md)."""
+SURGE_FACTOR_KEYS = tuple(p.key for p in SURGE_FACTORS)
+FITTABLE = PARAMETERS + SURGE_FACTORS
+"""Every parameter ``free`` may name, in the order of the correlation matrix."""
 
 HELD_NOTE = ("held, not fitted: m11 and the resistance Fc(u) (surge: the thrust–speed identification or the given "
              "model), the thrust envelope and thrust factors, the outboards' position x_e, y_e")
+SCALED_NOTE = ("held, not fitted: the given surge model (m11 and the shape of Fc(u)) but for the factors fitted with "
+               "the coefficients ({fitted}), the thrust envelope and thrust factors, the outboards' position x_e, y_e")
 LEVER_ARM_NOTE = ("engine lever arm x_e: the yaw equation holds it only as x_e/m33 (with a_r/m33, x_c·a_v/m33, "
                   "N_rr/m33), so a wrong x_e rescales m33 and the yaw coefficients together; taken as given "
                   "({x_e:+.2f} m), m33, a_r and N_rr are relative to it")
@@ -148,6 +165,7 @@ def _start_values(base: TwinConfig) -> dict[str, float]:
     values = {key: float(getattr(coeff, key)) for key in MANOEUVRING_KEYS}
     values["lateral_centre_x_m"] = float(coeff.lateral_centre_x_m)
     values["steering_offset_rad"] = float(base.vessel.steering_offset_rad)
+    values.update({key: 1.0 for key in SURGE_FACTOR_KEYS})
     return values
 
 
@@ -247,14 +265,21 @@ def prediction_error(data: TrialData, config: TwinConfig) -> float:
 
 def _steering_late(windows: Windows, samples: int) -> Windows:
     """``windows`` with the steering commands (not the thrust) acting ``samples`` samples late: each sample's
-    steering is the trial's from ``samples`` earlier (the first held)."""
-    commands = windows.trial.commands
-    late = commands.copy()
-    late[samples:, 2:4] = commands[:-samples, 2:4]
-    late[:samples, 2:4] = commands[0, 2:4]
-    trial = replace(windows.trial, angle_left_rad=late[:, 2], angle_right_rad=late[:, 3])
-    index = windows.start_index[None, :] + np.arange(windows.t_s.shape[0])[:, None]
-    return replace(windows, commands=late[index], trial=trial)
+    steering is the trial's from ``samples`` earlier (the first held), and each steering change keeps its issue
+    time within its sample (:attr:`~boat_twin.io.trial.Trial.command_switch_s`, moved with it; a thrust change
+    keeps its own, the steering's where both change at one sample): every change exactly ``samples`` samples
+    late."""
+    trial, dt = windows.trial, windows.dt_s
+    switch = np.zeros(len(trial)) if trial.command_switch_s is None else trial.command_switch_s
+    moved, moved_switch = delayed_commands(trial.commands, switch, dt, samples * dt)
+    late = trial.commands.copy()
+    late[:, 2:4] = moved[:, 2:4]
+    steered = np.concatenate([[False], np.any(late[1:, 2:4] != late[:-1, 2:4], axis=1)])
+    thrust = np.concatenate([[False], np.any(late[1:, :2] != late[:-1, :2], axis=1)])
+    late_switch = np.where(steered, moved_switch, np.where(thrust, switch, 0.0))
+    trial = replace(trial, angle_left_rad=late[:, 2], angle_right_rad=late[:, 3],
+                    command_switch_s=late_switch if np.any(late_switch != 0.0) else None)
+    return replace(windows, commands=late[windows.index], trial=trial)
 
 
 DIFFERENCE_STEP = 1e-4
@@ -326,7 +351,7 @@ class _Problem:
     def __init__(self, data: Sequence[TrialData], base: TwinConfig, start: dict[str, float],
                  free: Sequence[str]) -> None:
         self.data, self.base, self.start = data, base, start
-        self.free = [p for p in PARAMETERS if p.key in free]
+        self.free = [p for p in FITTABLE if p.key in free]
         self.evaluations = 0
         self.motion = [measured_motion(d.windows, base) for d in data]  # the vessel does not change it
         self.priors = [nuisance_prior_stdev(d) for d in data]
@@ -338,23 +363,42 @@ class _Problem:
             values[p.key] = self.start[p.key] * math.exp(xi) if p.logarithmic else self.start[p.key] + p.scale * xi
         return values
 
+    def config(self, values: dict[str, float]) -> TwinConfig:
+        """The model at ``values``: ``base`` with the coefficients and, when fitted, its surge scaled
+        (:data:`SURGE_FACTORS`)."""
+        base = self.base
+        if values["surge_mass_factor"] != 1.0 or values["resistance_factor"] != 1.0:
+            base = _scaled_surge(base, math.log(values["surge_mass_factor"]), math.log(values["resistance_factor"]))
+        return apply_parameters(base, values)
+
     def _replay(self, xs: Sequence[np.ndarray], nuisances: bool) -> list[list[np.ndarray]]:
         """Per trial, per point of ``xs`` (followed, with ``nuisances``, by the first point with each nuisance
-        stepped), the (rows, m) normalized residuals (signals of the trial's noise dict stacked; NaN kept)."""
+        stepped), the (rows, m) normalized residuals (signals of the trial's noise dict stacked; NaN kept).
+        One kernel run per trial and resistance factor (a kernel's boats share one resistance table)."""
         self.evaluations += len(xs)
-        vessels = [apply_parameters(self.base, self.values(x)).vessel for x in xs]
+        configs = [self.config(self.values(x)) for x in xs]
         if nuisances:
-            vessels += [vessels[0]] * len(INITIAL_STATE_NUISANCES)
+            configs += [configs[0]] * len(INITIAL_STATE_NUISANCES)
+        groups: dict[float, list[int]] = {}
+        for i, x in enumerate(xs):
+            groups.setdefault(self.values(x)["resistance_factor"], []).append(i)
+        groups[self.values(xs[0])["resistance_factor"]] += list(range(len(xs), len(configs)))
         out = []
         for d, m in zip(self.data, self.motion, strict=True):
-            shift = np.zeros((len(vessels), d.windows.start_index.size, 6))
+            shift = np.zeros((len(configs), d.windows.start_index.size, 6))
             if nuisances:
                 for j, (state, step) in enumerate(INITIAL_STATE_NUISANCES):
                     shift[len(xs) + j, :, state] = step
-            with np.errstate(all="ignore"), warnings.catch_warnings():  # a diverged replay is scored as such
-                warnings.simplefilter("ignore", RuntimeWarning)
-                predictions = predict_vessels(d.windows, self.base, vessels, m, initial_shift=shift)
-            out.append([np.concatenate([r for r in _normalized_residuals(d, p).values()]) for p in predictions])
+            replays: list[np.ndarray] = [np.empty(0)] * len(configs)
+            for members in groups.values():
+                config = configs[members[0]]
+                vessels = [replace(configs[i].vessel, resistance=config.vessel.resistance) for i in members]
+                with np.errstate(all="ignore"), warnings.catch_warnings():  # a diverged replay is scored as such
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    predictions = predict_vessels(d.windows, config, vessels, m, initial_shift=shift[members])
+                for i, p in zip(members, predictions, strict=True):
+                    replays[i] = np.concatenate([r for r in _normalized_residuals(d, p).values()])
+            out.append(replays)
         return out
 
     def evaluate(self, x: np.ndarray) -> tuple[list[np.ndarray], list[_Projection], list[np.ndarray]]:
@@ -417,7 +461,7 @@ class _Problem:
         residuals along it. The one-step estimate of the delay, −(sᵀr)/(sᵀs)·shift, and its 95 % interval size
         it (linearized: indicative beyond a few tenths of a second)."""
         _, projections, raw = self.evaluate(x)
-        vessel = apply_parameters(self.base, self.values(x)).vessel
+        config = self.config(self.values(x))
         columns = []
         shift_s = 0.0
         for d, m, projection, r in zip(self.data, self.motion, projections, raw, strict=True):
@@ -425,7 +469,7 @@ class _Problem:
             shift_s = TIMING_SHIFT_SAMPLES * d.windows.dt_s
             with np.errstate(all="ignore"), warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
-                prediction = predict_vessels(late, self.base, [vessel], m)[0]
+                prediction = predict_vessels(late, config, [config.vessel], m)[0]
             q = np.concatenate(list(_normalized_residuals(d, prediction).values()))
             change = np.where(np.isfinite(r) & np.isfinite(q), q - r, 0.0)
             columns.append(projection.apply(change[..., None]).reshape(-1))
@@ -461,7 +505,7 @@ class ManoeuvringFit:
     """A fit and its statistics; :meth:`to_dict` is the ``--json`` contract's ``manoeuvring`` block."""
 
     values: dict[str, float]
-    """Every parameter of :data:`PARAMETER_KEYS` as fitted."""
+    """Every parameter of :data:`PARAMETER_KEYS` as fitted, and the :data:`SURGE_FACTOR_KEYS` (1: held)."""
     fitted: list[str]
     ci95: dict[str, tuple[float, float]]
     stderr: dict[str, float]
@@ -486,7 +530,8 @@ class ManoeuvringFit:
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready result (SI)."""
         return {
-            "parameters": {k: self.values[k] for k in PARAMETER_KEYS},
+            "parameters": {k: self.values[k] for k in PARAMETER_KEYS + tuple(k for k in SURGE_FACTOR_KEYS
+                                                                              if k in self.fitted)},
             "ci95": {k: list(v) for k, v in self.ci95.items()},
             "fitted": list(self.fitted),
             "correlation": {"parameters": list(self.fitted), "matrix": np.round(self.correlation, 4).tolist()},
@@ -513,10 +558,6 @@ def _solve(problem: _Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return result.x, np.asarray(result.jac), result.fun
 
 
-SURGE_STEP = 0.01
-"""Relative step of the held surge mass and resistance for :func:`held_surge_covariance`'s sensitivity, -."""
-
-
 def _scaled_surge(base: TwinConfig, log_mass: float, log_resistance: float) -> TwinConfig:
     """``base`` with its mass and resistance curve scaled by exp(``log_mass``), exp(``log_resistance``)."""
     vessel = base.vessel
@@ -524,42 +565,25 @@ def _scaled_surge(base: TwinConfig, log_mass: float, log_resistance: float) -> T
     return replace(base, vessel=replace(vessel, mass_kg=vessel.mass_kg * math.exp(log_mass), resistance=resistance))
 
 
-def held_surge_covariance(problem: _Problem, x: np.ndarray, jac: np.ndarray, surge_cov: np.ndarray) -> np.ndarray:
-    """What the held surge model's uncertainty adds to the covariance of the fitted parameters at ``x``:
-    S·Σ·Sᵀ with Σ = ``surge_cov``, the (2, 2) covariance of (ln m11, ln Fc scale) of the surge model held, and
-    S = −(JᵀJ)⁻¹·Jᵀ·J_s the fit's first-order response to it (J_s: the projected residuals' sensitivity to the
-    held mass and resistance, by forward differences of :data:`SURGE_STEP`)."""
-    residuals = problem(x)
-    columns = []
-    for log_mass, log_resistance in ((SURGE_STEP, 0.0), (0.0, SURGE_STEP)):
-        shifted = _Problem(problem.data, _scaled_surge(problem.base, log_mass, log_resistance), problem.start,
-                           [p.key for p in problem.free])
-        columns.append((shifted(x) - residuals) / SURGE_STEP)
-    response = -np.linalg.pinv(jac.T @ jac) @ (jac.T @ np.column_stack(columns))
-    return response @ surge_cov @ response.T
-
-
 def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float = WINDOW_S,
-                    free: Sequence[str] = PARAMETER_KEYS, surge_cov: np.ndarray | None = None) -> ManoeuvringFit:
-    """Fit the manoeuvring coefficients ``free`` (keys of :data:`PARAMETER_KEYS`; every one by default) of
-    ``base`` (the prior; its surge and the others held) to ``trials``. ``surge_cov``: the (2, 2) covariance of
-    (ln m11, ln of a factor on Fc(u)) of the surge model ``base`` holds, carried into the intervals
-    (:func:`held_surge_covariance`); None: the surge model is taken as exact."""
+                    free: Sequence[str] = PARAMETER_KEYS) -> ManoeuvringFit:
+    """Fit the manoeuvring coefficients ``free`` (keys of :data:`PARAMETER_KEYS`, every one by default) of
+    ``base`` (the prior; its surge and the others held) to ``trials``; ``free`` may name the
+    :data:`SURGE_FACTOR_KEYS` too, the scale of ``base``'s surge model, which is then fitted with them (its curve's
+    shape held) instead of taken as exact."""
     if not trials:
         raise InputError("no trial to fit the manoeuvring coefficients to")
-    unknown = sorted(set(free) - set(PARAMETER_KEYS))
+    unknown = sorted(set(free) - {p.key for p in FITTABLE})
     if unknown or not free:
         raise ValueError(f"manoeuvring parameters to fit: unknown {unknown}" if unknown else "nothing to fit")
     started = time.perf_counter()
     data = [prepare(trial, window_s) for trial in trials]
     start = _start_values(base)
-    free = [key for key in PARAMETER_KEYS if key in free]
+    free = [p.key for p in FITTABLE if p.key in free]
     problem = _Problem(data, base, start, free)
     x, jac, fun = _solve(problem)
     evaluations = problem.evaluations
     cov, groups = jackknife_covariance(jac, fun, problem.clusters())
-    if surge_cov is not None and np.all(np.isfinite(surge_cov)):
-        cov = cov + held_surge_covariance(problem, x, jac, np.asarray(surge_cov, dtype=float))
     stderr = np.sqrt(np.maximum(np.diag(cov), 0.0))
     quantile = float(student_t.ppf(0.975, max(groups - len(free), 1)))
     values = problem.values(x)
@@ -584,14 +608,16 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
                        else (v - quantile * p.scale * se, v + quantile * p.scale * se))
     scale = np.where(stderr > 0, stderr, 1.0)
     correlation = cov / np.outer(scale, scale)
-    config = apply_parameters(base, values)
+    config = problem.config(values)
     residuals = problem.residuals(x)  # a window's own initial state could absorb a misfit
     used = [s for s in FIT_SIGNALS if any(s in d.noise for d in data)]
     ratio = {s: float(np.sqrt(np.nanmean(np.concatenate([r[s].ravel() for r in residuals if s in r]) ** 2)))
              for s in used}
     noise = {s: float(np.median([d.noise[s] for d in data if s in d.noise])) for s in used}
     timing = problem.steering_timing(x, jac, fun, len(free))
-    notes = [HELD_NOTE, LEVER_ARM_NOTE.format(x_e=base.vessel.engine_x_m)]
+    scaled = [key for key in SURGE_FACTOR_KEYS if key in free]
+    notes = [SCALED_NOTE.format(fitted=", ".join(scaled)) if scaled else HELD_NOTE,
+             LEVER_ARM_NOTE.format(x_e=base.vessel.engine_x_m)]
     if timing["flagged"]:
         notes.append(TIMING_NOTE.format(**timing, low=timing["delay_ci95_s"][0], high=timing["delay_ci95_s"][1]))
     return ManoeuvringFit(

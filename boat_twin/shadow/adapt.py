@@ -64,8 +64,6 @@ ADOPT_MARGIN = 0.05
 """A model replaces another only if its held-out mean squared error is this share lower."""
 REJECT_LEVEL = 0.95
 """Confidence at which the candidate's intervals must reject the current model before it may replace it."""
-NORMAL_975 = float(stats.norm.ppf(0.975))
-"""The normal distribution's 97.5 % quantile (1.96), -."""
 MASS_RELATIVE_LIMIT = 0.2
 """A 95 % mass interval wider than ± this share of the estimate: the horizon does not fix the mass, which is held
 at the current model's, -."""
@@ -135,19 +133,6 @@ class SurgeModel:
             return self.resistance_factor
         return _ratio(np.asarray(self.resistance.force_N(np.asarray(speeds_mps)), dtype=float),
                       np.asarray(base.resistance.force_N(np.asarray(speeds_mps)), dtype=float))
-
-    def log_covariance(self, base: VesselParams) -> np.ndarray | None:
-        """(2, 2) covariance of (ln m₁₁, ln resistance factor) for a fit that holds this model
-        (:func:`~boat_twin.ident.manoeuvring.fit_manoeuvring`'s ``surge_cov``), scaled so that ±1.96 standard
-        deviations span this model's own 95 % intervals (Student's t on its clusters − 1 degrees of freedom: a
-        fit on few clusters claims wide intervals from a small variance); None for the configured model."""
-        var_m, cov_mf, var_f = self.covariance
-        if not self.samples or not all(math.isfinite(v) for v in self.covariance):
-            return None
-        m11 = self.mass_kg * (1.0 + base.surge_added_mass_ratio)
-        k = self.resistance_factor
-        widening = (float(stats.t.ppf(0.975, max(self.clusters - 1, 1))) / NORMAL_975) ** 2
-        return widening * np.array([[var_m / m11**2, cov_mf / (m11 * k)], [cov_mf / (m11 * k), var_f / k**2]])
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready (SI)."""

@@ -209,7 +209,8 @@ class Shadow:
 
     def _update_turning(self, t_s: float) -> bool:
         """Try the turning adaptation on the horizon without its held-out tail (True: the coefficients changed):
-        the fit holds the twin's current surge model, the held-out score replays the last ``holdout_s``."""
+        the fit starts from the twin's current surge model (its shape held, its scale fitted), the held-out score
+        replays the last ``holdout_s``."""
         s = self.settings
         try:
             training = self.recent.trial(t_s - s.horizon_s, t_s - s.holdout_s)
@@ -221,7 +222,7 @@ class Shadow:
         def score(model: TurningModel) -> float:
             return prediction_error(held_out, model.config(plain))
 
-        return self.turning.update(training, plain, score, self.adapter.current.log_covariance(self.adapter.base))
+        return self.turning.update(training, plain, score)
 
     def surge_force_N(self, surge_mps: float) -> float:
         """The surge force besides resistance now, N: the held thrust commands delivered (the engines' envelope

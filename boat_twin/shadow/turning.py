@@ -4,8 +4,10 @@ predict held-out recent data better (a hot swap, logged, reversible) — the sur
 (:mod:`boat_twin.shadow.adapt`).
 
 The identification is :func:`boat_twin.ident.manoeuvring.fit_manoeuvring` (the one ``identify --manoeuvring``
-runs; nothing of it is copied here) on the horizon without its held-out tail, its surge held at the twin's
-current model, over the coefficients :data:`LIVE_KEYS`: the sway and yaw inertia and lift damping and the yaw
+runs; nothing of it is copied here) on the horizon without its held-out tail, from the twin's current surge
+model, whose scale (mass and resistance factors, :data:`~boat_twin.ident.manoeuvring.SURGE_FACTORS`) it fits
+with the coefficients :data:`LIVE_KEYS` (held as exact, a surge curve 1 % off moved a_v 9 %, outside its
+interval; issue 25): the sway and yaw inertia and lift damping and the yaw
 cross-flow drag, which a zigzag or random steering at one speed determines (5-15 % intervals on a 470 s
 horizon). The lateral-resistance centre, the steering offset and the sway cross-flow drag are held: one speed's
 steering leaves them free or confounded (``identify``'s ``not_separated``), and a live twin cannot ask for a
@@ -44,6 +46,7 @@ from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.ident.manoeuvring import (
     MISFIT_RATIO,
+    SURGE_FACTOR_KEYS,
     WINDOW_S,
     ManoeuvringFit,
     apply_parameters,
@@ -81,7 +84,8 @@ score 9.9-24 on the configured boat and hid the rest): a fit of the configured b
 MIN_WINDOWS = 8
 """Replay windows (of :data:`~boat_twin.ident.manoeuvring.WINDOW_S`) the training stretch must hold: Hotelling's
 test of the :data:`LIVE_KEYS` on G windows has G − 5 degrees of freedom, and on 6 (a 120 s stretch) it can reject
-nothing (a 25 % yaw-damping error fitted within 2 % went untested), -."""
+nothing (a 25 % yaw-damping error fitted within 2 % went untested); the intervals, with the two surge factors,
+have G − 7, -."""
 MIN_TRAINING_S = MIN_WINDOWS * WINDOW_S
 """The shortest training stretch a turning fit is tried on, s."""
 
@@ -122,6 +126,10 @@ class TurningModel:
     not_identified: tuple[str, ...] = ()
     misfit: bool = False
     """A residual above its :data:`LIVE_MISFIT_RATIO`: the coefficients absorb a cause the model lacks."""
+    surge_factors: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    """The held surge model's mass and resistance scale the fit found with the coefficients
+    (:data:`~boat_twin.ident.manoeuvring.SURGE_FACTORS`): value, 95 % low, high, -. Off 1 beyond their interval:
+    the twin's surge model misses this stretch's speed by more than its scale's noise."""
 
     @classmethod
     def from_fit(cls, fit: ManoeuvringFit) -> TurningModel:
@@ -132,7 +140,8 @@ class TurningModel:
         return cls({k: fit.values[k] for k in LIVE_KEYS}, {k: fit.ci95[k] for k in LIVE_KEYS},
                    tuple(tuple(float(x) for x in row) for row in cov), fit.windows, dict(fit.residual_to_noise),
                    tuple(k for k in LIVE_KEYS if k in fit.not_identified),
-                   any(r > LIVE_MISFIT_RATIO[s] for s, r in fit.residual_to_noise.items()))
+                   any(r > LIVE_MISFIT_RATIO[s] for s, r in fit.residual_to_noise.items()),
+                   {k: (fit.values[k], *fit.ci95[k]) for k in SURGE_FACTOR_KEYS if k in fit.fitted})
 
     def config(self, base: TwinConfig) -> TwinConfig:
         """``base`` turning with these coefficients (unchanged for the configured ones)."""
@@ -147,7 +156,9 @@ class TurningModel:
                 "ci95": {k: [float(x) for x in v] for k, v in self.ci95.items()},
                 "relative_to_configured": {k: float(values[k] / configured[k]) for k in values},
                 "windows": self.windows, "not_identified": list(self.not_identified), "misfit": self.misfit,
-                "residual_to_noise": dict(self.residual_to_noise)}
+                "residual_to_noise": dict(self.residual_to_noise),
+                "surge_factors": {k: {"value": float(v[0]), "ci95": [float(v[1]), float(v[2])]}
+                                  for k, v in self.surge_factors.items()}}
 
     def rejects(self, current: dict[str, float], level: float = REJECT_LEVEL) -> bool:
         """Whether this fit's covariance rejects the ``current`` coefficients at ``level``: Hotelling's T² of the
@@ -203,11 +214,10 @@ class TurningAdapter:
     def _back_off(self) -> None:
         self.wait_s = min(2.0 * self.wait_s, MAX_WAIT_PERIODS * self.period_s)
 
-    def update(self, training: Trial, plain: TwinConfig, score: Score, surge_cov: np.ndarray | None = None) -> bool:
+    def update(self, training: Trial, plain: TwinConfig, score: Score) -> bool:
         """Fit a candidate on ``training`` and adopt it, or revert, by the module docstring's rule; ``plain``: the
-        twin as it predicts now but with the configured turning (its surge model held by the fit; ``surge_cov``,
-        the covariance of its logarithms of m₁₁ and the resistance factor, carried into the intervals). True when
-        the coefficients changed."""
+        twin as it predicts now but with the configured turning (the fit holds its surge model's shape and fits
+        its scale, :data:`~boat_twin.ident.manoeuvring.SURGE_FACTORS`). True when the coefficients changed."""
         if training.t_s.size < 2 or training.t_s[-1] - training.t_s[0] < MIN_TRAINING_S:
             return False
         self.excitation = steering_excitation(training)
@@ -221,7 +231,7 @@ class TurningAdapter:
         try:  # coefficients far off make replays diverge, which the fit scores as such: no warning to log
             with np.errstate(all="ignore"), warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
-                fit = fit_manoeuvring([training], self.current.config(plain), free=LIVE_KEYS, surge_cov=surge_cov)
+                fit = fit_manoeuvring([training], self.current.config(plain), free=LIVE_KEYS + SURGE_FACTOR_KEYS)
             candidate: TurningModel | None = TurningModel.from_fit(fit)
         except (InputError, ValueError, np.linalg.LinAlgError):
             candidate = None
