@@ -214,7 +214,8 @@ def test_adoption_and_reversal_follow_the_held_out_score() -> None:
     m11 = 1500.0 * (1 + base.surge_added_mass_ratio)
     for i in range(1, t.size):  # a boat of 1500 kg and 1.2× the resistance
         surge[i] = surge[i - 1] + 0.1 * (force[i - 1] - 1.2 * float(base.resistance.force_N(surge[i - 1]))) / m11
-    for sample in zip(t, force, surge + rng.normal(0.0, 0.05, t.size), strict=True):
+    measured = surge + rng.normal(0.0, 0.05, t.size)
+    for sample in zip(t[1:], force[:-1], measured[1:], strict=True):  # each with the force since the previous
         adapter.add(*sample)
     truth = SurgeModel(1500.0, 1.2)
 
@@ -305,7 +306,8 @@ def test_follow_cli_json_and_outputs(tmp_path: Path, capsys: pytest.CaptureFixtu
 def _surge_samples(base_mass_kg: float, factor: float, seed: int, duration_s: float = 400.0
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A surge-only boat integrated by the tests' own RK4: ``base_mass_kg`` and ``factor`` × the default boat's
-    resistance, thrust held 10-40 s at random levels; the GNSS speed over ground (0.05 m/s per axis) at 10 Hz."""
+    resistance, thrust held 10-40 s at random levels; the GNSS speed over ground (0.05 m/s per axis) at 10 Hz,
+    each sample with the thrust since the previous one (as :meth:`SurgeAdapter.add` takes them)."""
     base = TwinConfig().vessel
     rng = np.random.default_rng(seed)
     m11 = base_mass_kg * (1 + base.surge_added_mass_ratio)
@@ -317,7 +319,7 @@ def _surge_samples(base_mass_kg: float, factor: float, seed: int, duration_s: fl
     surge = rk4_held(deriv, np.array([2.0]), holds, 0.02, 5)[:, 0]
     t = np.arange(holds.size) * 0.1
     speed = np.hypot(surge + rng.normal(0.0, 0.05, t.size), rng.normal(0.0, 0.05, t.size))
-    return t, holds, speed
+    return t[1:], holds[:-1], speed[1:]
 
 
 def test_a_fit_within_its_noise_of_the_current_model_is_not_adopted_even_if_it_scores_better() -> None:

@@ -94,6 +94,26 @@ class SurgeRecord:
     speed_mps: np.ndarray
 
 
+def held_thrust_N(t_s: np.ndarray, mean_thrust_N: np.ndarray, grid_s: np.ndarray) -> np.ndarray:
+    """The thrust a record on the times ``grid_s`` (increasing) holds over each of its intervals, from a thrust
+    known as its mean over each interval between the increasing stamps ``t_s``: ``mean_thrust_N[k]`` over
+    (t_{k−1}, t_k] (``[0]``, over the interval before the first stamp, is not used). The fit holds each sample's
+    thrust over the interval to the next sample (:func:`_simulate`: a zero-order hold on the record's own
+    grid), so a thrust that varies inside an interval (outboards swinging, a coupling force) must be given as
+    its mean over that interval: a value read at the interval's start lags it by half an interval, which the fit
+    reads as inertia. Each grid interval gets the mean of the stamps' means it overlaps, weighted by the
+    overlap (exact wherever the grid is the stamps shifted by a whole number of periods; no lookup that a
+    rounding error moves to the neighbouring sample); grid times outside [t_0, t_−1] take the end values. The
+    last grid sample, whose interval the fit never integrates, holds the last mean, N."""
+    t_s, grid_s = np.asarray(t_s, dtype=float), np.asarray(grid_s, dtype=float)
+    mean = np.asarray(mean_thrust_N, dtype=float)
+    impulse = np.concatenate([[0.0], np.cumsum(mean[1:] * np.diff(t_s))])
+    at = np.interp(grid_s, t_s, impulse)
+    out = np.full(grid_s.size, mean[-1] if mean.size else np.nan)
+    out[:-1] = np.diff(at) / np.diff(grid_s)
+    return out
+
+
 @dataclass(frozen=True)
 class Segment:
     """A stretch of samples without a gap: the unit simulated from one initial speed."""

@@ -56,7 +56,7 @@ from scipy import stats
 
 from boat_twin.errors import InputError
 from boat_twin.ident import output_error
-from boat_twin.ident.output_error import ResistanceBasis, SurgeFit, SurgeRecord, spline_basis
+from boat_twin.ident.output_error import ResistanceBasis, SurgeFit, SurgeRecord, held_thrust_N, spline_basis
 from boat_twin.vessel.params import VesselParams, derive_coefficients
 from boat_twin.vessel.resistance import CorrectedResistance, ResistanceModel
 
@@ -188,11 +188,12 @@ def over_configured(fitted: ResistanceModel, speeds_mps: np.ndarray, base: Vesse
 
 def horizon_record(t_s: np.ndarray, force_N: np.ndarray, speed_mps: np.ndarray, latency_s: float) -> SurgeRecord:
     """The horizon as the output-error fit reads it: each speed at the time it describes (stamp − latency), the
-    force held from the latest sample before that time."""
+    force over each interval between those times from ``force_N``, each sample's mean force since the previous
+    one (:func:`~boat_twin.ident.output_error.held_thrust_N`). Samples describing a time before the first
+    stamp (whose force is not known) are left out."""
     at = t_s - latency_s
-    index = np.searchsorted(t_s, at, side="right") - 1
-    keep = index >= 0
-    return SurgeRecord(at[keep], force_N[index[keep]], np.abs(speed_mps[keep]))
+    keep = at >= t_s[0] - 1e-9
+    return SurgeRecord(at[keep], held_thrust_N(t_s, force_N, at[keep]), np.abs(speed_mps[keep]))
 
 
 def basis_for(record: SurgeRecord, splines: int) -> ResistanceBasis:
@@ -302,7 +303,8 @@ Score = Callable[[SurgeModel], float]
 
 
 class SurgeAdapter:
-    """Collects (t, surge force, surge through the water) live and keeps the twin's surge model current."""
+    """Collects (t, mean surge force since the previous sample, surge through the water) live and keeps the
+    twin's surge model current."""
 
     def __init__(self, base: VesselParams, *, horizon_s: float = 600.0, holdout_s: float = 120.0,
                  period_s: float = 30.0, latency_s: float = 0.0, log: Log | None = None) -> None:
@@ -324,7 +326,8 @@ class SurgeAdapter:
         up to :data:`MAX_WAIT_PERIODS` × ``period_s`` (fewer refits while the model stands)."""
 
     def add(self, t_s: float, force_N: float, speed_mps: float) -> None:
-        """One sample (time increasing; others are ignored)."""
+        """One sample (time increasing; others are ignored): its stamp, the mean surge force since the previous
+        sample (N) and the surge through the water it measured (m/s)."""
         if not (math.isfinite(force_N) and math.isfinite(speed_mps)):
             return
         if self._samples and t_s <= self._samples[-1][0]:
