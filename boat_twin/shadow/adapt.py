@@ -186,14 +186,17 @@ def over_configured(fitted: ResistanceModel, speeds_mps: np.ndarray, base: Vesse
                                tuple(float(k) for k in np.maximum(ratio, FACTOR_RANGE[0] / 10.0)))
 
 
-def horizon_record(t_s: np.ndarray, force_N: np.ndarray, speed_mps: np.ndarray, latency_s: float) -> SurgeRecord:
+def horizon_record(t_s: np.ndarray, force_N: np.ndarray, speed_mps: np.ndarray, latency_s: float,
+                   coupling_N: np.ndarray | None = None) -> SurgeRecord:
     """The horizon as the output-error fit reads it: each speed at the time it describes (stamp − latency), the
-    force over each interval between those times from ``force_N``, each sample's mean force since the previous
-    one (:func:`~boat_twin.ident.output_error.held_thrust_N`). Samples describing a time before the first
-    stamp (whose force is not known) are left out."""
+    thrust (and the coupling force, whose scale the fit estimates; None or all zero: none) over each interval
+    between those times from ``force_N`` (``coupling_N``), each sample's mean since the previous one
+    (:func:`~boat_twin.ident.output_error.held_thrust_N`). Samples describing a time before the first stamp
+    (whose force is not known) are left out."""
     at = t_s - latency_s
     keep = at >= t_s[0] - 1e-9
-    return SurgeRecord(at[keep], held_thrust_N(t_s, force_N, at[keep]), np.abs(speed_mps[keep]))
+    coupling = None if coupling_N is None or not np.any(coupling_N) else held_thrust_N(t_s, coupling_N, at[keep])
+    return SurgeRecord(at[keep], held_thrust_N(t_s, force_N, at[keep]), np.abs(speed_mps[keep]), coupling)
 
 
 def basis_for(record: SurgeRecord, splines: int) -> ResistanceBasis:
@@ -319,20 +322,21 @@ class SurgeAdapter:
         self.candidate: SurgeModel | None = None
         """The latest fit, adopted or not (its intervals are what the fit says now)."""
         self.swaps = 0
-        self._samples: deque[tuple[float, float, float]] = deque()
+        self._samples: deque[tuple[float, float, float, float]] = deque()
         self._next_s = math.nan
         self.wait_s = period_s
         """Time to the next update, s: ``period_s``, doubled after each fit that does not reject the current model
         up to :data:`MAX_WAIT_PERIODS` × ``period_s`` (fewer refits while the model stands)."""
 
-    def add(self, t_s: float, force_N: float, speed_mps: float) -> None:
+    def add(self, t_s: float, force_N: float, speed_mps: float, coupling_N: float = 0.0) -> None:
         """One sample (time increasing; others are ignored): its stamp, the mean surge force since the previous
-        sample (N) and the surge through the water it measured (m/s)."""
-        if not (math.isfinite(force_N) and math.isfinite(speed_mps)):
+        sample (N), the surge through the water it measured (m/s) and the mean coupling force since the previous
+        sample, whose scale the fit estimates (N; :class:`~boat_twin.ident.output_error.SurgeRecord`)."""
+        if not (math.isfinite(force_N) and math.isfinite(speed_mps) and math.isfinite(coupling_N)):
             return
         if self._samples and t_s <= self._samples[-1][0]:
             return
-        self._samples.append((t_s, force_N, speed_mps))
+        self._samples.append((t_s, force_N, speed_mps, coupling_N))
         while self._samples[0][0] < t_s - self.horizon_s:
             self._samples.popleft()
         if math.isnan(self._next_s):
@@ -355,11 +359,11 @@ class SurgeAdapter:
         """The horizon without its held-out tail, as the fit reads it (None: too few samples)."""
         if len(self._samples) < MIN_SAMPLES:
             return None
-        t, f, u = (np.array(c) for c in zip(*self._samples, strict=True))
+        t, f, u, c = (np.array(column) for column in zip(*self._samples, strict=True))
         train = t <= t[-1] - self.holdout_s
         if train.sum() < MIN_SAMPLES or t[train][-1] - t[0] < MIN_SPAN_S:
             return None
-        return horizon_record(t[train], f[train], u[train], self.latency_s)
+        return horizon_record(t[train], f[train], u[train], self.latency_s, c[train])
 
     def update(self, score: Score) -> bool:
         """Fit a candidate on the horizon without its held-out tail and adopt it, or revert, if it predicts the

@@ -189,8 +189,10 @@ class ShadowTwin:
         """The latest velocity innovation along the hull left after the correction, m/s: added to the state's
         surge where the engines' envelope is read (:meth:`surge_force_N`)."""
         self.surge_impulse_Ns = math.nan
-        """∫ :meth:`surge_force_N` dt over the twin's propagation since :attr:`impulse_epoch` began, N·s (NaN
-        while the force is not known)."""
+        """∫ :meth:`surge_thrust_N` dt over the twin's propagation since :attr:`impulse_epoch` began, N·s (NaN
+        while the thrust is not known)."""
+        self.coupling_impulse_Ns = 0.0
+        """∫ :meth:`coupling_N` dt over the same time, N·s."""
         self._queue: list[tuple[float, int, int, str, tuple[float, ...]]] = []
         self._seq = 0
         self.newest_s = -math.inf
@@ -305,7 +307,7 @@ class ShadowTwin:
         u, v = we * math.cos(yaw) + wn * math.sin(yaw), -we * math.sin(yaw) + wn * math.cos(yaw)
         self.state = np.array([east, north, yaw, u, v, rate])
         self._steering = None
-        self.surge_impulse_Ns, self.impulse_epoch = 0.0, self.impulse_epoch + 1
+        self.surge_impulse_Ns, self.coupling_impulse_Ns, self.impulse_epoch = 0.0, 0.0, self.impulse_epoch + 1
         self._surge_offset_mps = 0.0
         self._history.clear()
         self._history.append((self.t_s, east, north, vel_east, vel_north, yaw))
@@ -334,14 +336,15 @@ class ShadowTwin:
             self._steering = self.dynamics.steering_targets(commands)
         states = self.state[None, :]
         steps = max(1, math.ceil(dt_total / INTEGRATION_STEP_S - 1e-9))
-        force = self.surge_force_N()  # under the commands held from now on (one that just changed included)
+        force, coupling = self.surge_thrust_N(), self.coupling_N()  # under the commands held from now on
         if math.isfinite(force) and not math.isfinite(self.surge_impulse_Ns):
-            self.surge_impulse_Ns, self.impulse_epoch = 0.0, self.impulse_epoch + 1
+            self.surge_impulse_Ns, self.coupling_impulse_Ns, self.impulse_epoch = 0.0, 0.0, self.impulse_epoch + 1
         for _ in range(steps):
             self.dynamics.step(states, commands, self._environment, dt_total / steps, self._steering)
-            after = self.surge_force_N()
-            self.surge_impulse_Ns += 0.5 * (force + after) * dt_total / steps  # trapezoid over the RK4 step
-            force = after
+            after, coupled = self.surge_thrust_N(), self.coupling_N()
+            self.surge_impulse_Ns += 0.5 * (force + after) * dt_total / steps  # trapezoids over the RK4 step
+            self.coupling_impulse_Ns += 0.5 * (coupling + coupled) * dt_total / steps
+            force, coupling = after, coupled
         self.state = states[0]
         for f in self._filters.values():
             f.grow(dt_total)
@@ -409,27 +412,34 @@ class ShadowTwin:
             self._record(stamp_s, "heading_rad", yaw, self.state[2], f.stdev())
             self.state[2] += f.gain() * float(wrap_pi(np.array(yaw - self.state[2])))
 
-    def surge_force_N(self) -> float:
-        """The surge force besides resistance on the twin now, N: the held thrust commands delivered (the
-        engines' envelope at the state's surge through the water) along the hull at the outboards' real angles,
-        plus the sway-yaw coupling m₂₂·v·r of the state (the dynamics' X + m₂₂·v·r without the wind); NaN before
-        synchronisation or before both thrusts are known. Integrated over every propagation step into
-        :attr:`surge_impulse_Ns`: the outboards swing and v·r varies between samples, and a force read at one
-        sample and held to the next lags them by half a sample period, which the surge fit reads as inertia."""
+    def surge_thrust_N(self) -> float:
+        """The thrust along the hull on the twin now, N: the held thrust commands delivered (the engines' envelope
+        at the surge through the water the latest velocity fix says: the state's plus what the correction left
+        of the innovation) at the outboards' real angles; NaN before synchronisation or before both thrusts are
+        known. Integrated over every propagation step into :attr:`surge_impulse_Ns`: the outboards swing between
+        samples, and a force read at one sample and held to the next lags them by half a sample period, which
+        the surge fit reads as inertia."""
         if self.state is None:
             return math.nan
         vessel = self.config.vessel
-        u, v, r = float(self.state[3]) + self._surge_offset_mps, float(self.state[4]), float(self.state[5])
+        u = float(self.state[3]) + self._surge_offset_mps
         ahead = vessel.bollard_thrust_N
         if abs(u) > 1e-9:
             ahead = min(ahead, vessel.propulsive_efficiency * vessel.engine_power_W / abs(u))
         astern = -vessel.reverse_thrust_ratio * vessel.bollard_thrust_N
-        force = self._m22_kg * v * r
+        force = 0.0
         for thrust, angle, factor in zip(self.commands[:2], self.steering_rad, (vessel.thrust_factor_left,
                                                                                 vessel.thrust_factor_right),
                                          strict=True):
             force += factor * min(max(float(thrust), astern), ahead) * math.cos(float(angle))
         return force
+
+    def coupling_N(self) -> float:
+        """The sway-yaw coupling m₂₂·v·r on the twin now (its model's m₂₂, its state's sway and yaw rate), N (0
+        before synchronisation); integrated into :attr:`coupling_impulse_Ns`."""
+        if self.state is None:
+            return 0.0
+        return self._m22_kg * float(self.state[4]) * float(self.state[5])
 
     # --- what the front ends publish -----------------------------------------------------------------------
     @property
