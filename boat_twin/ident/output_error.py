@@ -18,9 +18,13 @@ rising monotonically from 0), so Fc(0) = 0 and Fc never decreases with speed wha
 is unique for every thrust); going astern meets the mirrored resistance (odd extension: astern data are usually
 too few to fit a curve of their own). Knots sit at quantiles of the measured speeds.
 
-Fit: the model is simulated through every sample of every segment (RK4, thrust held) and the squared
-difference to the measured speed is minimised over (w, m, and each segment's initial speed), bounded least
-squares (scipy.optimize.least_squares, trust-region reflective) with the Jacobian from forward sensitivity
+A record may carry a further force C the caller computes from a model of its own (the live twin's sway-yaw
+coupling m₂₂·v·r): the force is then T + c·C, its scale c fitted with the rest.
+
+Fit: the model is simulated through every sample of every segment (RK4, each sample's thrust held to the next
+sample: a zero-order hold on the record's own grid, so a thrust varying inside an interval is given as its mean
+there, :func:`held_thrust_N`) and the squared difference to the measured speed is minimised over (w, m, c
+when fitted, and each segment's initial speed), bounded least squares (scipy.optimize.least_squares, trust-region reflective) with the Jacobian from forward sensitivity
 equations integrated with the state (numba). Transients, steps down, reversing and closed-loop stretches all
 count; no steady points needed.
 

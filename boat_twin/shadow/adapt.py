@@ -6,10 +6,12 @@ The identification is the output-error surge fit of :mod:`boat_twin.ident.output
 resistance curve that never decreases (a·|u| + b·u² + non-negative I-splines), simulated through every sample of
 the horizon and fitted to the measured surge, with cluster-robust 95 % intervals. X is the surge force besides
 resistance and the surge the caller computes (:class:`~boat_twin.shadow.session.Shadow`: the delivered thrust
-along the hull at the outboards' real angles plus the sway-yaw coupling m₂₂·v·r of the twin's state, which in a
-turn is as large as a resistance error; the GNSS velocity through the water along the twin's heading, not its
-magnitude, which holds the sway too). The speed measured at t describes the boat at t − GNSS latency; the fit
-takes it there (on the 6 m boat, ignoring the 0.1 s shifted the mass by +1.3 %).
+along the hull at the outboards' real angles plus c times the sway-yaw coupling m₂₂·v·r of the twin's state,
+which in a turn is as large as a resistance error, each the twin's mean over the interval since the previous
+sample; the GNSS velocity through the water along the twin's heading when it was measured, not its magnitude,
+which holds the sway too). The coupling's scale c is fitted too: the twin's sway model gives v·r a few per cent
+off, which biased the resistance factor by more than its interval. The speed measured at t describes the boat at
+t − GNSS latency; the fit takes it there (on the 6 m boat, ignoring the 0.1 s shifted the mass by +1.3 %).
 
 Cost decides the curve's size: the offline cross-validation (baseline and 3, 5, 8, 12 I-splines, four folds:
 22 fits) costs 2 s of CPU on a 470 s horizon with one BLAS thread, 20 s with OpenBLAS's threads on the loaded
