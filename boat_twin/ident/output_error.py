@@ -24,9 +24,9 @@ coupling m₂₂·v·r): the force is then T + c·C, its scale c fitted with the
 Fit: the model is simulated through every sample of every segment (RK4, each sample's thrust held to the next
 sample: a zero-order hold on the record's own grid, so a thrust varying inside an interval is given as its mean
 there, :func:`held_thrust_N`) and the squared difference to the measured speed is minimised over (w, m, c
-when fitted, and each segment's initial speed), bounded least squares (scipy.optimize.least_squares, trust-region reflective) with the Jacobian from forward sensitivity
-equations integrated with the state (numba). Transients, steps down, reversing and closed-loop stretches all
-count; no steady points needed.
+when fitted, and each segment's initial speed), bounded least squares (scipy.optimize.least_squares,
+trust-region reflective) with the Jacobian from forward sensitivity equations integrated with the state (numba).
+Transients, steps down, reversing and closed-loop stretches all count; no steady points needed.
 
 Complexity: the baseline (a, b only) and I-spline sets of 3, 5, 8 and 12 terms are compared by cross-validated
 multi-step prediction — leave one recording out when there are three or more, else leave one of eight
