@@ -204,6 +204,32 @@ def test_the_right_model_is_never_replaced_by_a_worse_one() -> None:
     assert ratios[1] <= 1.02 * ratios[0]
 
 
+def test_the_twin_integrates_the_thrust_of_outboards_swinging_between_samples() -> None:
+    """The outboards swing at the steering rate across several 10 Hz samples: the twin's thrust impulse over the
+    swing is ∫ T·cos δ(t) dt with δ rising linearly to its target (within 1e-5), not cos δ read at each sample
+    and held to the next."""
+    config = TwinConfig()
+    rate = config.vessel.steering_rate_radps
+    twin = ShadowTwin(config)
+    readings: list[tuple[float, float]] = []
+    twin.sink = lambda kind, t, _v: readings.append((t, twin.surge_impulse_Ns)) if kind == "gnss_vel" else None
+    for i in range(40):  # 2 m/s east at rest in yaw, both outboards at 800 N; steered to 0.2 rad at 1.0 s
+        t = 0.1 * i
+        for kind, value in (("thrust_left", 800.0), ("thrust_right", 800.0), ("angle_left", 0.2 if t >= 1.0 else 0.0),
+                            ("angle_right", 0.2 if t >= 1.0 else 0.0)):
+            twin.add(kind, t, (value,))
+        twin.add("gnss_fix", t, (43.0, 131.0 + 2.0 * t / 81_400.0, 0.0))
+        twin.add("gnss_vel", t, (2.0, 0.0))
+        twin.add("imu", t, (0.0, 0.0, 0.0, 0.0))
+    twin.flush()
+    t, impulse = np.array(readings).T
+    swing_s = 0.2 / rate
+    end = 1.0 + np.ceil(swing_s * 10) / 10  # the first sample after the outboards stopped
+    a, b = np.flatnonzero(np.isclose(t, 1.0))[0], np.flatnonzero(np.isclose(t, end))[0]
+    exact = 1600.0 * (np.sin(0.2) / rate + np.cos(0.2) * (end - 1.0 - swing_s))
+    assert impulse[b] - impulse[a] == pytest.approx(exact, rel=1e-5)
+
+
 def test_the_horizon_holds_each_interval_s_mean_force_on_the_fit_s_grid() -> None:
     """Each speed is taken at the time it describes (stamp − latency) and the force over each interval between
     those times is the mean force the samples give for it: with a latency of one sample period, exactly the

@@ -187,7 +187,7 @@ class ShadowTwin:
         self._steering: np.ndarray | None = None
         self._surge_offset_mps = 0.0
         """The latest velocity innovation along the hull left after the correction, m/s: added to the state's
-        surge where the engines' envelope is read (:meth:`surge_force_N`)."""
+        surge where the engines' envelope is read (:meth:`surge_thrust_N`)."""
         self.surge_impulse_Ns = math.nan
         """∫ :meth:`surge_thrust_N` dt over the twin's propagation since :attr:`impulse_epoch` began, N·s (NaN
         while the thrust is not known)."""
