@@ -272,8 +272,10 @@ class SurgeFit:
     top_speed_mps: float
     """Highest measured speed the fit saw, m/s (the curve is data up to here)."""
     evaluations: int = 0
+    coupling_fitted: bool = False
+    """True when the records carried a coupling force and its scale c was fitted."""
     coupling_scale: float = 1.0
-    """The fitted scale c of the record's coupling force (1: none fitted), -."""
+    """The fitted scale c of the records' coupling force (1: none fitted), -."""
     coupling_scale_sd: float = 0.0
     """Its cluster-robust standard deviation, -."""
     reference: SurgeFit | None = None
@@ -339,11 +341,10 @@ class SurgeFit:
             "cluster_s": self.cluster_s,
             "top_speed_mps": self.top_speed_mps,
             "interval_reference": None if self.reference is None else self.reference.basis.name,
-            "coupling_scale": self.coupling_scale,
-            "coupling_scale_sd": self.coupling_scale_sd,
             "resistance_table": {"speed_mps": speeds.tolist(), "force_N": self.resistance_N(speeds).tolist(),
                                  "ci95_low_N": lo.tolist(), "ci95_high_N": hi.tolist()},
-        }
+        } | ({"coupling_scale": self.coupling_scale, "coupling_scale_sd": self.coupling_scale_sd}
+             if self.coupling_fitted else {})
 
 
 def speed_noise_mps(speed_mps: np.ndarray) -> float:
@@ -562,7 +563,7 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
     param_cov[:n_params, :n_params] = cov[:n_params, :n_params]
     scale_sd = float(np.sqrt(max(cov[problem.heads - 1, problem.heads - 1], 0.0))) if problem.coupled else 0.0
     return SurgeFit(basis, np.array(coeffs), mass, mass_kg is not None, np.array(u0), residual, param_cov, clusters,
-                    cluster_s, top, problem.evaluations, problem.scale(result.x), scale_sd)
+                    cluster_s, top, problem.evaluations, problem.coupled, problem.scale(result.x), scale_sd)
 
 
 def predict(fit: SurgeFit, record: SurgeRecord, segment: Segment) -> np.ndarray:

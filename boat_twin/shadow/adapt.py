@@ -158,6 +158,9 @@ class SurgeModel:
             "resistance_factor": float(self.resistance_factor),
             "resistance_factor_ci95": [float(x) for x in self.factor_ci95], "samples": self.samples,
             "curve": self.curve, "mass_held": self.mass_held}
+        if self.fit is not None and self.fit.coupling_fitted:  # the scale fitted on the twin's m₂₂·v·r
+            out["coupling_scale"] = float(self.fit.coupling_scale)
+            out["coupling_scale_sd"] = float(self.fit.coupling_scale_sd)
         if self.resistance is not None and self.speeds_mps:
             speeds = np.linspace(0.0, max(self.speeds_mps), 11)
             out["resistance_table"] = {"speed_mps": speeds.tolist(),
