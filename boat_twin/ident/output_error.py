@@ -18,11 +18,15 @@ rising monotonically from 0), so Fc(0) = 0 and Fc never decreases with speed wha
 is unique for every thrust); going astern meets the mirrored resistance (odd extension: astern data are usually
 too few to fit a curve of their own). Knots sit at quantiles of the measured speeds.
 
-Fit: the model is simulated through every sample of every segment (RK4, thrust held) and the squared
-difference to the measured speed is minimised over (w, m, and each segment's initial speed), bounded least
-squares (scipy.optimize.least_squares, trust-region reflective) with the Jacobian from forward sensitivity
-equations integrated with the state (numba). Transients, steps down, reversing and closed-loop stretches all
-count; no steady points needed.
+A record may carry a further force C the caller computes from a model of its own (the live twin's sway-yaw
+coupling m₂₂·v·r): the force is then T + c·C, its scale c fitted with the rest.
+
+Fit: the model is simulated through every sample of every segment (RK4, each sample's thrust held to the next
+sample: a zero-order hold on the record's own grid, so a thrust varying inside an interval is given as its mean
+there, :func:`held_thrust_N`) and the squared difference to the measured speed is minimised over (w, m, c
+when fitted, and each segment's initial speed), bounded least squares (scipy.optimize.least_squares,
+trust-region reflective) with the Jacobian from forward sensitivity equations integrated with the state (numba).
+Transients, steps down, reversing and closed-loop stretches all count; no steady points needed.
 
 Complexity: the baseline (a, b only) and I-spline sets of 3, 5, 8 and 12 terms are compared by cross-validated
 multi-step prediction — leave one recording out when there are three or more, else leave one of eight
@@ -92,6 +96,30 @@ class SurgeRecord:
     t_s: np.ndarray
     thrust_N: np.ndarray
     speed_mps: np.ndarray
+    coupling_N: np.ndarray | None = None
+    """A further surge force the caller computes from a model of its own, held like the thrust, whose scale c the
+    fit estimates beside the mass and the curve (T + c·coupling): the live twin's sway-yaw coupling m₂₂·v·r,
+    from its sway model and state (N; None: no such force)."""
+
+
+def held_thrust_N(t_s: np.ndarray, mean_thrust_N: np.ndarray, grid_s: np.ndarray) -> np.ndarray:
+    """The thrust a record on the times ``grid_s`` (increasing) holds over each of its intervals, from a thrust
+    known as its mean over each interval between the increasing stamps ``t_s``: ``mean_thrust_N[k]`` over
+    (t_{k−1}, t_k] (``[0]``, over the interval before the first stamp, is not used). The fit holds each sample's
+    thrust over the interval to the next sample (:func:`_simulate`: a zero-order hold on the record's own
+    grid), so a thrust that varies inside an interval (outboards swinging, a coupling force) must be given as
+    its mean over that interval: a value read at the interval's start lags it by half an interval, which the fit
+    reads as inertia. Each grid interval gets the mean of the stamps' means it overlaps, weighted by the
+    overlap (exact wherever the grid is the stamps shifted by a whole number of periods; no lookup that a
+    rounding error moves to the neighbouring sample); grid times outside [t_0, t_−1] take the end values. The
+    last grid sample, whose interval the fit never integrates, holds the last mean, N."""
+    t_s, grid_s = np.asarray(t_s, dtype=float), np.asarray(grid_s, dtype=float)
+    mean = np.asarray(mean_thrust_N, dtype=float)
+    impulse = np.concatenate([[0.0], np.cumsum(mean[1:] * np.diff(t_s))])
+    at = np.interp(grid_s, t_s, impulse)
+    out = np.full(grid_s.size, mean[-1] if mean.size else np.nan)
+    out[:-1] = np.diff(at) / np.diff(grid_s)
+    return out
 
 
 @dataclass(frozen=True)
@@ -154,9 +182,10 @@ def _interp_row(table: np.ndarray, step: float, speed: float, out: np.ndarray) -
 
 
 @numba.njit(cache=True)
-def _derivative(state: np.ndarray, thrust: float, mass: float, coeffs: np.ndarray, table: np.ndarray,
-                step: float, row: np.ndarray, out: np.ndarray) -> None:
-    """d/dt of [u, ∂u/∂w_j..., ∂u/∂m, ∂u/∂u0] for m·du/dt = T − Fc(u) (of u alone when ``state`` holds u only)."""
+def _derivative(state: np.ndarray, thrust: float, coupling: float, coupled: bool, mass: float, coeffs: np.ndarray,
+                table: np.ndarray, step: float, row: np.ndarray, out: np.ndarray) -> None:
+    """d/dt of [u, ∂u/∂w_j..., ∂u/∂m, (∂u/∂c,) ∂u/∂u0] for m·du/dt = T − Fc(u), ``thrust`` T = the thrust plus
+    c·``coupling`` (∂u/∂c only when ``coupled``; of u alone when ``state`` holds u only)."""
     u = state[0]
     _interp_row(table, step, u, row)
     p = coeffs.shape[0]
@@ -173,17 +202,22 @@ def _derivative(state: np.ndarray, thrust: float, mass: float, coeffs: np.ndarra
     for j in range(p):
         out[1 + j] = (-sign * row[j] - slope * state[1 + j]) / mass
     out[1 + p] = -(thrust - force) / mass**2 - slope * state[1 + p] / mass
-    out[2 + p] = -slope * state[2 + p] / mass
+    if coupled:
+        out[2 + p] = (coupling - slope * state[2 + p]) / mass
+    last = state.shape[0] - 1
+    out[last] = -slope * state[last] / mass
 
 
 @numba.njit(cache=True)
-def _simulate(t_s: np.ndarray, thrust: np.ndarray, u0: float, mass: float, coeffs: np.ndarray,
-              table: np.ndarray, step: float, max_step: float, sensitivities: bool) -> np.ndarray:
-    """Speed and its sensitivities at every sample, shape (n, p + 3): [u, ∂u/∂w_j..., ∂u/∂m, ∂u/∂u0]; without
-    ``sensitivities`` the speed alone, shape (n, 1), the same values (its RK4 stages do not depend on the rest)."""
+def _simulate(t_s: np.ndarray, thrust: np.ndarray, coupling: np.ndarray, scale: float, coupled: bool, u0: float,
+              mass: float, coeffs: np.ndarray, table: np.ndarray, step: float, max_step: float,
+              sensitivities: bool) -> np.ndarray:
+    """Speed and its sensitivities at every sample, shape (n, p + 3 + coupled): [u, ∂u/∂w_j..., ∂u/∂m,
+    (∂u/∂c,) ∂u/∂u0] under the held thrust + ``scale``·``coupling``; without ``sensitivities`` the speed alone,
+    shape (n, 1), the same values (its RK4 stages do not depend on the rest)."""
     n = t_s.shape[0]
     p = coeffs.shape[0]
-    width = p + 3 if sensitivities else 1
+    width = p + 3 + int(coupled) if sensitivities else 1
     out = np.empty((n, width))
     state = np.zeros(width)
     if sensitivities:
@@ -196,17 +230,18 @@ def _simulate(t_s: np.ndarray, thrust: np.ndarray, u0: float, mass: float, coeff
         interval = t_s[i + 1] - t_s[i]
         sub = max(1, int(np.ceil(interval / max_step - 1e-9)))
         h = interval / sub
+        force = thrust[i] + scale * coupling[i]
         for _ in range(sub):  # RK4, element by element: no temporary arrays in the hot loop
-            _derivative(state, thrust[i], mass, coeffs, table, step, row, k1)
+            _derivative(state, force, coupling[i], coupled, mass, coeffs, table, step, row, k1)
             for j in range(width):
                 tmp[j] = state[j] + 0.5 * h * k1[j]
-            _derivative(tmp, thrust[i], mass, coeffs, table, step, row, k2)
+            _derivative(tmp, force, coupling[i], coupled, mass, coeffs, table, step, row, k2)
             for j in range(width):
                 tmp[j] = state[j] + 0.5 * h * k2[j]
-            _derivative(tmp, thrust[i], mass, coeffs, table, step, row, k3)
+            _derivative(tmp, force, coupling[i], coupled, mass, coeffs, table, step, row, k3)
             for j in range(width):
                 tmp[j] = state[j] + h * k3[j]
-            _derivative(tmp, thrust[i], mass, coeffs, table, step, row, k4)
+            _derivative(tmp, force, coupling[i], coupled, mass, coeffs, table, step, row, k4)
             for j in range(width):
                 state[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
         out[i + 1] = state
@@ -237,6 +272,12 @@ class SurgeFit:
     top_speed_mps: float
     """Highest measured speed the fit saw, m/s (the curve is data up to here)."""
     evaluations: int = 0
+    coupling_fitted: bool = False
+    """True when the records carried a coupling force and its scale c was fitted."""
+    coupling_scale: float = 1.0
+    """The fitted scale c of the records' coupling force (1: none fitted), -."""
+    coupling_scale_sd: float = 0.0
+    """Its cluster-robust standard deviation, -."""
     reference: SurgeFit | None = None
     """The next richer resistance basis fitted to the same data: the spread between the two is the basis'
     approximation error, which the intervals carry beside the sampling variance (None: sampling variance only)."""
@@ -302,7 +343,8 @@ class SurgeFit:
             "interval_reference": None if self.reference is None else self.reference.basis.name,
             "resistance_table": {"speed_mps": speeds.tolist(), "force_N": self.resistance_N(speeds).tolist(),
                                  "ci95_low_N": lo.tolist(), "ci95_high_N": hi.tolist()},
-        }
+        } | ({"coupling_scale": self.coupling_scale, "coupling_scale_sd": self.coupling_scale_sd}
+             if self.coupling_fitted else {})
 
 
 def speed_noise_mps(speed_mps: np.ndarray) -> float:
@@ -347,20 +389,41 @@ class _Problem:
         self.p = basis.size
         self.evaluations = 0
         self.noise_mps = [speed_noise_mps(rec.speed_mps) for rec in records]
+        self.coupled = any(rec.coupling_N is not None for rec in records)
+        """Whether the coupling's scale c is fitted (a parameter after the mass)."""
+        self.couplings = [np.zeros(rec.t_s.size) if rec.coupling_N is None
+                          else np.ascontiguousarray(rec.coupling_N, dtype=float) for rec in records]
+        self.heads = self.p + (mass_kg is None) + self.coupled
+        """Parameters before the initial speeds: coefficients, the mass when fitted, c when fitted."""
 
     def unpack(self, x: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
         """(coefficients, mass, initial speeds) from the optimiser's vector."""
-        if self.mass_given is None:
-            return x[: self.p], float(x[self.p]), x[self.p + 1:]
-        return x[: self.p], float(self.mass_given), x[self.p:]
+        mass = float(x[self.p]) if self.mass_given is None else float(self.mass_given)
+        return x[: self.p], mass, x[self.heads:]
+
+    def scale(self, x: np.ndarray) -> float:
+        """The coupling's scale c in the optimiser's vector (1 when it is not fitted)."""
+        return float(x[self.heads - 1]) if self.coupled else 1.0
+
+    def pack(self, coeffs: np.ndarray, mass: float, scale: float, u0: np.ndarray) -> np.ndarray:
+        """The optimiser's vector: the coefficients, the mass when fitted, c when fitted, the initial speeds."""
+        return np.concatenate([coeffs, [mass] if self.mass_given is None else [], [scale] if self.coupled else [],
+                               u0])
+
+    def sensitivity_columns(self) -> list[int]:
+        """Columns of :func:`_simulate`'s output that hold the sensitivities to the fitted parameters before the
+        initial speeds, in the vector's order."""
+        return (list(range(1, 1 + self.p)) + ([1 + self.p] if self.mass_given is None else [])
+                + ([2 + self.p] if self.coupled else []))
 
     def _run(self, x: np.ndarray, s: int, sensitivities: bool) -> np.ndarray:
         """Segment ``s`` simulated at ``x`` (:func:`_simulate`'s columns)."""
         coeffs, mass, u0 = self.unpack(x)
         seg = self.segments[s]
         rec = self.records[seg.record]
-        return _simulate(rec.t_s[seg.start:seg.stop], rec.thrust_N[seg.start:seg.stop], float(u0[s]), mass,
-                         np.ascontiguousarray(coeffs, dtype=float), self.table, self.step, MAX_STEP_S,
+        return _simulate(rec.t_s[seg.start:seg.stop], rec.thrust_N[seg.start:seg.stop],
+                         self.couplings[seg.record][seg.start:seg.stop], self.scale(x), self.coupled, float(u0[s]),
+                         mass, np.ascontiguousarray(coeffs, dtype=float), self.table, self.step, MAX_STEP_S,
                          sensitivities)
 
     def residual(self, x: np.ndarray) -> np.ndarray:
@@ -375,7 +438,8 @@ class _Problem:
     def simulate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Residuals (simulated |u| − measured) and their Jacobian with respect to ``x``."""
         self.evaluations += 1
-        n_free = self.p + (self.mass_given is None)
+        n_free = self.heads
+        columns = self.sensitivity_columns()
         rows, jac_rows = [], []
         for s, seg in enumerate(self.segments):
             rec = self.records[seg.record]
@@ -384,7 +448,7 @@ class _Problem:
             sign = slope[:, None]
             rows.append(speed - rec.speed_mps[seg.start:seg.stop])
             jac = np.zeros((out.shape[0], n_free + len(self.segments)))
-            jac[:, : n_free] = (sign * out[:, 1: 1 + n_free])
+            jac[:, : n_free] = (sign * out[:, columns])
             jac[:, n_free + s] = sign[:, 0] * out[:, -1]
             jac_rows.append(jac)
         return np.concatenate(rows), np.vstack(jac_rows)
@@ -409,7 +473,8 @@ def _initial_guess(problem: _Problem) -> np.ndarray:
     """Coefficients from the quasi-steady balance T ≈ Fc(speed) (NNLS over all samples), then the mass from a
     scan of time constants 0.3-300 s at the median speed; initial speeds: each segment's first measurement."""
     speeds = problem.measured()
-    thrust = np.concatenate([problem.records[g.record].thrust_N[g.start:g.stop] for g in problem.segments])
+    thrust = np.concatenate([problem.records[g.record].thrust_N[g.start:g.stop]
+                             + problem.couplings[g.record][g.start:g.stop] for g in problem.segments])
     values, slopes = problem.basis.design(speeds)
     sign = np.where(thrust >= 0.0, 1.0, -1.0)
     coeffs, _ = optimize.nnls(values * sign[:, None], thrust, maxiter=50 * values.shape[1])
@@ -418,9 +483,9 @@ def _initial_guess(problem: _Problem) -> np.ndarray:
     coeffs = np.maximum(coeffs, 1e-6 * float(np.max(coeffs)))
     u0 = np.array([problem.records[g.record].speed_mps[g.start] for g in problem.segments])
     if problem.mass_given is not None:
-        return np.concatenate([coeffs, u0])
+        return problem.pack(coeffs, problem.mass_given, 1.0, u0)
     slope = float(np.median(slopes @ coeffs)) or 1.0
-    trials = [np.concatenate([coeffs, [tau_s * slope], u0]) for tau_s in np.geomspace(0.3, 300.0, 13)]
+    trials = [problem.pack(coeffs, tau_s * slope, 1.0, u0) for tau_s in np.geomspace(0.3, 300.0, 13)]
     with np.errstate(over="ignore", invalid="ignore"):
         costs = [float(np.sum(problem.residual(x) ** 2)) for x in trials]
     for k in np.argsort(costs, kind="stable"):  # the cheapest whose sensitivities stay finite
@@ -463,9 +528,8 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
     top = top_speed_mps or float(max(np.max(np.abs(r.speed_mps)) for r in records))
     problem = _Problem(records, segments, basis, top, mass_kg)
     x0 = _initial_guess(problem)
-    n_free = problem.p + (mass_kg is None)
     lower = np.concatenate([np.zeros(problem.p), [1e-6 * x0[problem.p]] if mass_kg is None else [],
-                            np.full(len(segments), -np.inf)])
+                            [-np.inf] if problem.coupled else [], np.full(len(segments), -np.inf)])
     upper = np.full(x0.size, np.inf)
     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
@@ -494,10 +558,12 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
     cov_free, clusters, cluster_s = _cluster_covariance(problem, residual, jac, free)
     cov = np.zeros((result.x.size, result.x.size))
     cov[np.ix_(free, free)] = cov_free
-    param_cov = np.zeros((problem.p + 1, problem.p + 1))
-    param_cov[:n_free, :n_free] = cov[:n_free, :n_free]
+    param_cov = np.zeros((problem.p + 1, problem.p + 1))  # the coefficients and the mass (c's share in them)
+    n_params = problem.p + (mass_kg is None)
+    param_cov[:n_params, :n_params] = cov[:n_params, :n_params]
+    scale_sd = float(np.sqrt(max(cov[problem.heads - 1, problem.heads - 1], 0.0))) if problem.coupled else 0.0
     return SurgeFit(basis, np.array(coeffs), mass, mass_kg is not None, np.array(u0), residual, param_cov, clusters,
-                    cluster_s, top, problem.evaluations)
+                    cluster_s, top, problem.evaluations, problem.coupled, problem.scale(result.x), scale_sd)
 
 
 def predict(fit: SurgeFit, record: SurgeRecord, segment: Segment) -> np.ndarray:
@@ -506,7 +572,7 @@ def predict(fit: SurgeFit, record: SurgeRecord, segment: Segment) -> np.ndarray:
     problem = _Problem([record], [Segment(0, segment.start, segment.stop)], fit.basis, fit.top_speed_mps,
                        fit.mass_kg)
     u0 = float(np.mean(record.speed_mps[segment.start: segment.start + 5]))
-    residual, _ = problem.simulate(np.concatenate([fit.coefficients, [u0]]))
+    residual, _ = problem.simulate(problem.pack(fit.coefficients, fit.mass_kg, fit.coupling_scale, np.array([u0])))
     return residual + record.speed_mps[segment.start:segment.stop]
 
 

@@ -6,10 +6,12 @@ The identification is the output-error surge fit of :mod:`boat_twin.ident.output
 resistance curve that never decreases (a·|u| + b·u² + non-negative I-splines), simulated through every sample of
 the horizon and fitted to the measured surge, with cluster-robust 95 % intervals. X is the surge force besides
 resistance and the surge the caller computes (:class:`~boat_twin.shadow.session.Shadow`: the delivered thrust
-along the hull at the outboards' real angles plus the sway-yaw coupling m₂₂·v·r of the twin's state, which in a
-turn is as large as a resistance error; the GNSS velocity through the water along the twin's heading, not its
-magnitude, which holds the sway too). The speed measured at t describes the boat at t − GNSS latency; the fit
-takes it there (on the 6 m boat, ignoring the 0.1 s shifted the mass by +1.3 %).
+along the hull at the outboards' real angles plus c times the sway-yaw coupling m₂₂·v·r of the twin's state,
+which in a turn is as large as a resistance error, each the twin's mean over the interval since the previous
+sample; the GNSS velocity through the water along the twin's heading when it was measured, not its magnitude,
+which holds the sway too). The coupling's scale c is fitted too: the twin's sway model gives v·r a few per cent
+off, which biased the resistance factor by more than its interval. The speed measured at t describes the boat at
+t − GNSS latency; the fit takes it there (on the 6 m boat, ignoring the 0.1 s shifted the mass by +1.3 %).
 
 Cost decides the curve's size: the offline cross-validation (baseline and 3, 5, 8, 12 I-splines, four folds:
 22 fits) costs 2 s of CPU on a 470 s horizon with one BLAS thread, 20 s with OpenBLAS's threads on the loaded
@@ -56,7 +58,7 @@ from scipy import stats
 
 from boat_twin.errors import InputError
 from boat_twin.ident import output_error
-from boat_twin.ident.output_error import ResistanceBasis, SurgeFit, SurgeRecord, spline_basis
+from boat_twin.ident.output_error import ResistanceBasis, SurgeFit, SurgeRecord, held_thrust_N, spline_basis
 from boat_twin.vessel.params import VesselParams, derive_coefficients
 from boat_twin.vessel.resistance import CorrectedResistance, ResistanceModel
 
@@ -141,6 +143,9 @@ class SurgeModel:
             "resistance_factor": float(self.resistance_factor),
             "resistance_factor_ci95": [float(x) for x in self.factor_ci95], "samples": self.samples,
             "curve": self.curve, "mass_held": self.mass_held}
+        if self.fit is not None and self.fit.coupling_fitted:  # the scale fitted on the twin's m₂₂·v·r
+            out["coupling_scale"] = float(self.fit.coupling_scale)
+            out["coupling_scale_sd"] = float(self.fit.coupling_scale_sd)
         if self.resistance is not None and self.speeds_mps:
             speeds = np.linspace(0.0, max(self.speeds_mps), 11)
             out["resistance_table"] = {"speed_mps": speeds.tolist(),
@@ -171,13 +176,17 @@ def over_configured(fitted: ResistanceModel, speeds_mps: np.ndarray, base: Vesse
                                tuple(float(k) for k in np.maximum(ratio, FACTOR_RANGE[0] / 10.0)))
 
 
-def horizon_record(t_s: np.ndarray, force_N: np.ndarray, speed_mps: np.ndarray, latency_s: float) -> SurgeRecord:
+def horizon_record(t_s: np.ndarray, force_N: np.ndarray, speed_mps: np.ndarray, latency_s: float,
+                   coupling_N: np.ndarray | None = None) -> SurgeRecord:
     """The horizon as the output-error fit reads it: each speed at the time it describes (stamp − latency), the
-    force held from the latest sample before that time."""
+    thrust (and the coupling force, whose scale the fit estimates; None or all zero: none) over each interval
+    between those times from ``force_N`` (``coupling_N``), each sample's mean since the previous one
+    (:func:`~boat_twin.ident.output_error.held_thrust_N`). Samples describing a time before the first stamp
+    (whose force is not known) are left out."""
     at = t_s - latency_s
-    index = np.searchsorted(t_s, at, side="right") - 1
-    keep = index >= 0
-    return SurgeRecord(at[keep], force_N[index[keep]], np.abs(speed_mps[keep]))
+    keep = at >= t_s[0] - 1e-9
+    coupling = None if coupling_N is None or not np.any(coupling_N) else held_thrust_N(t_s, coupling_N, at[keep])
+    return SurgeRecord(at[keep], held_thrust_N(t_s, force_N, at[keep]), np.abs(speed_mps[keep]), coupling)
 
 
 def basis_for(record: SurgeRecord, splines: int) -> ResistanceBasis:
@@ -287,7 +296,8 @@ Score = Callable[[SurgeModel], float]
 
 
 class SurgeAdapter:
-    """Collects (t, surge force, surge through the water) live and keeps the twin's surge model current."""
+    """Collects (t, mean surge force since the previous sample, surge through the water) live and keeps the
+    twin's surge model current."""
 
     def __init__(self, base: VesselParams, *, horizon_s: float = 600.0, holdout_s: float = 120.0,
                  period_s: float = 30.0, latency_s: float = 0.0, log: Log | None = None) -> None:
@@ -302,19 +312,21 @@ class SurgeAdapter:
         self.candidate: SurgeModel | None = None
         """The latest fit, adopted or not (its intervals are what the fit says now)."""
         self.swaps = 0
-        self._samples: deque[tuple[float, float, float]] = deque()
+        self._samples: deque[tuple[float, float, float, float]] = deque()
         self._next_s = math.nan
         self.wait_s = period_s
         """Time to the next update, s: ``period_s``, doubled after each fit that does not reject the current model
         up to :data:`MAX_WAIT_PERIODS` × ``period_s`` (fewer refits while the model stands)."""
 
-    def add(self, t_s: float, force_N: float, speed_mps: float) -> None:
-        """One sample (time increasing; others are ignored)."""
-        if not (math.isfinite(force_N) and math.isfinite(speed_mps)):
+    def add(self, t_s: float, force_N: float, speed_mps: float, coupling_N: float = 0.0) -> None:
+        """One sample (time increasing; others are ignored): its stamp, the mean surge force since the previous
+        sample (N), the surge through the water it measured (m/s) and the mean coupling force since the previous
+        sample, whose scale the fit estimates (N; :class:`~boat_twin.ident.output_error.SurgeRecord`)."""
+        if not (math.isfinite(force_N) and math.isfinite(speed_mps) and math.isfinite(coupling_N)):
             return
         if self._samples and t_s <= self._samples[-1][0]:
             return
-        self._samples.append((t_s, force_N, speed_mps))
+        self._samples.append((t_s, force_N, speed_mps, coupling_N))
         while self._samples[0][0] < t_s - self.horizon_s:
             self._samples.popleft()
         if math.isnan(self._next_s):
@@ -337,11 +349,11 @@ class SurgeAdapter:
         """The horizon without its held-out tail, as the fit reads it (None: too few samples)."""
         if len(self._samples) < MIN_SAMPLES:
             return None
-        t, f, u = (np.array(c) for c in zip(*self._samples, strict=True))
+        t, f, u, c = (np.array(column) for column in zip(*self._samples, strict=True))
         train = t <= t[-1] - self.holdout_s
         if train.sum() < MIN_SAMPLES or t[train][-1] - t[0] < MIN_SPAN_S:
             return None
-        return horizon_record(t[train], f[train], u[train], self.latency_s)
+        return horizon_record(t[train], f[train], u[train], self.latency_s, c[train])
 
     def update(self, score: Score) -> bool:
         """Fit a candidate on the horizon without its held-out tail and adopt it, or revert, if it predicts the

@@ -34,7 +34,7 @@ from boat_twin.shadow.sync import Innovation, ShadowTwin, SyncSettings
 from boat_twin.shadow.turning import MIN_TRAINING_S, TurningAdapter, TurningModel
 from boat_twin.twin.replay import cut_windows, predict
 from boat_twin.vessel.environment import Environment
-from boat_twin.vessel.params import VesselParams, derive_coefficients
+from boat_twin.vessel.params import VesselParams
 
 RATIO_WINDOW_S = 60.0
 """The speed-innovation ratio is the RMS over this last stretch of stream time, s."""
@@ -102,7 +102,7 @@ class Shadow:
         self.twin = ShadowTwin(config, s.sync, self.log, self._accepted)
         self._squares: dict[str, deque[tuple[float, float, float]]] = {c: deque() for c in RATIO_CHANNELS}
         self._restarts = 0
-        self._m22_kg: float | None = None
+        self._last_impulse: tuple[int, float, float, float] | None = None
         self._held = False
         self._pending: tuple[DiagnosisJob, Future[Outcome]] | None = None
 
@@ -113,6 +113,7 @@ class Shadow:
         if self.twin.counts["restarts"] != self._restarts:  # the stream restarted: its buffers go too
             self._restarts = self.twin.counts["restarts"]
             self.adapter.reset()
+            self._last_impulse = None
             self.turning.reset()
             self.recent.clear()
             self.rolling.restart()
@@ -141,23 +142,20 @@ class Shadow:
             return
         if self.settings.adapt:
             env = self.twin.config.environment
-            state = self.twin.state
-            assert state is not None
-            yaw = float(state[2])
+            yaw = self.twin.heading_at(t_s - self.twin.config.gnss.latency_s)  # when the velocity was measured
             east, north = values[0] - env.current_east_mps, values[1] - env.current_north_mps
             # the surge itself, along the hull: the speed through the water |(u, v)| also holds the sway, which
             # swings with every turn, and on constant-thrust zigzags the fit took its missing speed loss for mass
             # (fits 1,352-1,382 kg, intervals missing the configured 1,300 kg; along the hull 1,259-1,335 kg)
             surge = east * math.cos(yaw) + north * math.sin(yaw)
-            self.adapter.add(t_s, self.surge_force_N(surge), surge)
+            thrust, coupling = self._interval_forces_N(t_s)
+            self.adapter.add(t_s, thrust, surge, coupling)
             if self.adapter.due(t_s) and not self.model_held() and self.adapter.update(self._held_out_score(t_s)):
                 self.twin.set_config(replace(self.twin.config, vessel=self.vessel()))
-                self._m22_kg = None
         if self.settings.adapt and self.settings.adapt_turning:
             first_s = self.recent.first_s + self.settings.holdout_s + MIN_TRAINING_S
             if self.turning.due(t_s, first_s) and not self.model_held() and self._update_turning(t_s):
                 self.twin.set_config(replace(self.twin.config, vessel=self.vessel()))
-                self._m22_kg = None
         self._poll_diagnosis()
         if self.settings.diagnose and self._pending is None and self.rolling.due(t_s, self.misfit_ratio()):
             self._diagnose(t_s)
@@ -224,25 +222,17 @@ class Shadow:
 
         return self.turning.update(training, plain, score)
 
-    def surge_force_N(self, surge_mps: float) -> float:
-        """The surge force besides resistance now, N: the held thrust commands delivered (the engines' envelope
-        at ``surge_mps``) along the hull at the outboards' real angles, plus the sway-yaw coupling m₂₂·v·r of
-        the twin's state (NaN before both thrusts are known)."""
-        vessel = self.twin.config.vessel
-        if self._m22_kg is None:
-            self._m22_kg = derive_coefficients(vessel).m22_kg
-        state = self.twin.state
-        assert state is not None
-        angles = self.twin.steering_rad
-        ahead = vessel.bollard_thrust_N
-        if abs(surge_mps) > 1e-9:
-            ahead = min(ahead, vessel.propulsive_efficiency * vessel.engine_power_W / abs(surge_mps))
-        astern = -vessel.reverse_thrust_ratio * vessel.bollard_thrust_N
-        force = self._m22_kg * float(state[4] * state[5])
-        for thrust, angle, factor in zip(self.twin.commands[:2], angles, (vessel.thrust_factor_left,
-                                                                           vessel.thrust_factor_right), strict=True):
-            force += factor * min(max(float(thrust), astern), ahead) * math.cos(float(angle))
-        return force
+    def _interval_forces_N(self, t_s: float) -> tuple[float, float]:
+        """The mean thrust along the hull and the mean sway-yaw coupling over the twin's time since the previous
+        velocity sample, N (:meth:`ShadowTwin.surge_thrust_N` and :meth:`ShadowTwin.coupling_N` integrated over
+        every propagation step: the forces as the surge fit integrates them over the interval; NaN after a
+        (re)synchronisation or while the thrust is not known)."""
+        twin = self.twin
+        epoch, thrust, coupling = twin.impulse_epoch, twin.surge_impulse_Ns, twin.coupling_impulse_Ns
+        last, self._last_impulse = self._last_impulse, (epoch, t_s, thrust, coupling)
+        if last is None or last[0] != epoch or not t_s > last[1]:
+            return math.nan, math.nan
+        return (thrust - last[2]) / (t_s - last[1]), (coupling - last[3]) / (t_s - last[1])
 
     def _diagnose(self, t_s: float) -> None:
         job = self.rolling.start(t_s, replace(self.base, vessel=self.vessel()),

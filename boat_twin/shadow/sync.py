@@ -43,6 +43,7 @@ from boat_twin.config import TwinConfig
 from boat_twin.frames import wrap_pi
 from boat_twin.io.trial import VALUE_LIMITS
 from boat_twin.vessel.dynamics import Dynamics
+from boat_twin.vessel.params import derive_coefficients
 from boat_twin.vessel.tow import tow_drag_table
 from boat_twin.vessel.truth import ground_velocity_enu
 
@@ -146,6 +147,9 @@ class ShadowTwin:
         self.counts = {"late": 0, "duplicate": 0, "non_finite": 0, "absurd": 0, "resets": 0, "restarts": 0,
                        "processed": 0}
         self._logged: set[str] = set()
+        self.impulse_epoch = 0
+        """Counts the restarts of :attr:`surge_impulse_Ns` (a synchronisation, the force known again): two
+        readings of one epoch differ by the impulse between them."""
         self.set_config(config)
         self.reset()
         self._warm_up()
@@ -163,6 +167,7 @@ class ShadowTwin:
         """Predict with ``config`` from now on (the state is kept: a hot swap)."""
         self.config = config
         self.dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
+        self._m22_kg = derive_coefficients(config.vessel).m22_kg
         self._environment = config.environment.as_vector()[None, :]
         s, g, u = self.settings, config.gnss, config.um7
         self._filters = {
@@ -180,6 +185,14 @@ class ShadowTwin:
         """Time the state describes (and up to which samples are processed), s."""
         self.commands = np.array([math.nan, math.nan, 0.0, 0.0])
         self._steering: np.ndarray | None = None
+        self._surge_offset_mps = 0.0
+        """The latest velocity innovation along the hull left after the correction, m/s: added to the state's
+        surge where the engines' envelope is read (:meth:`surge_thrust_N`)."""
+        self.surge_impulse_Ns = math.nan
+        """∫ :meth:`surge_thrust_N` dt over the twin's propagation since :attr:`impulse_epoch` began, N·s (NaN
+        while the thrust is not known)."""
+        self.coupling_impulse_Ns = 0.0
+        """∫ :meth:`coupling_N` dt over the same time, N·s."""
         self._queue: list[tuple[float, int, int, str, tuple[float, ...]]] = []
         self._seq = 0
         self.newest_s = -math.inf
@@ -187,7 +200,7 @@ class ShadowTwin:
         self._last_stamp: dict[str, float] = {}
         self._latest: dict[str, tuple[float, tuple[float, ...]]] = {}
         self._last_sensor_s = -math.inf
-        self._history: deque[tuple[float, float, float, float, float]] = deque(maxlen=64)
+        self._history: deque[tuple[float, float, float, float, float, float]] = deque(maxlen=64)
         self.origin: tuple[float, float, float] | None = None
 
     @property
@@ -294,8 +307,10 @@ class ShadowTwin:
         u, v = we * math.cos(yaw) + wn * math.sin(yaw), -we * math.sin(yaw) + wn * math.cos(yaw)
         self.state = np.array([east, north, yaw, u, v, rate])
         self._steering = None
+        self.surge_impulse_Ns, self.coupling_impulse_Ns, self.impulse_epoch = 0.0, 0.0, self.impulse_epoch + 1
+        self._surge_offset_mps = 0.0
         self._history.clear()
-        self._history.append((self.t_s, east, north, vel_east, vel_north))
+        self._history.append((self.t_s, east, north, vel_east, vel_north, yaw))
         for f in self._filters.values():
             f.p = f.r
         self.counts["resets"] += 1
@@ -321,24 +336,37 @@ class ShadowTwin:
             self._steering = self.dynamics.steering_targets(commands)
         states = self.state[None, :]
         steps = max(1, math.ceil(dt_total / INTEGRATION_STEP_S - 1e-9))
+        force, coupling = self.surge_thrust_N(), self.coupling_N()  # under the commands held from now on
+        if math.isfinite(force) and not math.isfinite(self.surge_impulse_Ns):
+            self.surge_impulse_Ns, self.coupling_impulse_Ns, self.impulse_epoch = 0.0, 0.0, self.impulse_epoch + 1
         for _ in range(steps):
             self.dynamics.step(states, commands, self._environment, dt_total / steps, self._steering)
+            after, coupled = self.surge_thrust_N(), self.coupling_N()
+            self.surge_impulse_Ns += 0.5 * (force + after) * dt_total / steps  # trapezoids over the RK4 step
+            self.coupling_impulse_Ns += 0.5 * (coupling + coupled) * dt_total / steps
+            force, coupling = after, coupled
         self.state = states[0]
         for f in self._filters.values():
             f.grow(dt_total)
         self.t_s = to_s
         east, north, yaw, u, v, _ = self.state
         ve, vn = ground_velocity_enu(yaw, u, v, *self._environment[0, :2])
-        self._history.append((to_s, float(east), float(north), float(ve), float(vn)))
+        self._history.append((to_s, float(east), float(north), float(ve), float(vn), float(yaw)))
 
     def _delayed(self, stamp_s: float) -> tuple[float, float, float, float]:
         """(east, north, vel_east, vel_north) of the state ``latency_s`` before ``stamp_s`` (from the history;
         the oldest kept when the history is shorter)."""
-        t = np.array([h[0] for h in self._history])
-        at = stamp_s - self.config.gnss.latency_s
-        east, north, vel_east, vel_north = (float(np.interp(at, t, np.array([h[k] for h in self._history])))
-                                            for k in range(1, 5))
+        east, north, vel_east, vel_north, _ = self._at(stamp_s - self.config.gnss.latency_s)
         return east, north, vel_east, vel_north
+
+    def heading_at(self, t_s: float) -> float:
+        """The twin's heading (ENU yaw, rad) at ``t_s`` from the history (a velocity sample's time: its stamp
+        minus the GNSS latency); the oldest or the newest kept outside it."""
+        return self._at(t_s)[4]
+
+    def _at(self, at_s: float) -> tuple[float, ...]:
+        t = np.array([h[0] for h in self._history])
+        return tuple(float(np.interp(at_s, t, np.array([h[k] for h in self._history]))) for k in range(1, 6))
 
     def _record(self, stamp_s: float, channel: str, measured: float, predicted: float, stdev: float) -> None:
         self.innovations.append(Innovation(stamp_s, channel, measured, predicted, stdev))
@@ -353,10 +381,12 @@ class ShadowTwin:
         self._record(stamp_s, "vel_east_mps", meas_e, pred_e, sd)
         self._record(stamp_s, "vel_north_mps", meas_n, pred_n, sd)
         k = f.gain()
-        de, dn = k * (meas_e - pred_e), k * (meas_n - pred_n)
         yaw = self.state[2]
-        self.state[3] += de * math.cos(yaw) + dn * math.sin(yaw)
-        self.state[4] += -de * math.sin(yaw) + dn * math.cos(yaw)
+        surge = (meas_e - pred_e) * math.cos(yaw) + (meas_n - pred_n) * math.sin(yaw)
+        sway = -(meas_e - pred_e) * math.sin(yaw) + (meas_n - pred_n) * math.cos(yaw)
+        self.state[3] += k * surge
+        self.state[4] += k * sway
+        self._surge_offset_mps = (1.0 - k) * surge
 
     def _correct_gnss_fix(self, stamp_s: float, values: tuple[float, ...]) -> None:
         assert self.state is not None
@@ -381,6 +411,35 @@ class ShadowTwin:
             f = self._filters["yaw"]
             self._record(stamp_s, "heading_rad", yaw, self.state[2], f.stdev())
             self.state[2] += f.gain() * float(wrap_pi(np.array(yaw - self.state[2])))
+
+    def surge_thrust_N(self) -> float:
+        """The thrust along the hull on the twin now, N: the held thrust commands delivered (the engines' envelope
+        at the surge through the water the latest velocity fix says: the state's plus what the correction left
+        of the innovation) at the outboards' real angles; NaN before synchronisation or before both thrusts are
+        known. Integrated over every propagation step into :attr:`surge_impulse_Ns`: the outboards swing between
+        samples, and a force read at one sample and held to the next lags them by half a sample period, which
+        the surge fit reads as inertia."""
+        if self.state is None:
+            return math.nan
+        vessel = self.config.vessel
+        u = float(self.state[3]) + self._surge_offset_mps
+        ahead = vessel.bollard_thrust_N
+        if abs(u) > 1e-9:
+            ahead = min(ahead, vessel.propulsive_efficiency * vessel.engine_power_W / abs(u))
+        astern = -vessel.reverse_thrust_ratio * vessel.bollard_thrust_N
+        force = 0.0
+        for thrust, angle, factor in zip(self.commands[:2], self.steering_rad, (vessel.thrust_factor_left,
+                                                                                vessel.thrust_factor_right),
+                                         strict=True):
+            force += factor * min(max(float(thrust), astern), ahead) * math.cos(float(angle))
+        return force
+
+    def coupling_N(self) -> float:
+        """The sway-yaw coupling m₂₂·v·r on the twin now (its model's m₂₂, its state's sway and yaw rate), N (0
+        before synchronisation); integrated into :attr:`coupling_impulse_Ns`."""
+        if self.state is None:
+            return 0.0
+        return self._m22_kg * float(self.state[4]) * float(self.state[5])
 
     # --- what the front ends publish -----------------------------------------------------------------------
     @property
