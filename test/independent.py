@@ -33,18 +33,21 @@ def rk4_held(deriv: Callable[[np.ndarray, float], np.ndarray], state: np.ndarray
 def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Callable[[float], float],
                duration_s: float, rng: np.random.Generator, *, delay_s: float = 0.0, lag_s: float = 0.0,
                yaw_offset_rad: float = 0.0, latency_s: float = 0.1, dropout: float = 0.0,
-               initial_surge_mps: float = 5.0, heading_rad: float = 0.3) -> Trial:
+               initial_surge_mps: float = 5.0, heading_rad: float = 0.3, engines: bool = False) -> Trial:
     """A trial of a twin-outboard boat of ``params`` (a VesselParams: its derived coefficients, documented in
-    boat_twin.vessel.dynamics' docstring) integrated here with classic RK4 at 100 Hz, written apart from the
-    twin's kernel: both outboards at ``thrust_N(t)`` each (N, within the envelope: no limit is applied) and
-    ``steering_rad(t)`` (an instantaneous actuator), no wind or current. The boat acts on the commands
+    boat_twin.vessel.dynamics' docstring) integrated here with classic RK4 at 100 Hz, written apart from the twin's
+    kernel: both outboards at ``thrust_N(t)`` each (N, within the envelope: no limit is applied) and
+    ``steering_rad(t)`` (an instantaneous actuator), no wind or current. With ``engines`` the commands are requests
+    the boat's engines deliver at most η·P/|u| ahead (``params``' power, efficiency and bollard thrust; astern its
+    reverse ratio) and the outboards swing to the commanded angle at ``params.steering_rate_radps`` (the angle moved
+    once per 10 ms step, written here apart from the twin's exact actuator). The boat acts on the commands
     ``delay_s`` late; each engine's thrust follows its command with a first-order lag ``lag_s`` (an extra state
-    integrated with the motion); the IMU's yaw reads the true heading plus ``yaw_offset_rad``. Logged at 10 Hz
-    with the twin's default sensor noise (GNSS velocity 0.05 m/s, position 2.1 m, delivered ``latency_s`` late;
-    IMU yaw 3°, gyro 0.06°/s) and each GNSS fix lost with probability ``dropout``. The command log holds what
-    was commanded (the undelayed ``thrust_N``, ``steering_rad``) as a recorder of stamped command messages gives
-    it (:func:`logged_commands`): each change at the log sample nearest the instant it was issued, and that
-    instant in ``command_switch_s``."""
+    integrated with the motion); the IMU's yaw reads the true heading plus ``yaw_offset_rad``. Logged at 10 Hz with
+    the twin's default sensor noise (GNSS velocity 0.05 m/s, position 2.1 m, delivered ``latency_s`` late; IMU yaw
+    3°, gyro 0.06°/s) and each GNSS fix lost with probability ``dropout``. The command log holds what was commanded
+    (the undelayed ``thrust_N``, ``steering_rad``) as a recorder of stamped command messages gives it
+    (:func:`logged_commands`): each change at the log sample nearest the instant it was issued, and that instant in
+    ``command_switch_s``."""
     from boat_twin.io.trial import Trial, TrialMetadata
     from boat_twin.vessel.params import derive_coefficients
 
@@ -52,12 +55,18 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
     m11, m22, m33 = c.m11_kg, c.m22_kg, c.m33_kgm2
     x_e = params.engine_x_m
 
+    angle = [steering_rad(-delay_s)]  # the outboards' real angle (engines), moved between steps
+
     def rates(s: np.ndarray, t: float) -> np.ndarray:
         psi, u, v, r, thrust = s[2], s[3], s[4], s[5], s[6]
-        d = steering_rad(t - delay_s)
+        d = angle[0] if engines else steering_rad(t - delay_s)
         commanded = thrust_N(t - delay_s)
         dthrust = (commanded - thrust) / lag_s if lag_s > 0 else 0.0
         thrust = thrust if lag_s > 0 else commanded
+        if engines:
+            ahead = params.bollard_thrust_N if abs(u) < 1e-9 else \
+                min(params.bollard_thrust_N, params.propulsive_efficiency * params.engine_power_W / abs(u))
+            thrust = min(max(thrust, -params.reverse_thrust_ratio * params.bollard_thrust_N), ahead)
         fx, fy = 2.0 * thrust * math.cos(d), 2.0 * thrust * math.sin(d)
         drag = float(params.resistance.force_N(abs(u))) * (1.0 if u >= 0.0 else -1.0)  # opposes the motion
         du = (fx + m22 * v * r - drag) / m11
@@ -80,6 +89,8 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
             k4 = rates(s + h * k3, t + h)
             s = s + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
             t += h
+            target, reach = steering_rad(t - delay_s), params.steering_rate_radps * h
+            angle[0] = angle[0] + min(max(target - angle[0], -reach), reach) if reach > 0.0 else target
     time_s = np.arange(n) / 10.0
     psi, u, v = states[:, 2], states[:, 3], states[:, 4]
     vel_e, vel_n = u * np.cos(psi) - v * np.sin(psi), u * np.sin(psi) + v * np.cos(psi)

@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     if args.manoeuvring:
         with claim_out_dir(args.out, MANOEUVRING_OUTPUTS, args.force, trial_inputs(args)) as reports:
             return _run_manoeuvring(args, reports.staging if reports else None)
-    for name in ("validate", "window", "config", "model"):
+    for name in ("validate", "window", "model"):
         if getattr(args, name):
             raise InputError(f"--{name} needs --manoeuvring")
     with claim_out_dir(args.out, TRIAL_OUTPUTS, args.force, trial_inputs(args)) as reports:
@@ -202,7 +202,8 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     sys.stderr.write("identifying, then re-simulating the trial's commands with the identified model ...\n")
     result, resims, vessel = identify_trials(trials, order=args.order, max_order=min(args.max_order, 6),
                                              monotone=args.monotone, window_s=args.steady_window,
-                                             thrust_tolerance_N=args.thrust_tolerance, boat=boat)
+                                             thrust_tolerance_N=args.thrust_tolerance, boat=boat,
+                                             config=twin_config_from_args(args))
     if out is not None:
         write_identify_report(out, result, trials, resims, vessel, ", ".join(map(str, args.trial)),
                               str(args.boat) if args.boat is not None else None, args.out)
@@ -252,8 +253,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--window", type=float, metavar="S",
                    help="with --manoeuvring: replay window, s (default 20; a trial needs 6 windows)")
     p.add_argument("--config", type=Path, metavar="FILE",
-                   help="with --manoeuvring: twin configuration YAML (the prior and the held surge; default the "
-                   "built-in boat)")
+                   help="twin configuration YAML (default the built-in boat): a TRIAL's thrust commands are read as "
+                   "requests its engines deliver (at most eta*P/u ahead, W and m/s) through its steering actuator, "
+                   "its GNSS latency (s) and IMU yaw offset (rad) apply; with --manoeuvring also the prior and the "
+                   "held surge")
     p.add_argument("--model", type=Path, metavar="FILE",
                    help="with --manoeuvring: identified surge model YAML (identify TRIAL --out) over the config's "
                    "vessel")

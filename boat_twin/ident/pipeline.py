@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from boat_twin.config import TwinConfig
 from boat_twin.data import dyda2021_table1_si
 from boat_twin.errors import InputError
 from boat_twin.ident.dynamic import DynamicResult, DynamicWindow, check_samples, identify_dynamic
@@ -36,8 +37,9 @@ from boat_twin.ident.results import (
 )
 from boat_twin.ident.settling import derive_criteria
 from boat_twin.ident.steady import FitResult, fit_power_series, select_order
+from boat_twin.ident.trial_record import known_samples, trial_record
 from boat_twin.ident.twin_config import identified_vessel, thrust_seen
-from boat_twin.io.trial import COMMAND_ROLES, Trial, long_holds, thrust_outliers
+from boat_twin.io.trial import Trial, long_holds, thrust_outliers
 from boat_twin.units import KGF_N, KNOT_MPS
 from boat_twin.vessel.params import (
     HELD_COMMAND_TIME_CONSTANTS,
@@ -51,8 +53,6 @@ __all__ = ["IdentifyResult", "TrialIdentifyResult", "identify_arrays", "identify
            "replay_online", "trial_samples", "trial_warnings", "write_model_yaml"]
 """The pipelines, and the result types and writers of :mod:`boat_twin.ident.results` their callers import here."""
 
-SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
-"""Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
 TWO_WAY_WARNING = 0.3
 """Below this share of the speed range crossed both ways, the report warns: the mass rests on Fc's form."""
 
@@ -63,37 +63,12 @@ def _nrms(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def trial_samples(trial: Trial) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Time (s), surge thrust Σ T·cos δ (N) and GNSS speed over ground (m/s) of a trial's known samples.
-
-    Samples before the first command or velocity fix and inside the reported gaps of any stream it uses (GNSS
-    velocity, the outboards' thrust and angle commands) are unknown and skipped; a NaN anywhere else is a
-    non-finite value in the recording itself and refused (InputError).
-    """
-    source = trial.metadata.source
-    for role, what in (("thrust_left", "left outboard's thrust"), ("thrust_right", "right outboard's thrust"),
-                       ("gnss_vel", "GNSS velocity")):
-        if role in trial.metadata.missing:
-            raise InputError(f"{source}: no {what} ({role}) in the trial: the identifier needs the surge thrust of "
-                             "both outboards and the speed over ground")
-    t, thrust, speed = trial.t_s, trial.surge_thrust_N, trial.speed_mps
-    known = np.isfinite(thrust) & np.isfinite(speed)
-    if not np.any(known):
-        blank = [what for what, values in (("thrust", thrust), ("GNSS speed", speed))
-                 if not np.any(np.isfinite(values))]
-        raise InputError(f"{source}: every {' and every '.join(blank)} value is NaN (not a number)" if blank else
-                         f"{source}: no sample has both a thrust command and a GNSS velocity "
-                         "(commands and GNSS do not overlap in time)")
-    in_gap = np.zeros(t.size, dtype=bool)
-    for role, start_s, end_s in trial.metadata.gaps:
-        if role in SURGE_ROLES:
-            in_gap |= (t > start_s) & (t < end_s)
-    bad = ~known & ~in_gap & (t >= t[np.argmax(known)])
-    if np.any(bad):
-        first = int(np.argmax(bad))
-        name = "surge thrust" if not np.isfinite(thrust[first]) else "speed over ground"
-        raise InputError(f"{source}: {int(bad.sum())} sample(s) are NaN outside the reported gaps (first: "
-                         f"{name} at t = {t[first]:.1f} s): the recording holds non-finite values")
-    return t[known], thrust[known], speed[known]
+    """Time (s), commanded surge thrust Σ T·cos δ (N) and GNSS speed over ground (m/s) of a trial's known samples
+    (:func:`~boat_twin.ident.trial_record.known_samples`): the trial as commanded, without the configured boat's
+    engines and actuators (``identify`` fits :func:`~boat_twin.ident.trial_record.trial_record`)."""
+    thrust, speed = trial.surge_thrust_N, trial.speed_mps
+    known = known_samples(trial, thrust, speed)
+    return trial.t_s[known], thrust[known], speed[known]
 
 
 def replay_online(
@@ -233,6 +208,7 @@ def identify_pooled(
     window: DynamicWindow | None = None,
     memory_s: float = 3600.0,
     fallback_mass_kg: float | None = None,
+    couplings: list[np.ndarray | None] | None = None,
 ) -> Identification:
     """Identify a boat from one or more recordings of (time s, total thrust N, speed m/s), pooled in one fit.
 
@@ -240,7 +216,9 @@ def identify_pooled(
     effective mass and a non-decreasing resistance with Fc(0) = 0, complexity by cross-validated multi-step
     prediction, always beside the baseline m·du/dt = T − a·u − b·u|u| fitted the same way). When the data do not
     identify the mass, ``fallback_mass_kg`` (effective mass, kg, e.g. from a boat file) is held instead and the
-    curve refitted; without it the model has no mass. Views of the same data: steady points (detector run on
+    curve refitted; without it the model has no mass. ``couplings`` (one per recording, its samples', N; None:
+    none) is a further surge force whose scale the fit estimates (the sway-yaw coupling of
+    :func:`~boat_twin.ident.trial_record.trial_record`). Views of the same data: steady points (detector run on
     each recording; its criteria derived from the data by :func:`~boat_twin.ident.settling.derive_criteria`,
     ``window_s`` / ``thrust_tolerance_N`` overriding, ``noise_correlation_s`` > 0 and ``speed_noise_mps`` for a
     speed smoothed from positions; or ``criteria`` taken as given) with power-series fits of N = 1..``max_order``
@@ -269,7 +247,7 @@ def identify_pooled(
     rejected = [(i, s) for i, s in segments if not s.accepted]
     fits, chosen, reason, warnings = _steady_view(points, rejected, criteria, order, max_order, monotone,
                                                    through_origin)
-    oe = _output_error(pieces, fallback_mass_kg, warnings)
+    oe = _output_error(pieces, couplings or [None] * len(pieces), fallback_mass_kg, warnings)
     dyn, dynamic_error = _dynamic(t, f, v, window, warnings)
     model: dict[str, Any] = {"resistance": oe.selected.resistance_model().to_dict()}
     if oe.mass_identified or oe.selected.mass_fixed:
@@ -289,11 +267,11 @@ def identify_pooled(
                           _online_view(online, fits, chosen, dyn), model, warnings)
 
 
-def _output_error(pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], fallback_mass_kg: float | None,
-                  warnings: list[str]) -> OutputErrorResult:
+def _output_error(pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], couplings: list[np.ndarray | None],
+                  fallback_mass_kg: float | None, warnings: list[str]) -> OutputErrorResult:
     """The output-error model over every sample; the fallback mass held when the data do not identify one
     (without one, a warning: no mass in the model)."""
-    records = [SurgeRecord(*piece) for piece in pieces]
+    records = [SurgeRecord(*piece, coupling) for piece, coupling in zip(pieces, couplings, strict=True)]
     oe = identify_surge(records)
     if not oe.mass_identified and fallback_mass_kg is not None:
         oe = identify_surge(records, mass_kg=fallback_mass_kg)
@@ -355,13 +333,19 @@ def identify_trials(trials: list[Trial], **options: Any
 def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, max_order: int = 6,
                             monotone: bool = False, window_s: float | None = None,
                             thrust_tolerance_N: float | None = None, boat: dict[str, float] | None = None,
-                            ) -> TrialsIdentification:
+                            config: TwinConfig | None = None) -> TrialsIdentification:
     """Recorded trials pooled in one identification (:func:`identify_pooled` on their known samples), the
     identified twin's vessel built (:func:`~boat_twin.ident.twin_config.identified_vessel`: ``boat`` facts from
     a boat file, the rest carried from the default boat), then each trial re-simulated with that vessel (closing
-    the loop)."""
-    samples = [trial_samples(trial) for trial in trials]
+    the loop). Each trial is read as :func:`~boat_twin.ident.trial_record.trial_record` reads it under ``config``
+    (default the built-in boat; ``boat`` facts over its vessel): its thrust commands delivered by the configured
+    engines and actuators, its surge along the heading at the GNSS latency, the sway-yaw coupling."""
     boat = boat or {}
+    config = config or TwinConfig()
+    config = replace(config, vessel=replace(config.vessel, **{k: v for k, v in boat.items()
+                                                             if k in VesselParams.__dataclass_fields__}))
+    records = [trial_record(trial, config) for trial in trials]
+    samples = [(rec.t_s, rec.thrust_N, rec.speed_mps) for rec in records]
     fallback = boat["mass_kg"] * (1.0 + boat.get("surge_added_mass_ratio", VesselParams().surge_added_mass_ratio)) \
         if "mass_kg" in boat else None
     found = identify_pooled(
@@ -369,7 +353,7 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
         thrust_tolerance_N=thrust_tolerance_N,
         noise_correlation_s=max(trial.metadata.speed_smoothing_s for trial in trials),
         speed_noise_mps=max(trial.metadata.derived_speed_noise_mps for trial in trials) or None,
-        fallback_mass_kg=fallback)
+        fallback_mass_kg=fallback, couplings=[rec.coupling_N for rec in records])
     found.warnings += [w for trial in trials for w in trial_warnings(trial, boat)]
     result = TrialsIdentification(found, [], None)
     try:

@@ -17,7 +17,7 @@ _EXPORTS = {
     "SurgeModel": "boat_twin.shadow.adapt",
     "SyncSettings": "boat_twin.shadow.sync",
     "fit_surge": "boat_twin.shadow.adapt",
-    "horizon_record": "boat_twin.shadow.adapt",
+    "horizon_record": "boat_twin.ident.output_error",
     "follow_trial": "boat_twin.shadow.follow",
 }
 """Public name → its module, imported on first use."""

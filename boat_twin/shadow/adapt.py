@@ -58,7 +58,7 @@ from scipy import stats
 
 from boat_twin.errors import InputError
 from boat_twin.ident import output_error
-from boat_twin.ident.output_error import ResistanceBasis, SurgeFit, SurgeRecord, held_thrust_N, spline_basis
+from boat_twin.ident.output_error import ResistanceBasis, SurgeFit, SurgeRecord, horizon_record, spline_basis
 from boat_twin.vessel.params import VesselParams, derive_coefficients
 from boat_twin.vessel.resistance import CorrectedResistance, ResistanceModel
 
@@ -174,19 +174,6 @@ def over_configured(fitted: ResistanceModel, speeds_mps: np.ndarray, base: Vesse
     ratio = np.asarray(fitted.force_N(speeds[usable]), dtype=float) / reference[usable]
     return CorrectedResistance(base.resistance, tuple(float(u) for u in speeds[usable]),
                                tuple(float(k) for k in np.maximum(ratio, FACTOR_RANGE[0] / 10.0)))
-
-
-def horizon_record(t_s: np.ndarray, force_N: np.ndarray, speed_mps: np.ndarray, latency_s: float,
-                   coupling_N: np.ndarray | None = None) -> SurgeRecord:
-    """The horizon as the output-error fit reads it: each speed at the time it describes (stamp − latency), the
-    thrust (and the coupling force, whose scale the fit estimates; None or all zero: none) over each interval
-    between those times from ``force_N`` (``coupling_N``), each sample's mean since the previous one
-    (:func:`~boat_twin.ident.output_error.held_thrust_N`). Samples describing a time before the first stamp
-    (whose force is not known) are left out."""
-    at = t_s - latency_s
-    keep = at >= t_s[0] - 1e-9
-    coupling = None if coupling_N is None or not np.any(coupling_N) else held_thrust_N(t_s, coupling_N, at[keep])
-    return SurgeRecord(at[keep], held_thrust_N(t_s, force_N, at[keep]), np.abs(speed_mps[keep]), coupling)
 
 
 def basis_for(record: SurgeRecord, splines: int) -> ResistanceBasis:

@@ -44,6 +44,7 @@ from boat_twin.frames import wrap_pi
 from boat_twin.io.trial import VALUE_LIMITS
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.params import derive_coefficients
+from boat_twin.vessel.propulsion import surge_thrust_N
 from boat_twin.vessel.tow import tow_drag_table
 from boat_twin.vessel.truth import ground_velocity_enu
 
@@ -421,18 +422,9 @@ class ShadowTwin:
         the surge fit reads as inertia."""
         if self.state is None:
             return math.nan
-        vessel = self.config.vessel
         u = float(self.state[3]) + self._surge_offset_mps
-        ahead = vessel.bollard_thrust_N
-        if abs(u) > 1e-9:
-            ahead = min(ahead, vessel.propulsive_efficiency * vessel.engine_power_W / abs(u))
-        astern = -vessel.reverse_thrust_ratio * vessel.bollard_thrust_N
-        force = 0.0
-        for thrust, angle, factor in zip(self.commands[:2], self.steering_rad, (vessel.thrust_factor_left,
-                                                                                vessel.thrust_factor_right),
-                                         strict=True):
-            force += factor * min(max(float(thrust), astern), ahead) * math.cos(float(angle))
-        return force
+        return float(surge_thrust_N(self.config.vessel, np.asarray(self.commands[:2], dtype=float),
+                                    self.steering_rad, u))
 
     def coupling_N(self) -> float:
         """The sway-yaw coupling m₂₂·v·r on the twin now (its model's m₂₂, its state's sway and yaw rate), N (0

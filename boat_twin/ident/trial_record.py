@@ -1,0 +1,108 @@
+"""A recorded trial as the output-error surge fit reads it: the physics the live twin's record has
+(:mod:`boat_twin.shadow.adapt`), from the measurements instead of a twin's state.
+
+Assumption: the trial's thrust commands are thrust *requests*, delivered by the configured engines
+(:func:`~boat_twin.vessel.propulsion.engine_thrust_N`: at most η·P/u ahead, the reverse ratio astern) through the
+configured actuators (:meth:`~boat_twin.vessel.dynamics.Dynamics.actuator_history`: the outboards swing to the
+commanded angle + offset at the steering rate; the engines' first-order lag). Per sample:
+
+- the surge u = the GNSS velocity through the water (the configured current removed) along the heading when it
+  was measured (the IMU yaw less the configured yaw offset, at stamp − GNSS latency); the sway v across it;
+- the thrust along the hull Σ k·T·cos δ delivered at the measured surge, as its mean over each interval (the
+  outboards swing between samples), then held over the intervals between the times the speeds describe
+  (:func:`~boat_twin.ident.output_error.horizon_record`, as live);
+- the sway-yaw coupling m₂₂·v·r (the configured boat's m₂₂, the gyro's yaw rate less its configured bias),
+  whose scale the fit estimates.
+
+A trial without a heading (no IMU) keeps the speed over ground |v| and no coupling; the envelope, the actuators and
+the latency still apply.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from boat_twin.config import TwinConfig
+from boat_twin.errors import InputError
+from boat_twin.ident.output_error import SurgeRecord, horizon_record
+from boat_twin.io.trial import COMMAND_ROLES, Trial
+from boat_twin.vessel.dynamics import Dynamics
+from boat_twin.vessel.params import derive_coefficients
+from boat_twin.vessel.propulsion import surge_thrust_N
+
+SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
+"""Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
+
+
+def known_samples(trial: Trial, thrust_N: np.ndarray, speed_mps: np.ndarray) -> np.ndarray:
+    """(n,) True where a trial's sample is known: ``thrust_N`` and ``speed_mps`` finite. Samples before the first
+    command or velocity fix and inside the reported gaps of any stream the surge uses (GNSS velocity, the
+    outboards' thrust and angle commands) are unknown; a NaN anywhere else is a non-finite value in the recording
+    itself and refused (InputError), as is a trial without the thrusts or the velocity."""
+    source = trial.metadata.source
+    for role, what in (("thrust_left", "left outboard's thrust"), ("thrust_right", "right outboard's thrust"),
+                       ("gnss_vel", "GNSS velocity")):
+        if role in trial.metadata.missing:
+            raise InputError(f"{source}: no {what} ({role}) in the trial: the identifier needs the surge thrust of "
+                             "both outboards and the speed over ground")
+    t = trial.t_s
+    known = np.isfinite(thrust_N) & np.isfinite(speed_mps)
+    if not np.any(known):
+        blank = [what for what, values in (("thrust", thrust_N), ("GNSS speed", speed_mps))
+                 if not np.any(np.isfinite(values))]
+        raise InputError(f"{source}: every {' and every '.join(blank)} value is NaN (not a number)" if blank else
+                         f"{source}: no sample has both a thrust command and a GNSS velocity "
+                         "(commands and GNSS do not overlap in time)")
+    in_gap = np.zeros(t.size, dtype=bool)
+    for role, start_s, end_s in trial.metadata.gaps:
+        if role in SURGE_ROLES:
+            in_gap |= (t > start_s) & (t < end_s)
+    bad = ~known & ~in_gap & (t >= t[np.argmax(known)])
+    if np.any(bad):
+        first = int(np.argmax(bad))
+        name = "surge thrust" if not np.isfinite(thrust_N[first]) else "speed over ground"
+        raise InputError(f"{source}: {int(bad.sum())} sample(s) are NaN outside the reported gaps (first: "
+                         f"{name} at t = {t[first]:.1f} s): the recording holds non-finite values")
+    return known
+
+
+def _interval_mean(values: np.ndarray) -> np.ndarray:
+    """Each sample's mean since the previous one from values at the samples (trapezoids; the first as is)."""
+    out = np.array(values, dtype=float)
+    out[1:] = 0.5 * (values[1:] + values[:-1])
+    return out
+
+
+def trial_record(trial: Trial, config: TwinConfig) -> SurgeRecord:
+    """The trial's known samples as the surge fit reads them under ``config`` (module docstring): times the speeds
+    describe (s), the delivered thrust along the hull (N), the surge (m/s; without a heading, the speed over
+    ground) and the sway-yaw coupling (N; None without a heading)."""
+    known_samples(trial, trial.surge_thrust_N, trial.speed_mps)  # the recording's own faults, as commanded
+    vessel, t = config.vessel, trial.t_s
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.1
+    actuators = Dynamics(vessel).actuator_history(dt, trial.commands, trial.command_switch_s)
+    angles, thrusts = actuators[:, :2], actuators[:, 2:]
+    latency = config.gnss.latency_s
+    east = trial.vel_east_mps - config.environment.current_east_mps
+    north = trial.vel_north_mps - config.environment.current_north_mps
+    has_heading = bool(np.any(np.isfinite(trial.heading_rad)))
+    if has_heading:  # the heading and yaw rate when each velocity was measured
+        yaw = np.interp(t - latency, t, trial.heading_rad - config.um7.yaw_offset_rad)
+        surge = east * np.cos(yaw) + north * np.sin(yaw)
+        sway = -east * np.sin(yaw) + north * np.cos(yaw)
+        rate = np.interp(t - latency, t, trial.yaw_rate_radps) - float(config.um7.gyro_bias_radps[2])
+        coupling = derive_coefficients(vessel).m22_kg * sway * rate
+        at_stamps = np.interp(t, t - latency, coupling)  # the coupling at the stamps' own times
+    else:
+        surge = np.hypot(east, north)
+    u_now = np.interp(t, t - latency, surge)  # the surge at each stamp's own time: where the envelope is read
+    held = np.vstack([thrusts[:1], thrusts[:-1]])  # each interval's thrust: the command held from its start
+    u_mid = _interval_mean(u_now)
+    thrust = 0.5 * (surge_thrust_N(vessel, held, np.vstack([angles[:1], angles[:-1]]), u_mid)
+                    + surge_thrust_N(vessel, held, angles, u_mid))
+    known = np.isfinite(thrust) & np.isfinite(surge) & (np.isfinite(at_stamps) if has_heading else True)
+    record = horizon_record(t[known], thrust[known], surge[known], latency,
+                            _interval_mean(at_stamps)[known] if has_heading else None)
+    if record.t_s.size < 3:
+        raise InputError(f"{trial.metadata.source}: fewer than 3 samples with a known thrust, surge and heading")
+    return record
