@@ -342,8 +342,8 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
     engines and actuators, its surge along the heading at the GNSS latency, the sway-yaw coupling."""
     boat = boat or {}
     config = config or TwinConfig()
-    config = replace(config, vessel=replace(config.vessel, **{k: v for k, v in boat.items()
-                                                             if k in VesselParams.__dataclass_fields__}))
+    facts: dict[str, Any] = {k: v for k, v in boat.items() if k in VesselParams.__dataclass_fields__}
+    config = replace(config, vessel=replace(config.vessel, **facts))
     records = [trial_record(trial, config) for trial in trials]
     samples = [(rec.t_s, rec.thrust_N, rec.speed_mps) for rec in records]
     fallback = boat["mass_kg"] * (1.0 + boat.get("surge_added_mass_ratio", VesselParams().surge_added_mass_ratio)) \
