@@ -67,3 +67,13 @@ def test_the_actuator_and_envelope_are_the_configured_ones(rate_radps: float) ->
     assert np.all(record.thrust_N[:-1] <= cap[:-1] * 1.05)
     at_once = trial_record(trial, TwinConfig(vessel=replace(BOAT, steering_rate_radps=0.0)))
     assert np.allclose(record.thrust_N, at_once.thrust_N) == (rate_radps == 0.0)
+
+
+def test_identify_reads_the_config_of_a_trial_before_the_trial(tmp_path, capsys) -> None:
+    from boat_twin.cli import main
+
+    bad = tmp_path / "boat.yaml"
+    bad.write_text("vessel:\n  engine_power_W: -5\n")
+    assert main(["identify", str(tmp_path / "no_such_trial.mcap"), "--config", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "boat.yaml" in err[0] and "engine_power_W" in err[0]

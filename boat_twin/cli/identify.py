@@ -194,6 +194,7 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     from boat_twin.ident.report import count, model_lines, resimulation_line
 
     boat = _boat_facts(args)
+    config = twin_config_from_args(args)
     trials = []
     for path in args.trial:
         sys.stderr.write(f"reading {path} ...\n")
@@ -203,7 +204,7 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     result, resims, vessel = identify_trials(trials, order=args.order, max_order=min(args.max_order, 6),
                                              monotone=args.monotone, window_s=args.steady_window,
                                              thrust_tolerance_N=args.thrust_tolerance, boat=boat,
-                                             config=twin_config_from_args(args))
+                                             config=config)
     if out is not None:
         write_identify_report(out, result, trials, resims, vessel, ", ".join(map(str, args.trial)),
                               str(args.boat) if args.boat is not None else None, args.out)
