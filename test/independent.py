@@ -89,8 +89,9 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
             k4 = rates(s + h * k3, t + h)
             s = s + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
             t += h
-            target, reach = steering_rad(t - delay_s), params.steering_rate_radps * h
-            angle[0] = angle[0] + min(max(target - angle[0], -reach), reach) if reach > 0.0 else target
+            if engines:
+                target, reach = steering_rad(t - delay_s), params.steering_rate_radps * h
+                angle[0] = angle[0] + min(max(target - angle[0], -reach), reach) if reach > 0.0 else target
     time_s = np.arange(n) / 10.0
     psi, u, v = states[:, 2], states[:, 3], states[:, 4]
     vel_e, vel_n = u * np.cos(psi) - v * np.sin(psi), u * np.sin(psi) + v * np.cos(psi)
