@@ -125,13 +125,17 @@ def held_thrust_N(t_s: np.ndarray, mean_thrust_N: np.ndarray, grid_s: np.ndarray
 def horizon_record(t_s: np.ndarray, force_N: np.ndarray, speed_mps: np.ndarray, latency_s: float,
                    coupling_N: np.ndarray | None = None) -> SurgeRecord:
     """A record as the output-error fit reads it (the live twin's horizon, an offline trial's): each speed at the
-    time it describes (stamp − latency), the thrust (and the coupling force, whose scale the fit estimates; None
-    or all zero: none) over each interval between those times from ``force_N`` (``coupling_N``), each sample's
-    mean since the previous one (:func:`held_thrust_N`). Samples describing a time before the first stamp (whose
-    force is not known) are left out."""
+    time it describes (stamp − latency), the thrust over each interval between those times from ``force_N``, each
+    sample's mean since the previous one (:func:`held_thrust_N`), and the coupling force (whose scale the fit
+    estimates; None or all zero: none) over each interval as the mean of ``coupling_N``, measured at the times
+    the samples describe, at its two ends. Samples describing a time before the first stamp (whose force is not
+    known) are left out."""
     at = t_s - latency_s
     keep = at >= t_s[0] - 1e-9
-    coupling = None if coupling_N is None or not np.any(coupling_N) else held_thrust_N(t_s, coupling_N, at[keep])
+    coupling = None
+    if coupling_N is not None and np.any(coupling_N):
+        point = np.asarray(coupling_N, dtype=float)[keep]
+        coupling = np.append(0.5 * (point[:-1] + point[1:]), point[-1:])
     return SurgeRecord(at[keep], held_thrust_N(t_s, force_N, at[keep]), np.abs(speed_mps[keep]), coupling)
 
 

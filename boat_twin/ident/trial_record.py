@@ -99,8 +99,7 @@ def trial_record(trial: Trial, config: TwinConfig) -> SurgeRecord:
         surge = east * np.cos(yaw) + north * np.sin(yaw)
         sway = -east * np.sin(yaw) + north * np.cos(yaw)
         rate = np.interp(t - latency, t, trial.yaw_rate_radps) - float(config.um7.gyro_bias_radps[2])
-        coupling = derive_coefficients(vessel).m22_kg * sway * rate
-        at_stamps = np.interp(t, t - latency, coupling)  # the coupling at the stamps' own times
+        coupling = derive_coefficients(vessel).m22_kg * sway * rate  # at the times the samples describe
     else:
         surge = np.hypot(east, north)
     u_now = np.interp(t, t - latency, surge)  # the surge at each stamp's own time: where the envelope is read
@@ -108,8 +107,8 @@ def trial_record(trial: Trial, config: TwinConfig) -> SurgeRecord:
     u_mid = _interval_mean(u_now)
     thrust = 0.5 * (surge_thrust_N(vessel, held, np.vstack([angles[:1], angles[:-1]]), u_mid)
                     + surge_thrust_N(vessel, held, angles, u_mid))
-    known = np.isfinite(thrust) & np.isfinite(surge) & (np.isfinite(at_stamps) if has_heading else True)
-    coupling_N = _interval_mean(at_stamps)[known] if has_heading else None
+    known = np.isfinite(thrust) & np.isfinite(surge) & (np.isfinite(coupling) if has_heading else True)
+    coupling_N = coupling[known] if has_heading else None
     if coupling_N is not None and np.sqrt(np.mean(coupling_N**2)) < COUPLING_MIN_SHARE * np.sqrt(
             np.mean(thrust[known] ** 2)):
         coupling_N = None
