@@ -6,12 +6,13 @@ The identification is the output-error surge fit of :mod:`boat_twin.ident.output
 resistance curve that never decreases (a·|u| + b·u² + non-negative I-splines), simulated through every sample of
 the horizon and fitted to the measured surge, with cluster-robust 95 % intervals. X is the surge force besides
 resistance and the surge the caller computes (:class:`~boat_twin.shadow.session.Shadow`: the delivered thrust
-along the hull at the outboards' real angles plus c times the sway-yaw coupling m₂₂·v·r of the twin's state,
-which in a turn is as large as a resistance error, each the twin's mean over the interval since the previous
-sample; the GNSS velocity through the water along the twin's heading when it was measured, not its magnitude,
-which holds the sway too). The coupling's scale c is fitted too: the twin's sway model gives v·r a few per cent
-off, which biased the resistance factor by more than its interval. The speed measured at t describes the boat at
-t − GNSS latency; the fit takes it there (on the 6 m boat, ignoring the 0.1 s shifted the mass by +1.3 %).
+along the hull at the outboards' real angles, the twin's mean over the interval since the previous sample, plus
+c times the sway-yaw coupling m₂₂·v·r, which in a turn is as large as a resistance error, of the measured sway
+(the GNSS velocity through the water across the heading) and the twin's gyro-held yaw rate; the GNSS velocity
+through the water along the twin's heading when it was measured, not its magnitude, which holds the sway too).
+The coupling's scale c is fitted too: m₂₂ is the twin's model's, a few per cent off the boat's. The speed
+measured at t describes the boat at t − GNSS latency; the fit takes it there (on the 6 m boat, ignoring the
+0.1 s shifted the mass by +1.3 %).
 
 Cost decides the curve's size: the offline cross-validation (baseline and 3, 5, 8, 12 I-splines, four folds:
 22 fits) costs 2 s of CPU on a 470 s horizon with one BLAS thread, 20 s with OpenBLAS's threads on the loaded
@@ -143,7 +144,7 @@ class SurgeModel:
             "resistance_factor": float(self.resistance_factor),
             "resistance_factor_ci95": [float(x) for x in self.factor_ci95], "samples": self.samples,
             "curve": self.curve, "mass_held": self.mass_held}
-        if self.fit is not None and self.fit.coupling_fitted:  # the scale fitted on the twin's m₂₂·v·r
+        if self.fit is not None and self.fit.coupling_fitted:  # the scale fitted on m₂₂·v·r
             out["coupling_scale"] = float(self.fit.coupling_scale)
             out["coupling_scale_sd"] = float(self.fit.coupling_scale_sd)
         if self.resistance is not None and self.speeds_mps:
@@ -179,13 +180,17 @@ def over_configured(fitted: ResistanceModel, speeds_mps: np.ndarray, base: Vesse
 def horizon_record(t_s: np.ndarray, force_N: np.ndarray, speed_mps: np.ndarray, latency_s: float,
                    coupling_N: np.ndarray | None = None) -> SurgeRecord:
     """The horizon as the output-error fit reads it: each speed at the time it describes (stamp − latency), the
-    thrust (and the coupling force, whose scale the fit estimates; None or all zero: none) over each interval
-    between those times from ``force_N`` (``coupling_N``), each sample's mean since the previous one
-    (:func:`~boat_twin.ident.output_error.held_thrust_N`). Samples describing a time before the first stamp
-    (whose force is not known) are left out."""
+    thrust over each interval between those times from ``force_N``, each sample's mean since the previous one
+    (:func:`~boat_twin.ident.output_error.held_thrust_N`), and the coupling force (whose scale the fit
+    estimates; None or all zero: none) over each interval as the mean of ``coupling_N``, measured at the times
+    the samples describe, at its two ends. Samples describing a time before the first stamp (whose force is not
+    known) are left out."""
     at = t_s - latency_s
     keep = at >= t_s[0] - 1e-9
-    coupling = None if coupling_N is None or not np.any(coupling_N) else held_thrust_N(t_s, coupling_N, at[keep])
+    coupling = None
+    if coupling_N is not None and np.any(coupling_N):
+        point = np.asarray(coupling_N, dtype=float)[keep]
+        coupling = np.append(0.5 * (point[:-1] + point[1:]), point[-1:])
     return SurgeRecord(at[keep], held_thrust_N(t_s, force_N, at[keep]), np.abs(speed_mps[keep]), coupling)
 
 
@@ -320,8 +325,8 @@ class SurgeAdapter:
 
     def add(self, t_s: float, force_N: float, speed_mps: float, coupling_N: float = 0.0) -> None:
         """One sample (time increasing; others are ignored): its stamp, the mean surge force since the previous
-        sample (N), the surge through the water it measured (m/s) and the mean coupling force since the previous
-        sample, whose scale the fit estimates (N; :class:`~boat_twin.ident.output_error.SurgeRecord`)."""
+        sample (N), the surge through the water it measured (m/s) and the coupling force at the time it describes,
+        whose scale the fit estimates (N; :class:`~boat_twin.ident.output_error.SurgeRecord`)."""
         if not (math.isfinite(force_N) and math.isfinite(speed_mps) and math.isfinite(coupling_N)):
             return
         if self._samples and t_s <= self._samples[-1][0]:

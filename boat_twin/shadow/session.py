@@ -102,7 +102,7 @@ class Shadow:
         self.twin = ShadowTwin(config, s.sync, self.log, self._accepted)
         self._squares: dict[str, deque[tuple[float, float, float]]] = {c: deque() for c in RATIO_CHANNELS}
         self._restarts = 0
-        self._last_impulse: tuple[int, float, float, float] | None = None
+        self._last_impulse: tuple[int, float, float] | None = None
         self._held = False
         self._pending: tuple[DiagnosisJob, Future[Outcome]] | None = None
 
@@ -142,14 +142,17 @@ class Shadow:
             return
         if self.settings.adapt:
             env = self.twin.config.environment
-            yaw = self.twin.heading_at(t_s - self.twin.config.gnss.latency_s)  # when the velocity was measured
+            yaw, rate = self.twin.attitude_at(t_s - self.twin.config.gnss.latency_s)  # when it was measured
             east, north = values[0] - env.current_east_mps, values[1] - env.current_north_mps
             # the surge itself, along the hull: the speed through the water |(u, v)| also holds the sway, which
             # swings with every turn, and on constant-thrust zigzags the fit took its missing speed loss for mass
             # (fits 1,352-1,382 kg, intervals missing the configured 1,300 kg; along the hull 1,259-1,335 kg)
             surge = east * math.cos(yaw) + north * math.sin(yaw)
-            thrust, coupling = self._interval_forces_N(t_s)
-            self.adapter.add(t_s, thrust, surge, coupling)
+            sway = -east * math.sin(yaw) + north * math.cos(yaw)
+            # the sway-yaw coupling m₂₂·v·r from the measured sway and the gyro-held yaw rate, not the twin's own
+            # sway: a twin whose turning is still wrong (yaw damping ×0.75 unadapted) gave a v·r so far off that
+            # the surge fit took it for mass (1,452 kg [1,389, 1,514] adopted for the configured 1,300 kg)
+            self.adapter.add(t_s, self._interval_thrust_N(t_s), surge, self.twin.m22_kg * sway * rate)
             if self.adapter.due(t_s) and not self.model_held() and self.adapter.update(self._held_out_score(t_s)):
                 self.twin.set_config(replace(self.twin.config, vessel=self.vessel()))
         if self.settings.adapt and self.settings.adapt_turning:
@@ -222,17 +225,16 @@ class Shadow:
 
         return self.turning.update(training, plain, score)
 
-    def _interval_forces_N(self, t_s: float) -> tuple[float, float]:
-        """The mean thrust along the hull and the mean sway-yaw coupling over the twin's time since the previous
-        velocity sample, N (:meth:`ShadowTwin.surge_thrust_N` and :meth:`ShadowTwin.coupling_N` integrated over
-        every propagation step: the forces as the surge fit integrates them over the interval; NaN after a
-        (re)synchronisation or while the thrust is not known)."""
+    def _interval_thrust_N(self, t_s: float) -> float:
+        """The mean thrust along the hull over the twin's time since the previous velocity sample, N
+        (:meth:`ShadowTwin.surge_thrust_N` integrated over every propagation step: the force as the surge fit
+        integrates it over the interval; NaN after a (re)synchronisation or while the thrust is not known)."""
         twin = self.twin
-        epoch, thrust, coupling = twin.impulse_epoch, twin.surge_impulse_Ns, twin.coupling_impulse_Ns
-        last, self._last_impulse = self._last_impulse, (epoch, t_s, thrust, coupling)
+        epoch, impulse = twin.impulse_epoch, twin.surge_impulse_Ns
+        last, self._last_impulse = self._last_impulse, (epoch, t_s, impulse)
         if last is None or last[0] != epoch or not t_s > last[1]:
-            return math.nan, math.nan
-        return (thrust - last[2]) / (t_s - last[1]), (coupling - last[3]) / (t_s - last[1])
+            return math.nan
+        return (impulse - last[2]) / (t_s - last[1])
 
     def _diagnose(self, t_s: float) -> None:
         job = self.rolling.start(t_s, replace(self.base, vessel=self.vessel()),

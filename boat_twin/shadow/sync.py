@@ -191,8 +191,6 @@ class ShadowTwin:
         self.surge_impulse_Ns = math.nan
         """∫ :meth:`surge_thrust_N` dt over the twin's propagation since :attr:`impulse_epoch` began, N·s (NaN
         while the thrust is not known)."""
-        self.coupling_impulse_Ns = 0.0
-        """∫ :meth:`coupling_N` dt over the same time, N·s."""
         self._queue: list[tuple[float, int, int, str, tuple[float, ...]]] = []
         self._seq = 0
         self.newest_s = -math.inf
@@ -200,7 +198,7 @@ class ShadowTwin:
         self._last_stamp: dict[str, float] = {}
         self._latest: dict[str, tuple[float, tuple[float, ...]]] = {}
         self._last_sensor_s = -math.inf
-        self._history: deque[tuple[float, float, float, float, float, float]] = deque(maxlen=64)
+        self._history: deque[tuple[float, ...]] = deque(maxlen=64)
         self.origin: tuple[float, float, float] | None = None
 
     @property
@@ -307,10 +305,10 @@ class ShadowTwin:
         u, v = we * math.cos(yaw) + wn * math.sin(yaw), -we * math.sin(yaw) + wn * math.cos(yaw)
         self.state = np.array([east, north, yaw, u, v, rate])
         self._steering = None
-        self.surge_impulse_Ns, self.coupling_impulse_Ns, self.impulse_epoch = 0.0, 0.0, self.impulse_epoch + 1
+        self.surge_impulse_Ns, self.impulse_epoch = 0.0, self.impulse_epoch + 1
         self._surge_offset_mps = 0.0
         self._history.clear()
-        self._history.append((self.t_s, east, north, vel_east, vel_north, yaw))
+        self._history.append((self.t_s, east, north, vel_east, vel_north, yaw, rate))
         for f in self._filters.values():
             f.p = f.r
         self.counts["resets"] += 1
@@ -336,37 +334,38 @@ class ShadowTwin:
             self._steering = self.dynamics.steering_targets(commands)
         states = self.state[None, :]
         steps = max(1, math.ceil(dt_total / INTEGRATION_STEP_S - 1e-9))
-        force, coupling = self.surge_thrust_N(), self.coupling_N()  # under the commands held from now on
+        force = self.surge_thrust_N()  # under the commands held from now on
         if math.isfinite(force) and not math.isfinite(self.surge_impulse_Ns):
-            self.surge_impulse_Ns, self.coupling_impulse_Ns, self.impulse_epoch = 0.0, 0.0, self.impulse_epoch + 1
+            self.surge_impulse_Ns, self.impulse_epoch = 0.0, self.impulse_epoch + 1
         for _ in range(steps):
             self.dynamics.step(states, commands, self._environment, dt_total / steps, self._steering)
-            after, coupled = self.surge_thrust_N(), self.coupling_N()
+            after = self.surge_thrust_N()
             self.surge_impulse_Ns += 0.5 * (force + after) * dt_total / steps  # trapezoids over the RK4 step
-            self.coupling_impulse_Ns += 0.5 * (coupling + coupled) * dt_total / steps
-            force, coupling = after, coupled
+            force = after
         self.state = states[0]
         for f in self._filters.values():
             f.grow(dt_total)
         self.t_s = to_s
-        east, north, yaw, u, v, _ = self.state
+        east, north, yaw, u, v, rate = self.state
         ve, vn = ground_velocity_enu(yaw, u, v, *self._environment[0, :2])
-        self._history.append((to_s, float(east), float(north), float(ve), float(vn), float(yaw)))
+        self._history.append((to_s, float(east), float(north), float(ve), float(vn), float(yaw), float(rate)))
 
     def _delayed(self, stamp_s: float) -> tuple[float, float, float, float]:
         """(east, north, vel_east, vel_north) of the state ``latency_s`` before ``stamp_s`` (from the history;
         the oldest kept when the history is shorter)."""
-        east, north, vel_east, vel_north, _ = self._at(stamp_s - self.config.gnss.latency_s)
+        east, north, vel_east, vel_north = self._at(stamp_s - self.config.gnss.latency_s)[:4]
         return east, north, vel_east, vel_north
 
-    def heading_at(self, t_s: float) -> float:
-        """The twin's heading (ENU yaw, rad) at ``t_s`` from the history (a velocity sample's time: its stamp
-        minus the GNSS latency); the oldest or the newest kept outside it."""
-        return self._at(t_s)[4]
+    def attitude_at(self, t_s: float) -> tuple[float, float]:
+        """The twin's heading (ENU yaw, rad) and yaw rate (rad/s, FLU: positive turning left) at ``t_s`` from the
+        history (a velocity sample's time: its stamp minus the GNSS latency); the oldest or the newest kept
+        outside it. Both follow the IMU closely (the filter's corrections)."""
+        yaw, rate = self._at(t_s)[4:6]
+        return yaw, rate
 
     def _at(self, at_s: float) -> tuple[float, ...]:
         t = np.array([h[0] for h in self._history])
-        return tuple(float(np.interp(at_s, t, np.array([h[k] for h in self._history]))) for k in range(1, 6))
+        return tuple(float(np.interp(at_s, t, np.array([h[k] for h in self._history]))) for k in range(1, 7))
 
     def _record(self, stamp_s: float, channel: str, measured: float, predicted: float, stdev: float) -> None:
         self.innovations.append(Innovation(stamp_s, channel, measured, predicted, stdev))
@@ -434,12 +433,10 @@ class ShadowTwin:
             force += factor * min(max(float(thrust), astern), ahead) * math.cos(float(angle))
         return force
 
-    def coupling_N(self) -> float:
-        """The sway-yaw coupling m₂₂·v·r on the twin now (its model's m₂₂, its state's sway and yaw rate), N (0
-        before synchronisation); integrated into :attr:`coupling_impulse_Ns`."""
-        if self.state is None:
-            return 0.0
-        return self._m22_kg * float(self.state[4]) * float(self.state[5])
+    @property
+    def m22_kg(self) -> float:
+        """The twin's sway mass m₂₂ (added mass included), kg: its model's (:func:`derive_coefficients`)."""
+        return self._m22_kg
 
     # --- what the front ends publish -----------------------------------------------------------------------
     @property
