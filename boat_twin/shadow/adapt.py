@@ -7,10 +7,10 @@ resistance curve that never decreases (a·|u| + b·u² + non-negative I-splines)
 the horizon and fitted to the measured surge, with cluster-robust 95 % intervals. X is the surge force besides
 resistance and the surge the caller computes (:class:`~boat_twin.shadow.session.Shadow`: the delivered thrust
 along the hull at the outboards' real angles, the twin's mean over the interval since the previous sample, plus
-c times the sway-yaw coupling m₂₂·v·r, which in a turn is as large as a resistance error, of the measured sway
-(the GNSS velocity through the water across the heading) and the twin's gyro-held yaw rate; the GNSS velocity
+c times the sway-yaw coupling m₂₂·v·r, which in a turn is as large as a resistance error, of the twin's state
+when the velocity was measured (its yaw rate held to the gyro, its sway to the GNSS velocity); the GNSS velocity
 through the water along the twin's heading when it was measured, not its magnitude, which holds the sway too).
-The coupling's scale c is fitted too: m₂₂ is the twin's model's, a few per cent off the boat's. The speed
+The coupling's scale c is fitted too: the twin's m₂₂ and sway give v·r a few per cent off. The speed
 measured at t describes the boat at t − GNSS latency; the fit takes it there (on the 6 m boat, ignoring the
 0.1 s shifted the mass by +1.3 %).
 

@@ -142,16 +142,15 @@ class Shadow:
             return
         if self.settings.adapt:
             env = self.twin.config.environment
-            yaw, rate = self.twin.attitude_at(t_s - self.twin.config.gnss.latency_s)  # when it was measured
+            yaw, sway, rate = self.twin.motion_at(t_s - self.twin.config.gnss.latency_s)  # when it was measured
             east, north = values[0] - env.current_east_mps, values[1] - env.current_north_mps
             # the surge itself, along the hull: the speed through the water |(u, v)| also holds the sway, which
             # swings with every turn, and on constant-thrust zigzags the fit took its missing speed loss for mass
             # (fits 1,352-1,382 kg, intervals missing the configured 1,300 kg; along the hull 1,259-1,335 kg)
             surge = east * math.cos(yaw) + north * math.sin(yaw)
-            sway = -east * math.sin(yaw) + north * math.cos(yaw)
-            # the sway-yaw coupling m₂₂·v·r from the measured sway and the gyro-held yaw rate, not the twin's own
-            # sway: a twin whose turning is still wrong (yaw damping ×0.75 unadapted) gave a v·r so far off that
-            # the surge fit took it for mass (1,452 kg [1,389, 1,514] adopted for the configured 1,300 kg)
+            # the sway-yaw coupling m₂₂·v·r of the twin's state at that time; its scale is fitted. The measured
+            # sway (the GNSS velocity across the heading) was tried: it carries the heading's error (~0.1 m/s a fix
+            # at 10 m/s) and the masses came out +0.4…+3.3 % high (docs/live-twin.md)
             self.adapter.add(t_s, self._interval_thrust_N(t_s), surge, self.twin.m22_kg * sway * rate)
             if self.adapter.due(t_s) and not self.model_held() and self.adapter.update(self._held_out_score(t_s)):
                 self.twin.set_config(replace(self.twin.config, vessel=self.vessel()))

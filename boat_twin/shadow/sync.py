@@ -357,12 +357,14 @@ class ShadowTwin:
         east, north, vel_east, vel_north = self._at(stamp_s - self.config.gnss.latency_s)[:4]
         return east, north, vel_east, vel_north
 
-    def attitude_at(self, t_s: float) -> tuple[float, float]:
-        """The twin's heading (ENU yaw, rad) and yaw rate (rad/s, FLU: positive turning left) at ``t_s`` from the
-        history (a velocity sample's time: its stamp minus the GNSS latency); the oldest or the newest kept
-        outside it. Both follow the IMU closely (the filter's corrections)."""
-        yaw, rate = self._at(t_s)[4:6]
-        return yaw, rate
+    def motion_at(self, t_s: float) -> tuple[float, float, float]:
+        """The twin's heading (ENU yaw, rad), sway through the water (m/s, FLU: positive to port) and yaw rate
+        (rad/s, positive turning left) at ``t_s`` from the history (a velocity sample's time: its stamp minus the
+        GNSS latency); the oldest or the newest kept outside it. Heading and yaw rate follow the IMU closely (the
+        filter's corrections); the sway is the twin's model's, corrected by the GNSS velocity."""
+        _, _, vel_east, vel_north, yaw, rate = self._at(t_s)
+        east, north = vel_east - self._environment[0, 0], vel_north - self._environment[0, 1]
+        return yaw, -east * math.sin(yaw) + north * math.cos(yaw), rate
 
     def _at(self, at_s: float) -> tuple[float, ...]:
         t = np.array([h[0] for h in self._history])
