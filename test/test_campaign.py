@@ -245,6 +245,9 @@ def test_an_interrupt_lost_in_a_callback_is_raised_again_without_a_traceback(cap
 
     callback = ctypes.CFUNCTYPE(None)(interrupted)
     previous, sys.unraisablehook = sys.unraisablehook, cli._raise_lost_signal
+    # Python's own Ctrl-C handler, as in a fresh `boat-twin` process: a test run before this one in the same
+    # pytest worker may have left another (the suite failed so twice, the test passing alone)
+    handler = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         with pytest.raises(KeyboardInterrupt):
             callback()
@@ -253,4 +256,5 @@ def test_an_interrupt_lost_in_a_callback_is_raised_again_without_a_traceback(cap
                 time.sleep(0.05)
     finally:
         sys.unraisablehook = previous
+        signal.signal(signal.SIGINT, handler)
     assert "Traceback" not in capsys.readouterr().err
