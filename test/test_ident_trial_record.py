@@ -11,6 +11,7 @@ import pytest
 from independent import boat_trial
 
 from boat_twin.config import TwinConfig
+from boat_twin.errors import InputError
 from boat_twin.ident.output_error import SurgeRecord, identify_surge
 from boat_twin.ident.pipeline import trial_samples
 from boat_twin.ident.trial_record import trial_record
@@ -77,3 +78,10 @@ def test_identify_reads_the_config_of_a_trial_before_the_trial(tmp_path, capsys)
     assert main(["identify", str(tmp_path / "no_such_trial.mcap"), "--config", str(bad)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "boat.yaml" in err[0] and "engine_power_W" in err[0]
+
+
+def test_a_trial_whose_heading_covers_too_few_samples_is_refused_naming_the_file() -> None:
+    trial = _steered(40.0)
+    trial.heading_rad[2:] = np.nan  # a heading on the first two samples only: nothing to fit along it
+    with pytest.raises(InputError, match="fewer than 3 samples with a known thrust, surge and heading"):
+        trial_record(trial, TwinConfig(vessel=BOAT))
