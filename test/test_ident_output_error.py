@@ -155,7 +155,7 @@ def test_a_resistance_above_the_thrust_that_held_a_speed_is_not_physical() -> No
     problems = pipeline.physical_problems(fit, [{"speed_mps": 1.0, "thrust_N": 20.0}],
                                           [(record.t_s, record.thrust_N, record.speed_mps)])
     assert any("above the 20 N that held that speed" in p for p in problems)
-    assert any("exceeds the largest thrust commanded (41 N), yet the boat sustained 1.50 m/s" in p for p in problems)
+    assert any("exceeds the largest thrust: 41 N, yet the boat sustained 1.50 m/s" in p for p in problems)
 
 
 @pytest.mark.slow  # a study over six boats (11 s on the loaded machine); seed 0's interval: test_ident_trials.py

@@ -4,7 +4,10 @@ at the GNSS latency, the sway-yaw coupling. Checked on a boat test/independent.p
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -12,9 +15,9 @@ from independent import boat_trial
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
-from boat_twin.ident.output_error import SurgeRecord, identify_surge
-from boat_twin.ident.pipeline import trial_samples
-from boat_twin.ident.trial_record import trial_record
+from boat_twin.ident.output_error import ResistanceBasis, SurgeRecord, fit_surge, identify_surge
+from boat_twin.ident.pipeline import identify_trials, physical_problems, trial_samples
+from boat_twin.ident.trial_record import DELIVERED_THRUST, trial_record
 from boat_twin.vessel.params import VesselParams, derive_coefficients
 
 BOAT = replace(VesselParams(), mass_kg=1000.0, engine_power_W=20000.0)
@@ -85,3 +88,102 @@ def test_a_trial_whose_heading_covers_too_few_samples_is_refused_naming_the_file
     trial.heading_rad[2:] = np.nan  # a heading on the first two samples only: nothing to fit along it
     with pytest.raises(InputError, match="fewer than 3 samples with a known thrust, surge and heading"):
         trial_record(trial, TwinConfig(vessel=BOAT))
+
+
+# What identify reports is what it fitted: the figures draw the records the fit read (Identification.records),
+# checked on the data handed to the plot (the lines' arrays), not on pixels.
+
+def _captured_figures(monkeypatch: pytest.MonkeyPatch) -> dict[str, Any]:
+    """The figures the identification's report saves, by file name, instead of written."""
+    from boat_twin.ident import report
+
+    figures: dict[str, Any] = {}
+    monkeypatch.setattr(report, "atomic_save_figure",
+                        lambda path, figure, title=None: figures.__setitem__(Path(path).name, figure))
+    return figures
+
+
+def _assert_plots_the_record(figure: Any, record: SurgeRecord, coupling_scale: float) -> None:
+    """trial.png draws ``record``: its speed, its thrust and (when it has one) its coupling times the fitted c."""
+    speed_axes, force_axes = figure.axes
+    np.testing.assert_array_equal(speed_axes.lines[0].get_xdata(), record.t_s)
+    np.testing.assert_array_equal(speed_axes.lines[0].get_ydata(), record.speed_mps)
+    np.testing.assert_array_equal(force_axes.lines[0].get_xdata(), record.t_s)
+    np.testing.assert_array_equal(force_axes.lines[0].get_ydata(), record.thrust_N)
+    assert len(force_axes.lines) == (1 if record.coupling_N is None else 2)
+    if record.coupling_N is not None:
+        np.testing.assert_allclose(force_axes.lines[1].get_ydata(), coupling_scale * record.coupling_N)
+
+
+def _far_from_commanded(trial: Any, record: SurgeRecord) -> bool:
+    """The commanded record (Σ T·cos δ of the requests) differs from ``record``'s thrust by more than 500 N
+    somewhere: a plot of it would show points the fit never saw."""
+    t_s, commanded_N, _ = trial_samples(trial)
+    return bool(np.max(np.abs(np.interp(record.t_s, t_s, commanded_N) - record.thrust_N)) > 500.0)
+
+
+def test_the_identify_report_plots_the_record_the_fit_read(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The report writer of identify --out and of the fleet's batches (fleet/reports.py) draws the steered
+    trial's surge record under the given config, the one the fit read, not the commanded one."""
+    from boat_twin.fleet.reports import write_identify_report
+
+    trial, config = _steered(60.0), TwinConfig(vessel=BOAT)
+    figures = _captured_figures(monkeypatch)
+    result, found = identify_trials([trial], config=config)
+    write_identify_report(tmp_path, result, found, "steered", None)
+    record = trial_record(trial, config)
+    assert record.coupling_N is not None and _far_from_commanded(trial, record)
+    _assert_plots_the_record(figures["trial.png"], record, result["output_error"]["selected"]["coupling_scale"])
+    assert {"trial.png", "resistance.png", "resimulation.png"} <= set(figures)
+
+
+def test_the_demo_plots_the_record_its_identification_fitted(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+                                                             ) -> None:
+    """make demo identifies as identify does (the built-in boat's record) and draws that record."""
+    from boat_twin.cli.demo import identification_summary
+
+    trial = _steered(60.0)
+    figures = _captured_figures(monkeypatch)
+    summary = identification_summary(trial, tmp_path)
+    record = trial_record(trial, TwinConfig())
+    assert _far_from_commanded(trial, record)
+    fitted = json.loads((tmp_path / "identify" / "identify.json").read_text())["output_error"]["selected"]
+    _assert_plots_the_record(figures["trial.png"], record, fitted.get("coupling_scale", 1.0))
+    assert f"effective mass {fitted['mass_kg']:.0f} kg" in summary
+
+
+def test_identify_each_reads_each_trial_with_the_given_config(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """identify --each --config: each trial is read with that boat (here other engines and a GNSS latency), as
+    plain identify reads it; its report draws that record."""
+    from boat_twin.cli import main
+    from boat_twin.config import load_twin_config
+    from boat_twin.io.sources import read_trial_file
+
+    trial_path, config_path = tmp_path / "steered.mcap", tmp_path / "boat.yaml"
+    assert main(["simulate", "random", "--duration", "60", "--seed", "40", "--out", str(trial_path)]) == 0
+    config_path.write_text("vessel:\n  engine_power_W: 40000\ngnss:\n  latency_s: 0.2\n")
+    figures = _captured_figures(monkeypatch)
+    assert main(["identify", str(trial_path), "--each", "--config", str(config_path), "--out", str(tmp_path / "o"),
+                 "--scheduler", "sync"]) == 0, capsys.readouterr().err
+    trial, config = read_trial_file(trial_path), load_twin_config(config_path)
+    record = trial_record(trial, config)
+    default = trial_record(trial, TwinConfig())
+    assert default.t_s.size != record.t_s.size  # the config matters here: the latency shifts the samples
+    assert np.max(np.abs(np.interp(record.t_s, default.t_s, default.thrust_N) - record.thrust_N)) > 100.0
+    fitted = json.loads((tmp_path / "o" / "steered" / "identify.json").read_text())["output_error"]["selected"]
+    _assert_plots_the_record(figures["trial.png"], record, fitted.get("coupling_scale", 1.0))
+
+
+def test_a_resistance_above_the_delivered_thrust_is_named_as_what_was_checked() -> None:
+    """The "not physical" check compares Fc with the largest thrust of the fitted record, the delivered one: the
+    message names that thrust, its value and the trial, not "commanded"."""
+    trial = _steered(60.0)
+    record = trial_record(trial, TwinConfig(vessel=BOAT))
+    fit = fit_surge([record], ResistanceBasis(), mass_kg=1050.0)
+    fit.coefficients[:] = (1e4, 0.0)  # Fc = 10,000 N·s/m × u: far above any thrust
+    (problem,) = [p for p in physical_problems(fit, [], [(record.t_s, record.thrust_N, record.speed_mps)],
+                                               DELIVERED_THRUST, ["steered.mcap"]) if "largest" in p]
+    top = float(np.max(record.thrust_N))
+    assert f"exceeds the largest {DELIVERED_THRUST}: {top:.4g} N in steered.mcap, yet the boat sustained" in problem
+    assert "commanded" not in problem

@@ -16,6 +16,7 @@ from boat_twin.cli import main
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
 from boat_twin.ident.dynamic import identify_dynamic
+from boat_twin.ident.output_error import SurgeRecord
 from boat_twin.ident.pipeline import identify_arrays, model_dict, trial_samples, write_model_yaml
 from boat_twin.ident.report import write_trial_report
 from boat_twin.ident.steady import fit_power_series
@@ -162,7 +163,7 @@ def test_model_yaml_loads_as_vessel_override(identified, tmp_path) -> None:
     assert params.resistance.to_dict() == result["model"]["resistance"]
     assert params.mass_kg * (1.0 + params.surge_added_mass_ratio) == pytest.approx(
         result["output_error"]["selected"]["mass_kg"])
-    written = write_trial_report(tmp_path / "report", result, t, f, v, title="a simulated trial")
+    written = write_trial_report(tmp_path / "report", result, [SurgeRecord(t, f, v)], title="a simulated trial")
     assert all(p.stat().st_size > 0 for p in written)
     speed = [p["speed_mps"] for p in result["steady_points"]]
     thrust = [p["thrust_N"] for p in result["steady_points"]]

@@ -112,21 +112,18 @@ def _run(args: argparse.Namespace, out: Path, staging: Path) -> int:
 
 
 def identification_summary(sample: Trial, out: Path, staging: Path | None = None) -> str:
-    """Identify the sample trial (report + plots into ``staging/identify``, named ``out/identify``; ``staging``
-    defaults to ``out``) and reproduce Dyda & Chumakova (2021)."""
-    import numpy as np
-
+    """Identify the sample trial as ``identify SAMPLE --out`` does (its report and the figures of the record
+    fitted into ``staging/identify``, named ``out/identify``; ``staging`` defaults to ``out``; the true curve
+    drawn under the identified ones) and reproduce Dyda & Chumakova (2021)."""
     from boat_twin.config import TwinConfig
+    from boat_twin.fleet.reports import write_identify_report
     from boat_twin.ident.paper import reproduce
-    from boat_twin.ident.pipeline import identify_arrays
-    from boat_twin.ident.report import write_trial_report
+    from boat_twin.ident.pipeline import identify_trials
 
-    keep = np.isfinite(sample.surge_thrust_N) & np.isfinite(sample.speed_mps)
-    t_s, thrust, speed = sample.t_s[keep], sample.surge_thrust_N[keep], sample.speed_mps[keep]
-    result = identify_arrays(t_s, thrust, speed)
-    write_trial_report((staging or out) / "identify", result, t_s, thrust, speed,
-                       true_resistance_N=TwinConfig().vessel.resistance.force_N,  # the sample's own boat
-                       title=f"demo: identify {sample.metadata.source}")
+    result, found = identify_trials([sample])
+    write_identify_report((staging or out) / "identify", result, found, str(sample.metadata.source), None,
+                          out / "identify",
+                          true_resistance_N=TwinConfig().vessel.resistance.force_N)  # the sample's own boat
     oe = result["output_error"]
     lo, hi = oe["selected"]["mass_ci95_kg"]
     paper = reproduce()

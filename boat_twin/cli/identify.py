@@ -102,17 +102,18 @@ def _boat_facts(args: argparse.Namespace) -> dict[str, float] | None:
 
 
 def _run_each(args: argparse.Namespace) -> int:
-    """--each: every trial identified on its own (not pooled), on the --scheduler's workers."""
+    """--each: every trial identified on its own (not pooled), each read with the --config boat, on the
+    --scheduler's workers."""
     from boat_twin.fleet.jobs import IdentifyJob, ReadOptions
 
-    for name in ("table", "manoeuvring", "validate", "window", "config", "model"):
+    for name in ("table", "manoeuvring", "validate", "window", "model"):
         if getattr(args, name):
             raise InputError(f"--each identifies each trial's thrust-speed model; --{name} does not apply")
     read = ReadOptions(parse_remap(args.topic), args.namespace or "",
                        str(args.calibration) if args.calibration is not None else None, args.columns)
     job = IdentifyJob(read, args.order, min(args.max_order, 6), args.monotone, args.steady_window,
                       args.thrust_tolerance, _boat_facts(args),
-                      str(args.boat) if args.boat is not None else None)
+                      str(args.boat) if args.boat is not None else None, twin_config_from_args(args))
     return run_each(args, job)
 
 
@@ -201,12 +202,12 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
         trials.append(trial_from_args(path, args))
         sys.stderr.write(trials[-1].metadata.summary_line() + "\n")
     sys.stderr.write("identifying, then re-simulating the trial's commands with the identified model ...\n")
-    result, resims, vessel = identify_trials(trials, order=args.order, max_order=min(args.max_order, 6),
-                                             monotone=args.monotone, window_s=args.steady_window,
-                                             thrust_tolerance_N=args.thrust_tolerance, boat=boat,
-                                             config=config)
+    result, found = identify_trials(trials, order=args.order, max_order=min(args.max_order, 6),
+                                    monotone=args.monotone, window_s=args.steady_window,
+                                    thrust_tolerance_N=args.thrust_tolerance, boat=boat, config=config)
+    vessel = found.vessel
     if out is not None:
-        write_identify_report(out, result, trials, resims, vessel, ", ".join(map(str, args.trial)),
+        write_identify_report(out, result, found, ", ".join(map(str, args.trial)),
                               str(args.boat) if args.boat is not None else None, args.out)
     if args.json:
         sys.stdout.write(to_json(result) + "\n")

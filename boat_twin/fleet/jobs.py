@@ -55,6 +55,9 @@ class IdentifyJob:
     boat: dict[str, float] | None = None
     """Boat facts for the twin (``--boat`` file's contents), None: the default boat's."""
     boat_file: str | None = None
+    config: TwinConfig = field(default_factory=TwinConfig)
+    """The twin configuration each trial is read with (``--config``: its engines deliver the thrust commands,
+    its GNSS latency and IMU offsets apply; :func:`~boat_twin.ident.trial_record.trial_record`)."""
     verb = "identify"
     outputs = IDENTIFY_OUTPUTS
     columns = ("mass_kg", "mass_ci95_low_kg", "mass_ci95_high_kg", "mass_identified", "model", "curve_speed_mps",
@@ -74,11 +77,12 @@ class IdentifyJob:
         from boat_twin.ident.pipeline import identify_trials
 
         trial = self.read.read(path)
-        result, resims, vessel = identify_trials([trial], order=self.order, max_order=self.max_order,
-                                                 monotone=self.monotone, window_s=self.window_s,
-                                                 thrust_tolerance_N=self.thrust_tolerance_N, boat=self.boat)
+        result, found = identify_trials([trial], order=self.order, max_order=self.max_order,
+                                        monotone=self.monotone, window_s=self.window_s,
+                                        thrust_tolerance_N=self.thrust_tolerance_N, boat=self.boat,
+                                        config=self.config)
         out.mkdir(parents=True, exist_ok=True)
-        write_identify_report(out, result, [trial], resims, vessel, str(path), self.boat_file, named)
+        write_identify_report(out, result, found, str(path), self.boat_file, named)
         oe = result["output_error"]
         selected, table = oe["selected"], oe["selected"]["resistance_table"]
         known = "effective_mass_kg" in result["model"]

@@ -3,7 +3,7 @@ by a batch (``--each --out DIR``: each trial's report in ``DIR/<trial name>/``).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -12,31 +12,30 @@ from boat_twin.config import TwinConfig, save_config
 from boat_twin.diagnose.defaults import EXTENDED_MODEL_NAME
 from boat_twin.diagnose.pipeline import TrialDiagnosis
 from boat_twin.diagnose.report import concerned_signals, evidence_figure, residual_figure, signal_figure
-from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
-from boat_twin.ident.pipeline import TrialIdentifyResult, pool, trial_samples
+from boat_twin.files import atomic_save_figure, atomic_write_text, ensure_out_dir, to_json
+from boat_twin.ident.pipeline import TrialIdentifyResult
 from boat_twin.ident.report import write_trial_report
-from boat_twin.ident.resimulate import Resimulation
-from boat_twin.io.trial import Trial
+from boat_twin.ident.results import TrialsIdentification
 from boat_twin.shadow.follow import FollowResult
-from boat_twin.vessel.params import VesselParams
 
 
-def write_identify_report(out: Path, result: TrialIdentifyResult, trials: Sequence[Trial],
-                          resims: Sequence[Resimulation | None], vessel: VesselParams | None,
-                          sources: str, boat_file: str | None, named: Path | None = None) -> None:
-    """The report of :func:`~boat_twin.ident.pipeline.identify_trials` on ``trials`` (read from ``sources``) into
-    ``out``: twin.yaml (when a mass is known; geometry from ``boat_file`` or the default boat), identify.json,
-    model.yaml and the figures (resimulation.png for a single trial). ``named``: the directory the texts name
-    (default ``out``; a report set's final name when ``out`` is its staging copy)."""
-    if vessel is not None:
-        save_config(TwinConfig(vessel=vessel), out / "twin.yaml",
+def write_identify_report(out: Path, result: TrialIdentifyResult, found: TrialsIdentification, sources: str,
+                          boat_file: str | None, named: Path | None = None,
+                          true_resistance_N: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+    """The report of :func:`~boat_twin.ident.pipeline.identify_trials` (``result``, the contract of ``found``) on
+    the trials read from ``sources`` into ``out``: twin.yaml (when a mass is known; geometry from ``boat_file`` or
+    the default boat), identify.json, model.yaml and the figures of the records the fit read (resimulation.png
+    for a single trial; ``true_resistance_N``, speed m/s → N, drawn when known). ``named``: the directory the
+    texts name (default ``out``; a report set's final name when ``out`` is its staging copy)."""
+    ensure_out_dir(out)
+    if found.vessel is not None:
+        save_config(TwinConfig(vessel=found.vessel), out / "twin.yaml",
                     f"boat_twin twin of the boat identified from {sources}\n"
                     f"geometry: {boat_file or 'the default boat carried to the identified mass'}; where each fact "
                     "came from: identify.json 'twin'\n"
                     f"load with: boat-twin simulate ... --config {(named or out) / 'twin.yaml'}")
-    t_s, thrust, speed = (np.concatenate(column) for column in zip(*pool([trial_samples(tr) for tr in trials]),
-                                                                   strict=True))
-    write_trial_report(out, result, t_s, thrust, speed, resims[0] if len(trials) == 1 else None,
+    write_trial_report(out, result, found.identification.records,
+                       found.trials[0].resimulation if len(found.trials) == 1 else None, true_resistance_N,
                        title=f"identify {sources}")
 
 

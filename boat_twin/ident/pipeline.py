@@ -37,7 +37,7 @@ from boat_twin.ident.results import (
 )
 from boat_twin.ident.settling import derive_criteria
 from boat_twin.ident.steady import FitResult, fit_power_series, select_order
-from boat_twin.ident.trial_record import known_samples, trial_record
+from boat_twin.ident.trial_record import DELIVERED_THRUST, known_samples, trial_record
 from boat_twin.ident.twin_config import identified_vessel, thrust_seen
 from boat_twin.io.trial import Trial, long_holds, thrust_outliers
 from boat_twin.units import KGF_N, KNOT_MPS
@@ -112,10 +112,12 @@ def pool(pieces: list[tuple[Any, Any, Any]]) -> list[tuple[np.ndarray, np.ndarra
 
 
 def physical_problems(fit: SurgeFit, points: list[dict[str, float]],
-                      pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> list[str]:
+                      pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], thrust_name: str = "thrust",
+                      sources: list[str] | None = None) -> list[str]:
     """Why the identified model is not physical (empty: it is): a mass that is not positive, a resistance above
-    the (positive) thrust that held a steady speed, or above the largest thrust at a speed the boat sustained for
-    5 s, or a curve that decreases."""
+    the (positive) thrust that held a steady speed, or above the largest thrust of the fitted ``pieces`` at a
+    speed the boat sustained for 5 s, or a curve that decreases. ``thrust_name`` says what the pieces' thrust is
+    and ``sources`` names each piece (the messages name what was checked)."""
     problems = []
     if not (np.isfinite(fit.mass_kg) and fit.mass_kg > 0.0):
         problems.append(f"effective mass {fit.mass_kg:.4g} kg is not positive")
@@ -131,12 +133,14 @@ def physical_problems(fit: SurgeFit, points: list[dict[str, float]],
         width = max(int(round(5.0 / float(np.median(np.diff(t))))), 1) if t.size > 1 else 1
         if v.size >= width:
             sustained = max(sustained, float(np.max(np.convolve(np.abs(v), np.ones(width) / width, "valid"))))
-    top_thrust = max(float(np.max(f)) for _, f, _ in pieces)
+    tops = [float(np.max(f)) for _, f, _ in pieces]
+    top = int(np.argmax(tops))
     grid = np.linspace(0.0, sustained, 50)
-    over = fit.resistance_N(grid) > (1.0 + OVER_THRUST) * max(top_thrust, 0.0)
+    over = fit.resistance_N(grid) > (1.0 + OVER_THRUST) * max(tops[top], 0.0)
     if np.any(over):
-        problems.append(f"Fc({grid[np.argmax(over)]:.2f} m/s) exceeds the largest thrust commanded "
-                        f"({top_thrust:.4g} N), yet the boat sustained {sustained:.2f} m/s")
+        where = f" in {sources[top]}" if sources else ""
+        problems.append(f"Fc({grid[np.argmax(over)]:.2f} m/s) exceeds the largest {thrust_name}: {tops[top]:.4g} N"
+                        f"{where}, yet the boat sustained {sustained:.2f} m/s")
     if np.any(np.diff(fit.resistance_N(np.linspace(0.0, fit.top_speed_mps, 200))) < -1e-9):
         problems.append("Fc decreases with speed")
     return problems
@@ -209,6 +213,8 @@ def identify_pooled(
     memory_s: float = 3600.0,
     fallback_mass_kg: float | None = None,
     couplings: list[np.ndarray | None] | None = None,
+    thrust_name: str = "thrust",
+    sources: list[str] | None = None,
 ) -> Identification:
     """Identify a boat from one or more recordings of (time s, total thrust N, speed m/s), pooled in one fit.
 
@@ -218,17 +224,21 @@ def identify_pooled(
     identify the mass, ``fallback_mass_kg`` (effective mass, kg, e.g. from a boat file) is held instead and the
     curve refitted; without it the model has no mass. ``couplings`` (one per recording, its samples', N; None:
     none) is a further surge force whose scale the fit estimates (the sway-yaw coupling of
-    :func:`~boat_twin.ident.trial_record.trial_record`). Views of the same data: steady points (detector run on
-    each recording; its criteria derived from the data by :func:`~boat_twin.ident.settling.derive_criteria`,
-    ``window_s`` / ``thrust_tolerance_N`` overriding, ``noise_correlation_s`` > 0 and ``speed_noise_mps`` for a
-    speed smoothed from positions; or ``criteria`` taken as given) with power-series fits of N = 1..``max_order``
-    (CV/BIC selection, or ``order``; Fc(0) = 0 unless ``through_origin`` is False), mass + Fc from transients,
-    and the online identifier replayed over the same samples with its agreement with batch. Returns the
-    typed :class:`~boat_twin.ident.results.Identification` (:func:`identify_recordings`: its ``--json``
-    contract). Pooled recordings share one time axis (:func:`pool`); each steady point and rejected segment
-    names its recording (0-based).
+    :func:`~boat_twin.ident.trial_record.trial_record`); ``thrust_name`` (what the recordings' thrust is) and
+    ``sources`` (a name per recording) are what a problem found names. Views of the same data: steady points
+    (detector run on each recording; its criteria derived from the data by
+    :func:`~boat_twin.ident.settling.derive_criteria`, ``window_s`` / ``thrust_tolerance_N`` overriding,
+    ``noise_correlation_s`` > 0 and ``speed_noise_mps`` for a speed smoothed from positions; or ``criteria`` taken
+    as given) with power-series fits of N = 1..``max_order`` (CV/BIC selection, or ``order``; Fc(0) = 0 unless
+    ``through_origin`` is False), mass + Fc from transients, and the online identifier replayed over the same
+    samples with its agreement with batch. Returns the typed :class:`~boat_twin.ident.results.Identification`
+    (:func:`identify_recordings`: its ``--json`` contract), which holds the records the output-error fit read
+    (``records``: one per recording, the plots' data). Pooled recordings share one time axis (:func:`pool`); each
+    steady point and rejected segment names its recording (0-based).
     """
     pieces = pool(recordings)
+    records = [SurgeRecord(*piece, coupling)
+               for piece, coupling in zip(pieces, couplings or [None] * len(pieces), strict=True)]
     derived = derive_criteria(pieces, criteria, window_s=window_s, thrust_tolerance_N=thrust_tolerance_N,
                               noise_correlation_s=noise_correlation_s, speed_noise_mps=speed_noise_mps)
     if criteria is not None and window_s is None and thrust_tolerance_N is None:
@@ -247,7 +257,7 @@ def identify_pooled(
     rejected = [(i, s) for i, s in segments if not s.accepted]
     fits, chosen, reason, warnings = _steady_view(points, rejected, criteria, order, max_order, monotone,
                                                    through_origin)
-    oe = _output_error(pieces, couplings or [None] * len(pieces), fallback_mass_kg, warnings)
+    oe = _output_error(records, fallback_mass_kg, warnings)
     dyn, dynamic_error = _dynamic(t, f, v, window, warnings)
     model: dict[str, Any] = {"resistance": oe.selected.resistance_model().to_dict()}
     if oe.mass_identified or oe.selected.mass_fixed:
@@ -262,16 +272,15 @@ def identify_pooled(
     )
     for piece in pieces:
         replay_online(*piece, online)
-    problems = physical_problems(oe.selected, steady_point_dicts(points), pieces)
+    problems = physical_problems(oe.selected, steady_point_dicts(points), pieces, thrust_name, sources)
     return Identification(oe, problems, points, rejected, derived, fits, chosen, reason, dyn, dynamic_error,
-                          _online_view(online, fits, chosen, dyn), model, warnings)
+                          _online_view(online, fits, chosen, dyn), model, warnings, records)
 
 
-def _output_error(pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], couplings: list[np.ndarray | None],
-                  fallback_mass_kg: float | None, warnings: list[str]) -> OutputErrorResult:
-    """The output-error model over every sample; the fallback mass held when the data do not identify one
-    (without one, a warning: no mass in the model)."""
-    records = [SurgeRecord(*piece, coupling) for piece, coupling in zip(pieces, couplings, strict=True)]
+def _output_error(records: list[SurgeRecord], fallback_mass_kg: float | None, warnings: list[str]
+                  ) -> OutputErrorResult:
+    """The output-error model over every sample of ``records``; the fallback mass held when the data do not
+    identify one (without one, a warning: no mass in the model)."""
     oe = identify_surge(records)
     if not oe.mass_identified and fallback_mass_kg is not None:
         oe = identify_surge(records, mass_kg=fallback_mass_kg)
@@ -316,18 +325,18 @@ def _online_view(online: OnlineThrustSpeedIdentifier, fits: tuple[FitResult, ...
 
 def identify_trial(trial: Trial, **options: Any) -> tuple[TrialIdentifyResult, Resimulation | None]:
     """One recorded trial: :func:`identify_trials` with it alone; returns the result and its re-simulation."""
-    result, resims, _ = identify_trials([trial], **options)
-    return result, resims[0]
+    result, found = identify_trials([trial], **options)
+    return result, found.trials[0].resimulation
 
 
-def identify_trials(trials: list[Trial], **options: Any
-                    ) -> tuple[TrialIdentifyResult, list[Resimulation | None], VesselParams | None]:
-    """:func:`identify_and_resimulate` as the ``--json`` contract: ``trial`` and ``resimulation`` (the latter
+def identify_trials(trials: list[Trial], **options: Any) -> tuple[TrialIdentifyResult, TrialsIdentification]:
+    """:func:`identify_and_resimulate` and its ``--json`` contract: ``trial`` and ``resimulation`` (the latter
     ``{"error": why}`` when the loop cannot be closed) describe the first trial; ``trials`` lists every trial
     with its own re-simulation; ``twin`` holds the vessel (``vessel``, ``sources``) or ``{"error": why}``.
-    Returns the result, the re-simulations (None where not done) and the vessel (None when no mass is known)."""
+    Returns the contract and the typed result it serialises (the records fitted, the re-simulations, the
+    vessel: what the reports draw)."""
     found = identify_and_resimulate(trials, **options)
-    return (trials_identification_dict(found), [replay.resimulation for replay in found.trials], found.vessel)
+    return trials_identification_dict(found), found
 
 
 def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, max_order: int = 6,
@@ -353,7 +362,8 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
         thrust_tolerance_N=thrust_tolerance_N,
         noise_correlation_s=max(trial.metadata.speed_smoothing_s for trial in trials),
         speed_noise_mps=max(trial.metadata.derived_speed_noise_mps for trial in trials) or None,
-        fallback_mass_kg=fallback, couplings=[rec.coupling_N for rec in records])
+        fallback_mass_kg=fallback, couplings=[rec.coupling_N for rec in records], thrust_name=DELIVERED_THRUST,
+        sources=[str(trial.metadata.source) for trial in trials])
     found.warnings += [w for trial in trials for w in trial_warnings(trial, boat)]
     result = TrialsIdentification(found, [], None)
     try:

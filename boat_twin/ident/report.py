@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +12,7 @@ from matplotlib.figure import Figure
 from boat_twin.data import dyda2021_table1
 from boat_twin.data.dyda2021 import PAPER_COEFFICIENTS, PAPER_FISHER, PAPER_ORDERS
 from boat_twin.files import atomic_save_figure, atomic_write_text, ensure_out_dir, to_json
+from boat_twin.ident.output_error import SurgeRecord
 from boat_twin.ident.paper import paper_model_values
 from boat_twin.ident.resimulate import Resimulation, resimulation_figure
 from boat_twin.ident.results import IdentifyResult, write_model_yaml
@@ -22,18 +23,17 @@ from boat_twin.vessel.resistance import resistance_from_dict
 def write_trial_report(
     out_dir: Path,
     result: IdentifyResult,
-    t_s: np.ndarray,
-    thrust_N: np.ndarray,
-    speed_mps: np.ndarray,
+    records: Sequence[SurgeRecord],
     resimulation: Resimulation | None = None,
     true_resistance_N: Callable[[np.ndarray], np.ndarray] | None = None,
     *,
     title: str | None = None,
 ) -> list[Path]:
-    """Write identify.json, model.yaml, trial.png, resistance.png (and resimulation.png: measured vs
-    re-simulated speed, when ``resimulation`` is given) for an :func:`identify_arrays` result, each figure titled
-    ``title`` (the trial it shows). ``true_resistance_N`` (speed m/s → N): the true curve, drawn when known (a
-    simulated trial)."""
+    """Write identify.json, model.yaml, trial.png (:func:`trial_figure` of ``records``, the records the fit read:
+    :attr:`~boat_twin.ident.results.Identification.records`), resistance.png (and resimulation.png: measured vs
+    re-simulated speed, when ``resimulation`` is given) for an identification's ``--json`` result, each figure
+    titled ``title`` (the trial it shows). ``true_resistance_N`` (speed m/s → N): the true curve, drawn when known
+    (a simulated trial)."""
     out = ensure_out_dir(out_dir)
     written = [out / "identify.json", out / "model.yaml", out / "trial.png", out / "resistance.png"]
     if resimulation is not None:
@@ -42,21 +42,39 @@ def write_trial_report(
     atomic_write_text(written[0], to_json(result) + "\n")
     write_model_yaml(written[1], result["model"],
                      f"boat-twin identify: output-error fit ({result['output_error']['selected']['model']}), SI")
+    atomic_save_figure(written[2], trial_figure(result, records), title)
+    atomic_save_figure(written[3], resistance_figure(result, true_resistance_N), title)
+    return written
+
+
+def trial_figure(result: IdentifyResult, records: Sequence[SurgeRecord]) -> Figure:
+    """The records the output-error fit read, each on the pooled time axis: the speed (a trial's surge along the
+    heading at the time it describes) with the steady-point view's settled tails and rejected segments, the
+    thrust held over each interval (a trial's delivered along the hull) and, where the fit scaled one, the
+    coupling force c·m₂₂·v·r."""
     fig = Figure(figsize=(9, 6))
     ax_v, ax_f = fig.subplots(2, 1, sharex=True)
-    ax_v.plot(t_s, speed_mps, lw=0.6, color="0.4", label="speed")
+    scale = result["output_error"]["selected"].get("coupling_scale", 1.0)
+    coupled = False
+    for k, rec in enumerate(records):
+        ax_v.plot(rec.t_s, rec.speed_mps, lw=0.6, color="0.4")
+        ax_f.plot(rec.t_s, rec.thrust_N, color="tab:blue", drawstyle="steps-post",
+                  label="thrust" if k == 0 else None)
+        if rec.coupling_N is not None:
+            ax_f.plot(rec.t_s, scale * rec.coupling_N, lw=0.8, color="tab:orange", drawstyle="steps-post",
+                      label=None if coupled else f"coupling c·m22·v·r, c = {scale:.2f}")
+            coupled = True
     for seg in result["steady_points"]:
         ax_v.axvspan(seg["end_s"] - seg["duration_s"], seg["end_s"], color="tab:green", alpha=0.25)
     for seg in result["rejected_segments"]:
         ax_v.axvspan(seg["start_s"], seg["end_s"], color="tab:red", alpha=0.15)
-    ax_v.set_ylabel("speed, m/s")
-    ax_v.set_title("settled tails (green), rejected segments (red)")
-    ax_f.plot(t_s, thrust_N, color="tab:blue")
-    ax_f.set_ylabel("total thrust, N")
+    ax_v.set_ylabel("speed as fitted, m/s")
+    ax_v.set_title("the record fitted: settled tails (green), rejected segments (red)")
+    ax_f.set_ylabel("surge force, N")
     ax_f.set_xlabel("time, s")
-    atomic_save_figure(written[2], fig, title)
-    atomic_save_figure(written[3], resistance_figure(result, true_resistance_N), title)
-    return written
+    if coupled:
+        ax_f.legend(fontsize=8)
+    return fig
 
 
 def unvisited_bands(speeds_mps: np.ndarray) -> list[tuple[float, float]]:

@@ -16,7 +16,7 @@ import yaml
 from boat_twin.files import atomic_write_text
 from boat_twin.ident.dynamic import DynamicResult
 from boat_twin.ident.online import SteadySegment
-from boat_twin.ident.output_error import OutputErrorResult
+from boat_twin.ident.output_error import OutputErrorResult, SurgeRecord
 from boat_twin.ident.resimulate import Resimulation
 from boat_twin.ident.settling import DerivedCriteria
 from boat_twin.ident.steady import FitResult
@@ -107,7 +107,10 @@ class Identification:
     """The online identifier's snapshot, with ``agreement_with_batch``."""
     model: dict[str, Any]
     warnings: list[str]
-
+    records: list[SurgeRecord]
+    """The records the output-error fit read, one per recording on the pooled time axis (the steady points'
+    times): a trial's surge record (:func:`~boat_twin.ident.trial_record.trial_record`). What the reports plot;
+    not in the ``--json`` contract."""
 
 
 @dataclass

@@ -35,6 +35,9 @@ from boat_twin.vessel.propulsion import surge_thrust_N
 
 SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
 """Streams the surge samples come from: a gap in any of them makes the samples inside it unknown."""
+DELIVERED_THRUST = ("thrust delivered along the hull (the commands through the configured engines' envelope and "
+                    "steering)")
+"""What the record's thrust is, as messages about it name it."""
 COUPLING_MIN_SHARE = 0.01
 """A sway-yaw coupling whose RMS over the trial is below this share of the thrust's is left out of the record
 (a trial that does not turn: its scale is not identifiable, and below the mass intervals' width), -."""
