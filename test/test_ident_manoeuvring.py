@@ -99,8 +99,9 @@ def test_zigzags_steered_between_log_ticks_identify_without_bias(tmp_path: Path)
     holding the truth and every coefficient within the targets but a_r, which two zigzags at one speed leave
     ±10-20 % wide: measured on seed pairs 1-2, 3-4, 5-6, 7-8, a_r +7.8, +10.3, −0.6, +3.5 %, 31 of the 32
     intervals holding the truth (12 seed pairs: a_r +5.0 % on average, every a_r interval holding it: the initial
-    yaw rate's bias, docs/identification.md, not removed). Reversals read onto the next tick instead (late by half
-    a tick on average) gave a_r +42 % with m33, a_r, Y_vv and the offset outside their intervals."""
+    yaw rate's bias, docs/identification.md, not removed: benchmarks/bench_initial_yaw_rate.py). Reversals read
+    onto the next tick instead (late by half a tick on average) gave a_r +42 % with m33, a_r, Y_vv and the offset
+    outside their intervals."""
     vessel = replace(TwinConfig().vessel, lateral_centre_x_m=-0.8, steering_offset_rad=0.01,
                      manoeuvring={k: v for k, v in EXAMPLE_BOAT.items() if k not in SIGNED})
     config, truth = replace(TwinConfig(), vessel=vessel), EXAMPLE_BOAT
