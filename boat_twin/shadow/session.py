@@ -31,7 +31,7 @@ from boat_twin.shadow.rolling import (
     RollingResult,
 )
 from boat_twin.shadow.sync import Innovation, ShadowTwin, SyncSettings
-from boat_twin.shadow.turning import MIN_TRAINING_S, TurningAdapter, TurningModel
+from boat_twin.shadow.turning import MIN_TRAINING_S, TurningAdapter, TurningModel, coefficients
 from boat_twin.twin.replay import cut_windows, predict
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import VesselParams
@@ -104,6 +104,7 @@ class Shadow:
         self._restarts = 0
         self._last_impulse: tuple[int, float, float] | None = None
         self._held = False
+        self._sway_doubted = False
         self._pending: tuple[DiagnosisJob, Future[Outcome]] | None = None
 
     # --- intake ------------------------------------------------------------------------------------------
@@ -151,7 +152,9 @@ class Shadow:
             # the sway-yaw coupling m₂₂·v·r of the twin's state at that time; its scale is fitted. The measured
             # sway (the GNSS velocity across the heading) was tried: it carries the heading's error (~0.1 m/s a fix
             # at 10 m/s) and the masses came out +0.4…+3.3 % high (docs/live-twin.md)
-            self.adapter.add(t_s, self._interval_thrust_N(t_s), surge, self.twin.m22_kg * sway * rate)
+            force = self._interval_thrust_N(t_s)
+            if not self.sway_doubted():
+                self.adapter.add(t_s, force, surge, self.twin.m22_kg * sway * rate)
             if self.adapter.due(t_s) and not self.model_held() and self.adapter.update(self._held_out_score(t_s)):
                 self.twin.set_config(replace(self.twin.config, vessel=self.vessel()))
         if self.settings.adapt and self.settings.adapt_turning:
@@ -181,6 +184,22 @@ class Shadow:
                      "twin misfits (a cause the model lacks would be fitted into its coefficients)" if held else
                      "model adaptation resumed: the live diagnosis no longer holds `unexplained`")
         return held
+
+    def sway_doubted(self) -> bool:
+        """Whether the twin's own sway, which the surge force's coupling m₂₂·v·r takes, is known wrong now: its
+        yaw rate misfits (innovation ratio above ``misfit_ratio``) and no turning fit has confirmed its turning
+        coefficients (none made yet, or the latest rejects them). The surge adapter is not fed then. Logged when
+        it starts and ends."""
+        doubted = False
+        if self.settings.adapt_turning and self.innovation_ratio("yaw_rate_radps") > self.settings.misfit_ratio:
+            candidate = self.turning.candidate
+            doubted = candidate is None or candidate.rejects(coefficients(self.twin.config.vessel))
+        if doubted != self._sway_doubted:
+            self._sway_doubted = doubted
+            self.log("surge samples set aside: the twin's yaw rate misfits and its turning is not confirmed (its "
+                     "sway, in the surge force's coupling, is wrong)" if doubted else
+                     "surge samples taken again: the twin's turning is confirmed or its yaw rate fits")
+        return doubted
 
     def _held_out_score(self, t_s: float) -> Callable[[SurgeModel], float]:
         """How well a surge model predicts the last ``holdout_s``: the mean squared GNSS velocity error of the
