@@ -187,13 +187,22 @@ class Shadow:
 
     def sway_doubted(self) -> bool:
         """Whether the twin's own sway, which the surge force's coupling m₂₂·v·r takes, is known wrong now: its
-        yaw rate misfits (innovation ratio above ``misfit_ratio``) and no turning fit has confirmed its turning
-        coefficients (none made yet, or the latest rejects them). The surge adapter is not fed then. Logged when
-        it starts and ends."""
+        yaw rate misfits (innovation ratio above ``misfit_ratio``) and the turning is what is wrong — no turning
+        fit made yet, or the latest rejects the twin's turning coefficients while the surge model's scale it
+        fitted with them (:data:`~boat_twin.ident.manoeuvring.SURGE_FACTORS`) holds 1. The surge adapter is not
+        fed then. A turning fit that finds the surge model off says the surge is (also) wrong, and the surge
+        adapts first: the turning of a twin whose resistance is 27 % high is derived wrong from it, misfits, and
+        its fit, replayed with that surge model, did not predict the held-out tail better — the surge never
+        adapted (a speed ratio 10-12 for 15 minutes, ``bench_live_adapt.py`` A, twin boat 3). Logged when it
+        starts and ends."""
         doubted = False
         if self.settings.adapt_turning and self.innovation_ratio("yaw_rate_radps") > self.settings.misfit_ratio:
-            candidate = self.turning.candidate
-            doubted = candidate is None or candidate.rejects(coefficients(self.twin.config.vessel))
+            fit = self.turning.candidate
+            if fit is None:
+                doubted = self.turning.fits == 0
+            else:
+                doubted = (fit.rejects(coefficients(self.twin.config.vessel))
+                           and all(low <= 1.0 <= high for _, low, high in fit.surge_factors.values()))
         if doubted != self._sway_doubted:
             self._sway_doubted = doubted
             self.log("surge samples set aside: the twin's yaw rate misfits and its turning is not confirmed (its "
