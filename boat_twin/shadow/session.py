@@ -151,7 +151,9 @@ class Shadow:
             surge = east * math.cos(yaw) + north * math.sin(yaw)
             # the sway-yaw coupling m₂₂·v·r of the twin's state at that time; its scale is fitted. The measured
             # sway (the GNSS velocity across the heading) was tried: it carries the heading's error (~0.1 m/s a fix
-            # at 10 m/s) and the masses came out +0.4…+3.3 % high (docs/live-twin.md)
+            # at 10 m/s) and the masses came out +0.4…+3.3 % high (docs/live-twin.md). That sway is only as good as
+            # the twin's turning: while the turning is known wrong the sample is set aside (the force still read,
+            # the next interval's mean starts here)
             force = self._interval_thrust_N(t_s)
             if not self.sway_doubted():
                 self.adapter.add(t_s, force, surge, self.twin.m22_kg * sway * rate)
