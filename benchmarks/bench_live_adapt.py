@@ -20,6 +20,7 @@ O. T's independent boats fitted offline (fit_manoeuvring over the live coefficie
    does (``SURGE_FACTORS``): how often the intervals hold the truth, the errors.
 
 Run: .venv/bin/python benchmarks/bench_live_adapt.py [--boats 6] [--duration-s 900] [--only BAZTO]
+     [--boat-index I]  (T only: one boat of each source)
 """
 
 from __future__ import annotations
@@ -143,13 +144,15 @@ def study_zigzag(duration_s: float, seeds: int) -> None:
           f"{min(errors):+.1%} … {max(errors):+.1%}", flush=True)
 
 
-def study_turning(boats: int, duration_s: float) -> None:
+def study_turning(boats: int, duration_s: float, boat_index: int | None = None) -> None:
     rng = np.random.default_rng(7)
     for source, make in (("twin", twin_trial), ("independent", independent)):
         rows = []
         cpu = time.process_time()
         for b in range(boats):
             damping_f, inertia_f = rng.uniform(0.75, 1.25, 2)
+            if boat_index is not None and b != boat_index:
+                continue
             base = TwinConfig() if source == "twin" else TwinConfig(vessel=replace(TwinConfig().vessel,
                                                                                      steering_rate_radps=0.0))
             derived = coefficients(base.vessel)  # the integrator's outboards swing instantly: the model says so
@@ -157,7 +160,7 @@ def study_turning(boats: int, duration_s: float) -> None:
                 "yaw_damping_Nms": derived["yaw_damping_Nms"] * damping_f,
                 "m33_kgm2": derived["m33_kgm2"] * inertia_f}))
             result = follow_trial(make(truth, duration_s, 80 + b), base, NO_DIAGNOSIS)
-            turning = result.final["model"]["turning"]
+            turning, surge = result.final["model"]["turning"], result.final["model"]["surge"]
             true = coefficients(truth.vessel)
             held = sum(turning["ci95"][k][0] <= true[k] <= turning["ci95"][k][1] for k in turning["ci95"])
             latest = turning["latest_fit"]
@@ -176,7 +179,8 @@ def study_turning(boats: int, duration_s: float) -> None:
                   f"{turning['swaps']} swaps), yaw damping {error:+.1%} [{ci[0] / true['yaw_damping_Nms'] - 1:+.1%}, "
                   f"{ci[1] / true['yaw_damping_Nms'] - 1:+.1%}], intervals holding the truth {held}/{len(LIVE_KEYS)}"
                   f" ({each}; * outside), latest fit's {latest_held}; yaw-rate innovation ratio {ratios[0]:.2f} → "
-                  f"{ratios[-1]:.2f}", flush=True)
+                  f"{ratios[-1]:.2f}; surge {surge['mass_kg']:.0f} kg [{surge['mass_ci95_kg'][0]:.0f}, "
+                  f"{surge['mass_ci95_kg'][1]:.0f}] (true {truth.vessel.mass_kg:.0f})", flush=True)
         n = len(rows)
         adopted = [r for r in rows if r[0]]
         print(f"T  {source}: {n} boats, {duration_s / 60:.0f} min each: turning adopted on {len(adopted)}/{n}; "
@@ -221,6 +225,8 @@ def main() -> None:
     parser.add_argument("--flap-seeds", type=int, default=3, help="trials in B")
     parser.add_argument("--zigzag-seeds", type=int, default=4, help="trials in Z")
     parser.add_argument("--only", default="BAZTO", help="studies to run, by letter (default: all)")
+    parser.add_argument("--boat-index", type=int, default=None,
+                        help="T: follow only this boat of each source (the same draws as the full study)")
     args = parser.parse_args()
     if "B" in args.only:
         study_flapping(args.duration_s, args.flap_seeds)
@@ -229,7 +235,7 @@ def main() -> None:
     if "Z" in args.only:
         study_zigzag(args.duration_s, args.zigzag_seeds)
     if "T" in args.only:
-        study_turning(args.boats, args.duration_s)
+        study_turning(args.boats, args.duration_s, args.boat_index)
     if "O" in args.only:
         study_offline(args.boats, args.duration_s)
 

@@ -10,7 +10,9 @@ along the hull at the outboards' real angles, the twin's mean over the interval 
 c times the sway-yaw coupling m₂₂·v·r, which in a turn is as large as a resistance error, of the twin's state
 when the velocity was measured (its yaw rate held to the gyro, its sway to the GNSS velocity); the GNSS velocity
 through the water along the twin's heading when it was measured, not its magnitude, which holds the sway too).
-The coupling's scale c is fitted too: the twin's m₂₂ and sway give v·r a few per cent off. The speed
+The coupling's scale c is fitted too: the twin's m₂₂ and sway give v·r a few per cent off; while the twin's
+turning is known wrong its sway is far off, and the session feeds no samples
+(:meth:`~boat_twin.shadow.session.Shadow.sway_doubted`). The speed
 measured at t describes the boat at t − GNSS latency; the fit takes it there (on the 6 m boat, ignoring the
 0.1 s shifted the mass by +1.3 %).
 

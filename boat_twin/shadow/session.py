@@ -31,7 +31,7 @@ from boat_twin.shadow.rolling import (
     RollingResult,
 )
 from boat_twin.shadow.sync import Innovation, ShadowTwin, SyncSettings
-from boat_twin.shadow.turning import MIN_TRAINING_S, TurningAdapter, TurningModel
+from boat_twin.shadow.turning import MIN_TRAINING_S, TurningAdapter, TurningModel, coefficients
 from boat_twin.twin.replay import cut_windows, predict
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import VesselParams
@@ -104,6 +104,7 @@ class Shadow:
         self._restarts = 0
         self._last_impulse: tuple[int, float, float] | None = None
         self._held = False
+        self._sway_doubted = False
         self._pending: tuple[DiagnosisJob, Future[Outcome]] | None = None
 
     # --- intake ------------------------------------------------------------------------------------------
@@ -150,8 +151,12 @@ class Shadow:
             surge = east * math.cos(yaw) + north * math.sin(yaw)
             # the sway-yaw coupling m₂₂·v·r of the twin's state at that time; its scale is fitted. The measured
             # sway (the GNSS velocity across the heading) was tried: it carries the heading's error (~0.1 m/s a fix
-            # at 10 m/s) and the masses came out +0.4…+3.3 % high (docs/live-twin.md)
-            self.adapter.add(t_s, self._interval_thrust_N(t_s), surge, self.twin.m22_kg * sway * rate)
+            # at 10 m/s) and the masses came out +0.4…+3.3 % high (docs/live-twin.md). That sway is only as good as
+            # the twin's turning: while the turning is known wrong the sample is set aside (the force still read,
+            # the next interval's mean starts here)
+            force = self._interval_thrust_N(t_s)
+            if not self.sway_doubted():
+                self.adapter.add(t_s, force, surge, self.twin.m22_kg * sway * rate)
             if self.adapter.due(t_s) and not self.model_held() and self.adapter.update(self._held_out_score(t_s)):
                 self.twin.set_config(replace(self.twin.config, vessel=self.vessel()))
         if self.settings.adapt and self.settings.adapt_turning:
@@ -181,6 +186,31 @@ class Shadow:
                      "twin misfits (a cause the model lacks would be fitted into its coefficients)" if held else
                      "model adaptation resumed: the live diagnosis no longer holds `unexplained`")
         return held
+
+    def sway_doubted(self) -> bool:
+        """Whether the twin's own sway, which the surge force's coupling m₂₂·v·r takes, is known wrong now: its
+        yaw rate misfits (innovation ratio above ``misfit_ratio``) and the turning is what is wrong — no turning
+        fit made yet, or the latest rejects the twin's turning coefficients while the surge model's scale it
+        fitted with them (:data:`~boat_twin.ident.manoeuvring.SURGE_FACTORS`) holds 1. The surge adapter is not
+        fed then. A turning fit that finds the surge model off says the surge is (also) wrong, and the surge
+        adapts first: the turning of a twin whose resistance is 27 % high is derived wrong from it, misfits, and
+        its fit, replayed with that surge model, did not predict the held-out tail better — the surge never
+        adapted (a speed ratio 10-12 for 15 minutes, ``bench_live_adapt.py`` A, twin boat 3). Logged when it
+        starts and ends."""
+        doubted = False
+        if self.settings.adapt_turning and self.innovation_ratio("yaw_rate_radps") > self.settings.misfit_ratio:
+            fit = self.turning.candidate
+            if fit is None:
+                doubted = self.turning.fits == 0
+            else:
+                doubted = (fit.rejects(coefficients(self.twin.config.vessel))
+                           and all(low <= 1.0 <= high for _, low, high in fit.surge_factors.values()))
+        if doubted != self._sway_doubted:
+            self._sway_doubted = doubted
+            self.log("surge samples set aside: the twin's yaw rate misfits and its turning is not confirmed (its "
+                     "sway, in the surge force's coupling, is wrong)" if doubted else
+                     "surge samples taken again: the twin's turning is confirmed or its yaw rate fits")
+        return doubted
 
     def _held_out_score(self, t_s: float) -> Callable[[SurgeModel], float]:
         """How well a surge model predicts the last ``holdout_s``: the mean squared GNSS velocity error of the
