@@ -152,7 +152,8 @@ class Shadow:
             # sway (the GNSS velocity across the heading) was tried: it carries the heading's error (~0.1 m/s a fix
             # at 10 m/s) and the masses came out +0.4…+3.3 % high (docs/live-twin.md)
             self.adapter.add(t_s, self._interval_thrust_N(t_s), surge, self.twin.m22_kg * sway * rate)
-            if self.adapter.due(t_s) and not self.model_held() and self.adapter.update(self._held_out_score(t_s)):
+            if self.adapter.due(t_s) and not self.model_held() and self.adapter.update(
+                    self._held_out_score(t_s), self.turning.coupling_sd(self.vessel())):
                 self.twin.set_config(replace(self.twin.config, vessel=self.vessel()))
         if self.settings.adapt and self.settings.adapt_turning:
             first_s = self.recent.first_s + self.settings.holdout_s + MIN_TRAINING_S
