@@ -11,12 +11,12 @@ c times the sway-yaw coupling m₂₂·v·r, which in a turn is as large as a re
 when the velocity was measured (its yaw rate held to the gyro, its sway to the GNSS velocity); the GNSS velocity
 through the water along the twin's heading when it was measured, not its magnitude, which holds the sway too).
 The coupling's scale c is fitted too: the twin's m₂₂ and sway give v·r a few per cent off. It is fitted under a
-Gaussian prior c ~ N(1, σ_c²) whose σ_c is the turning model's own uncertainty of m₂₂/a_v (the caller's,
-:meth:`~boat_twin.shadow.turning.TurningAdapter.coupling_sd`; :data:`COUPLING_SCALE_SD` while the twin turns
-as configured): on constant-thrust zigzags the mass is seen only in the speed each turn costs, where the
-coupling acts, and with c free the two were confounded (the mass held on most full horizons). The speed
-measured at t describes the boat at t − GNSS latency; the fit takes it there (on the 6 m boat, ignoring the
-0.1 s shifted the mass by +1.3 %).
+Gaussian prior c ~ N(1, σ_c²) whose σ_c is the turning model's own uncertainty of m₂₂/a_v and the sway state's
+(:data:`COUPLING_STATE_SD`; the caller's, :meth:`~boat_twin.shadow.turning.TurningAdapter.coupling_sd`;
+:data:`COUPLING_SCALE_SD` while the twin turns as configured): on constant-thrust zigzags the mass is seen only
+in the speed each turn costs, where the coupling acts, and with c free the two were confounded (the mass held on
+most full horizons). The speed measured at t describes the boat at t − GNSS latency; the fit takes it there (on
+the 6 m boat, ignoring the 0.1 s shifted the mass by +1.3 %).
 
 Cost decides the curve's size: the offline cross-validation (baseline and 3, 5, 8, 12 I-splines, four folds:
 22 fits) costs 2 s of CPU on a 470 s horizon with one BLAS thread, 20 s with OpenBLAS's threads on the loaded
