@@ -602,14 +602,14 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
         if prior_sd > 0.0:
             weight[0] = float(np.sqrt(np.mean(np.square(problem.noise_mps)))) / prior_sd
             first = solve(x0)
-            data = evaluate(first.x)[0][:-1]
+            data = evaluate(first.x)[0][: problem.measured().size]
             x0 = first.x if np.all(np.isfinite(data)) else x0
             if np.all(np.isfinite(data)):
                 weight[0] = _long_run_sd(problem, data) / prior_sd
         result = solve(x0)
     residual, jac = evaluate(result.x)
-    if prior_sd > 0.0:
-        residual, jac = residual[:-1], jac[:-1]
+    n_data = problem.measured().size  # the prior's row, when there is one, after the data's
+    residual, jac = residual[:n_data], jac[:n_data]
     if not np.all(np.isfinite(residual)):
         raise InputError("the surge model diverged while fitting (non-finite speeds): check the recording's units")
     coeffs, mass, u0 = problem.unpack(result.x)
