@@ -211,7 +211,8 @@ def fit_surge(record: SurgeRecord, base: VesselParams, current: SurgeModel, spli
               coupling_sd: float | None = None) -> SurgeModel | None:
     """The output-error fit of (mass, resistance) on one horizon (:func:`horizon_record`) as a surge model of
     ``base``: ``splines`` I-spline terms or the baseline; the mass held at ``current``'s when the horizon does not
-    fix it. None when the fit cannot be made (too few samples, no motion, divergence)."""
+    fix it; the coupling's scale under a prior N(1, ``coupling_sd``²) (None: :data:`COUPLING_SCALE_SD`). None when
+    the fit cannot be made (too few samples, no motion, divergence)."""
     if record.t_s.size < MIN_SAMPLES:
         return None
     added = 1.0 + base.surge_added_mass_ratio
