@@ -205,3 +205,21 @@ def test_surge_samples_are_set_aside_only_while_the_turning_is_what_is_wrong() -
     shadow.turning.candidate = TurningModel(wrong, {}, covariance, 20, surge_factors=surge_right)
     shadow._squares["yaw_rate_radps"].append((0.0, 0.0, 2.0))  # ratio 4 / 3 under 1.5
     assert not shadow.sway_doubted()
+
+
+def test_the_surge_fits_coupling_prior_is_the_turning_models_uncertainty_of_m22_over_a_v() -> None:
+    """The twin's sway in a turn scales with 1/a_v, its coupling m₂₂·v·r with m₂₂/a_v: the prior on the coupling's
+    scale is that ratio's relative deviation from the latest turning fit (its variance plus the twin's distance
+    from it) and the sway state's measured 5 %; without a fit, the configured a_v's drift-angle range (3-6° as a
+    95 % interval: 0.177) and the state's."""
+    config = TwinConfig()
+    adapter = TurningAdapter(config.vessel)
+    assert adapter.coupling_sd(config.vessel) == pytest.approx(math.hypot(math.log(2.0) / 3.92, 0.05))
+    values = coefficients(config.vessel)
+    cov = np.diag([0.02, 0.01, 0.03, 0.01, 0.05]) ** 2
+    cov[0, 2] = cov[2, 0] = 0.5 * 0.02 * 0.03  # m22 and a_v correlated
+    adapter.candidate = TurningModel(values=values, covariance=tuple(map(tuple, cov)), windows=20)
+    ratio_variance = 0.02**2 + 0.03**2 - 0.02 * 0.03 + 0.05**2  # and the sway state's 5 %
+    assert adapter.coupling_sd(config.vessel) == pytest.approx(math.sqrt(ratio_variance))
+    off = _turning_otherwise(config.vessel, sway_damping_Nspm2=1.1)  # the twin 10 % from the fit in a_v
+    assert adapter.coupling_sd(off) == pytest.approx(math.sqrt(ratio_variance + math.log(1.1) ** 2))

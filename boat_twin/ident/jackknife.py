@@ -11,11 +11,14 @@ from __future__ import annotations
 import numpy as np
 
 
-def jackknife_covariance(jac: np.ndarray, residual: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, int]:
+def jackknife_covariance(jac: np.ndarray, residual: np.ndarray, labels: np.ndarray,
+                         prior_information: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """(p, p) covariance (G − 1)/G·Σ_g (d_g − d̄)(d_g − d̄)ᵀ of the fit with Jacobian ``jac`` (n, p) and residuals
-    ``residual`` (n,) at its solution, d_g = (JᵀJ − J_gᵀJ_g)⁺·J_gᵀr_g the step of the fit without cluster g (rows
-    whose ``labels`` (n,) are g); and G, the number of clusters."""
-    information = jac.T @ jac
+    ``residual`` (n,) at its solution, d_g = (JᵀJ + P − J_gᵀJ_g)⁺·J_gᵀr_g the step of the fit without cluster g
+    (rows whose ``labels`` (n,) are g); and G, the number of clusters. ``prior_information`` P (p, p; None: 0)
+    is the information of penalty rows no cluster holds (a prior the fit minimised with the data's residuals),
+    kept in every replicate: the spread is the data's alone, the caller adds the prior's own."""
+    information = jac.T @ jac + (0.0 if prior_information is None else prior_information)
     groups = np.unique(labels)
     shifts = np.empty((groups.size, jac.shape[1]))
     for i, g in enumerate(groups):

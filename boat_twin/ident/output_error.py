@@ -19,7 +19,9 @@ is unique for every thrust); going astern meets the mirrored resistance (odd ext
 too few to fit a curve of their own). Knots sit at quantiles of the measured speeds.
 
 A record may carry a further force C the caller computes from a model of its own (the live twin's sway-yaw
-coupling m₂₂·v·r): the force is then T + c·C, its scale c fitted with the rest.
+coupling m₂₂·v·r): the force is then T + c·C, its scale c fitted with the rest — free, or under a Gaussian prior
+c ~ N(1, σ_c²) from the caller's knowledge of its model (:func:`fit_surge`'s ``coupling_sd``): where the mass is
+seen only where C acts (constant-thrust zigzags) the data cannot tell c from the mass, and the prior can.
 
 Fit: the model is simulated through every sample of every segment (RK4, each sample's thrust held to the next
 sample: a zero-order hold on the record's own grid, so a thrust varying inside an interval is given as its mean
@@ -295,6 +297,8 @@ class SurgeFit:
     """The fitted scale c of the records' coupling force (1: none fitted), -."""
     coupling_scale_sd: float = 0.0
     """Its cluster-robust standard deviation, -."""
+    coupling_prior_sd: float = 0.0
+    """Standard deviation of the Gaussian prior N(1, σ²) the fit put on c (0: none; :func:`fit_surge`), -."""
     reference: SurgeFit | None = None
     """The next richer resistance basis fitted to the same data: the spread between the two is the basis'
     approximation error, which the intervals carry beside the sampling variance (None: sampling variance only)."""
@@ -360,8 +364,8 @@ class SurgeFit:
             "interval_reference": None if self.reference is None else self.reference.basis.name,
             "resistance_table": {"speed_mps": speeds.tolist(), "force_N": self.resistance_N(speeds).tolist(),
                                  "ci95_low_N": lo.tolist(), "ci95_high_N": hi.tolist()},
-        } | ({"coupling_scale": self.coupling_scale, "coupling_scale_sd": self.coupling_scale_sd}
-             if self.coupling_fitted else {})
+        } | ({"coupling_scale": self.coupling_scale, "coupling_scale_sd": self.coupling_scale_sd,
+              "coupling_prior_sd": self.coupling_prior_sd} if self.coupling_fitted else {})
 
 
 def speed_noise_mps(speed_mps: np.ndarray) -> float:
@@ -511,16 +515,23 @@ def _initial_guess(problem: _Problem) -> np.ndarray:
     raise InputError("the surge model diverges for every trial mass: check the thrust and speed units")
 
 
-def _cluster_covariance(problem: _Problem, residual: np.ndarray, jac: np.ndarray, free: np.ndarray
-                        ) -> tuple[np.ndarray, int, float]:
-    """Cluster-robust covariance of the free parameters, the number of clusters and their length (s)."""
+def _correlation_time_s(problem: _Problem, residual: np.ndarray) -> tuple[float, float]:
+    """The residuals' sample interval and integrated correlation time dt·(1 + 2·Σ ρ_k) (the autocorrelation
+    summed to its first non-positive lag), s."""
     times = problem.times()
     dt = float(np.median(np.diff(times))) if times.size > 1 else 1.0
     centred = residual - residual.mean()
     acf = np.correlate(centred, centred, "full")[residual.size - 1:] / max(float(centred @ centred), 1e-300)
     negative = np.flatnonzero(acf[1:] <= 0.0)
     lags = acf[1: 1 + (int(negative[0]) if negative.size else acf.size - 1)]
-    correlation_s = dt * (1.0 + 2.0 * float(np.sum(lags)))
+    return dt, dt * (1.0 + 2.0 * float(np.sum(lags)))
+
+
+def _cluster_covariance(problem: _Problem, residual: np.ndarray, jac: np.ndarray, free: np.ndarray,
+                        prior_information: np.ndarray | None = None) -> tuple[np.ndarray, int, float]:
+    """Cluster-robust covariance of the free parameters, the number of clusters and their length (s);
+    ``prior_information`` (free × free): a penalty's, kept in every replicate (:func:`jackknife_covariance`)."""
+    _, correlation_s = _correlation_time_s(problem, residual)
     cluster_s = max(MIN_CLUSTER_S, 5.0 * correlation_s)
     labels = np.empty(residual.size, dtype=int)
     offset, label = 0, 0
@@ -530,14 +541,26 @@ def _cluster_covariance(problem: _Problem, residual: np.ndarray, jac: np.ndarray
         labels[offset: offset + t.size] = label + block
         label += int(block[-1]) + 1
         offset += t.size
-    cov, _ = jackknife_covariance(jac[:, free], residual, labels)
+    cov, _ = jackknife_covariance(jac[:, free], residual, labels, prior_information)
     return cov, label, cluster_s
 
 
 def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: list[Segment] | None = None,
-              mass_kg: float | None = None, top_speed_mps: float | None = None) -> SurgeFit:
+              mass_kg: float | None = None, top_speed_mps: float | None = None,
+              coupling_sd: float | None = None) -> SurgeFit:
     """Fit ``basis`` and the effective mass (or hold ``mass_kg``) by output error over ``segments`` (default: all
-    of ``records`` cut at gaps). Returns the fit with its cluster-robust covariance."""
+    of ``records`` cut at gaps). Returns the fit with its cluster-robust covariance.
+
+    ``coupling_sd`` (-; None: none) is the standard deviation of a Gaussian prior c ~ N(1, σ_c²) on the coupling
+    force's scale, for a caller that knows how far its coupling model may be off (:data:`SurgeRecord.coupling_N`).
+    Where the data alone cannot tell c from the mass (the mass seen only where the coupling acts: constant-thrust
+    zigzags) the prior lets them. It is a pseudo-observation w·(c − 1) beside the speed residuals, its weight
+    w = s/σ_c with s² the residuals' long-run variance (their variance × the integrated correlation time over
+    the sample interval: the variance the cluster-robust covariance gives the data's information), so that the
+    fit weighs the prior against the data as their variances say; w is set from a first pass's residuals (the GNSS
+    noise before) and the fit repeated from there. Its covariance: the jackknife over the data's clusters with the
+    prior's information in every replicate, plus the prior's own variance carried through (the sandwich's
+    H⁻¹·w²s²·eeᵀ·H⁻¹): the Gaussian posterior where the model is linear."""
     segments = segments if segments is not None else split_segments(records)
     if not segments:
         raise InputError(f"no stretch of {MIN_SEGMENT_SAMPLES} samples without a gap over {MAX_GAP_S:g} s: "
@@ -549,6 +572,9 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
                             [-np.inf] if problem.coupled else [], np.full(len(segments), -np.inf)])
     upper = np.full(x0.size, np.inf)
     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+    scale_at = problem.heads - 1  # c's place in the vector (when coupled)
+    prior_sd = float(coupling_sd) if problem.coupled and coupling_sd is not None and coupling_sd > 0.0 else 0.0
+    weight = [0.0]  # the prior row's weight w, m/s per unit of c (0: no prior)
 
     def evaluate(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         key = x.tobytes()
@@ -557,30 +583,63 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
             residual, jac = problem.simulate(x)
             if not _finite_squares(jac):  # sensitivities blew up (a stiff, near-massless trial point): a
                 residual = np.full_like(residual, np.nan)  # failed step, which the solver shrinks away from
+            if weight[0] > 0.0:  # the prior on c: one pseudo-observation w·(c − 1)
+                row = np.zeros((1, jac.shape[1]))
+                row[0, scale_at] = weight[0]
+                residual, jac = np.append(residual, weight[0] * (x[scale_at] - 1.0)), np.vstack([jac, row])
             cache[key] = residual, jac
         return cache[key]
+
+    def solve(start: np.ndarray) -> optimize.OptimizeResult:
+        cache.clear()
+        return optimize.least_squares(lambda x: evaluate(x)[0], np.clip(start, lower, upper),
+                                      jac=lambda x: evaluate(x)[1], bounds=(lower, upper), x_scale="jac",
+                                      method="trf", max_nfev=200)
 
     # The solver's matrices are small (parameters × samples): BLAS threads only spin (0.18 s per SVD on a busy
     # machine against 3 ms on one thread), so the fit runs on one.
     with np.errstate(over="ignore", invalid="ignore"), threadpool_limits(limits=1, user_api="blas"):
-        result = optimize.least_squares(lambda x: evaluate(x)[0], np.clip(x0, lower, upper),
-                                        jac=lambda x: evaluate(x)[1], bounds=(lower, upper), x_scale="jac",
-                                        method="trf", max_nfev=200)
+        if prior_sd > 0.0:
+            weight[0] = float(np.sqrt(np.mean(np.square(problem.noise_mps)))) / prior_sd
+            first = solve(x0)
+            data = evaluate(first.x)[0][: problem.measured().size]
+            x0 = first.x if np.all(np.isfinite(data)) else x0
+            if np.all(np.isfinite(data)):
+                weight[0] = _long_run_sd(problem, data) / prior_sd
+        result = solve(x0)
     residual, jac = evaluate(result.x)
+    n_data = problem.measured().size  # the prior's row, when there is one, after the data's
+    residual, jac = residual[:n_data], jac[:n_data]
     if not np.all(np.isfinite(residual)):
         raise InputError("the surge model diverged while fitting (non-finite speeds): check the recording's units")
     coeffs, mass, u0 = problem.unpack(result.x)
     free = np.ones(result.x.size, dtype=bool)
     free[: problem.p] = result.active_mask[: problem.p] == 0
-    cov_free, clusters, cluster_s = _cluster_covariance(problem, residual, jac, free)
+    prior = np.zeros((int(free.sum()), int(free.sum())))
+    if prior_sd > 0.0:
+        at = int(np.count_nonzero(free[:scale_at]))
+        prior[at, at] = weight[0] ** 2
+    cov_free, clusters, cluster_s = _cluster_covariance(problem, residual, jac, free, prior)
+    if prior_sd > 0.0:  # the prior's own variance, (w·σ_c)² = s² on its row, through H⁻¹
+        response = np.linalg.pinv(jac[:, free].T @ jac[:, free] + prior)[:, at] * weight[0]
+        cov_free = cov_free + np.outer(response, response) * (weight[0] * prior_sd) ** 2
     cov = np.zeros((result.x.size, result.x.size))
     cov[np.ix_(free, free)] = cov_free
     param_cov = np.zeros((problem.p + 1, problem.p + 1))  # the coefficients and the mass (c's share in them)
     n_params = problem.p + (mass_kg is None)
     param_cov[:n_params, :n_params] = cov[:n_params, :n_params]
-    scale_sd = float(np.sqrt(max(cov[problem.heads - 1, problem.heads - 1], 0.0))) if problem.coupled else 0.0
+    scale_sd = float(np.sqrt(max(cov[scale_at, scale_at], 0.0))) if problem.coupled else 0.0
     return SurgeFit(basis, np.array(coeffs), mass, mass_kg is not None, np.array(u0), residual, param_cov, clusters,
-                    cluster_s, top, problem.evaluations, problem.coupled, problem.scale(result.x), scale_sd)
+                    cluster_s, top, problem.evaluations, problem.coupled, problem.scale(result.x), scale_sd,
+                    coupling_prior_sd=prior_sd)
+
+
+def _long_run_sd(problem: _Problem, residual: np.ndarray) -> float:
+    """√ of the residuals' long-run variance, m/s: their mean square × the integrated correlation time over the
+    sample interval (:func:`_correlation_time_s`) — what one sample's residual weighs in the cluster-robust
+    covariance of a parameter that acts smoothly over many samples."""
+    dt, correlation_s = _correlation_time_s(problem, residual)
+    return float(np.sqrt(np.mean(residual**2) * max(correlation_s / dt, 1.0)))
 
 
 def predict(fit: SurgeFit, record: SurgeRecord, segment: Segment) -> np.ndarray:

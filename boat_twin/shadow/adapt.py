@@ -10,11 +10,15 @@ along the hull at the outboards' real angles, the twin's mean over the interval 
 c times the sway-yaw coupling m₂₂·v·r, which in a turn is as large as a resistance error, of the twin's state
 when the velocity was measured (its yaw rate held to the gyro, its sway to the GNSS velocity); the GNSS velocity
 through the water along the twin's heading when it was measured, not its magnitude, which holds the sway too).
-The coupling's scale c is fitted too: the twin's m₂₂ and sway give v·r a few per cent off; while the twin's
-turning is known wrong its sway is far off, and the session feeds no samples
-(:meth:`~boat_twin.shadow.session.Shadow.sway_doubted`). The speed
-measured at t describes the boat at t − GNSS latency; the fit takes it there (on the 6 m boat, ignoring the
-0.1 s shifted the mass by +1.3 %).
+The coupling's scale c is fitted too: the twin's m₂₂ and sway give v·r a few per cent off (while the twin's
+turning is known wrong its sway is far off, and the session feeds no samples:
+:meth:`~boat_twin.shadow.session.Shadow.sway_doubted`). It is fitted under a
+Gaussian prior c ~ N(1, σ_c²) whose σ_c is the turning model's own uncertainty of m₂₂/a_v and the sway state's
+(:data:`COUPLING_STATE_SD`; the caller's, :meth:`~boat_twin.shadow.turning.TurningAdapter.coupling_sd`;
+:data:`COUPLING_SCALE_SD` while the twin turns as configured): on constant-thrust zigzags the mass is seen only
+in the speed each turn costs, where the coupling acts, and with c free the two were confounded (the mass held on
+most full horizons). The speed measured at t describes the boat at t − GNSS latency; the fit takes it there (on
+the 6 m boat, ignoring the 0.1 s shifted the mass by +1.3 %).
 
 Cost decides the curve's size: the offline cross-validation (baseline and 3, 5, 8, 12 I-splines, four folds:
 22 fits) costs 2 s of CPU on a 470 s horizon with one BLAS thread, 20 s with OpenBLAS's threads on the loaded
@@ -90,6 +94,26 @@ MAX_WAIT_PERIODS = 4.0
 MIN_FACTOR_FORCE_SHARE = 0.02
 """Fitted speeds where the configured resistance is below this share of its largest there (near rest) carry no
 knot of :func:`over_configured`: their ratio of two near-zero forces is noise, -."""
+DRIFT_RANGE_RAD = (math.radians(3.0), math.radians(6.0))
+"""Drift angle of a planing catamaran in a steady turn, rad: it skids little, 3-6° (the range of
+``VesselParams.turn_drift_rad``, whose 4° the configured turning is derived from)."""
+CONFIGURED_TURNING_SD = math.log(DRIFT_RANGE_RAD[1] / DRIFT_RANGE_RAD[0]) / (2.0 * 1.96)
+"""Relative standard deviation of the configured (derived) turning's m₂₂/a_v, -: 0.177. The twin's sway in a turn
+is v = (Y_T − m₁₁·u·r)/(a_v·u) (its steady sway balance), so its coupling m₂₂·v·r scales with m₂₂/a_v, and the
+configured a_v is derived from the reference turn's drift angle (a_v ∝ 1/sin β): the 3-6° range
+(:data:`DRIFT_RANGE_RAD`) read as a 95 % interval of log β gives σ(log a_v) = ln 2/3.92 (m₂₂'s strip-theory added
+mass taken as exact). With fitted turning coefficients the fit's own σ replaces it
+(:meth:`~boat_twin.shadow.turning.TurningAdapter.coupling_sd`)."""
+COUPLING_STATE_SD = 0.05
+"""Relative standard deviation of the twin's sway-yaw coupling m₂₂·v·r from its sway *state* beyond its turning
+coefficients, -: the state is the model's between fixes (the velocity filter's gain is ~0.05 a fix) under the
+twin's actuator and the horizon's earlier models (each sample's coupling is the twin's state then). Measured:
+on ``bench_live_adapt.py`` study A's boats, with c free, the fits found c = 0.95-1.05 (±0.004-0.045) where the
+turning fits put σ(log m₂₂/a_v) at 0.001-0.009, so the turning's intervals alone do not bound the coupling's
+error; the 5 % they missed is added in quadrature."""
+COUPLING_SCALE_SD = math.hypot(CONFIGURED_TURNING_SD, COUPLING_STATE_SD)
+"""Standard deviation of the Gaussian prior on the coupling's scale c while the twin turns with its configured
+coefficients (no turning fit yet), -: 0.184 (:data:`CONFIGURED_TURNING_SD` and :data:`COUPLING_STATE_SD`)."""
 FACTOR_RANGE = (0.3, 3.0)
 """Physical range of the mass and resistance factors relative to the configured boat, -: a fit outside is a
 stand-in for something else (a current, a fault) and is not adopted."""
@@ -149,6 +173,7 @@ class SurgeModel:
         if self.fit is not None and self.fit.coupling_fitted:  # the scale fitted on m₂₂·v·r
             out["coupling_scale"] = float(self.fit.coupling_scale)
             out["coupling_scale_sd"] = float(self.fit.coupling_scale_sd)
+            out["coupling_prior_sd"] = float(self.fit.coupling_prior_sd)
         if self.resistance is not None and self.speeds_mps:
             speeds = np.linspace(0.0, max(self.speeds_mps), 11)
             out["resistance_table"] = {"speed_mps": speeds.tolist(),
@@ -184,22 +209,24 @@ def basis_for(record: SurgeRecord, splines: int) -> ResistanceBasis:
     return ResistanceBasis() if splines == 0 else spline_basis(record.speed_mps, splines)
 
 
-def fit_surge(record: SurgeRecord, base: VesselParams, current: SurgeModel, splines: int = SPLINES
-              ) -> SurgeModel | None:
+def fit_surge(record: SurgeRecord, base: VesselParams, current: SurgeModel, splines: int = SPLINES,
+              coupling_sd: float | None = None) -> SurgeModel | None:
     """The output-error fit of (mass, resistance) on one horizon (:func:`horizon_record`) as a surge model of
     ``base``: ``splines`` I-spline terms or the baseline; the mass held at ``current``'s when the horizon does not
-    fix it. None when the fit cannot be made (too few samples, no motion, divergence)."""
+    fix it; the coupling's scale under a prior N(1, ``coupling_sd``²) (None: :data:`COUPLING_SCALE_SD`). None when
+    the fit cannot be made (too few samples, no motion, divergence)."""
     if record.t_s.size < MIN_SAMPLES:
         return None
     added = 1.0 + base.surge_added_mass_ratio
     basis = basis_for(record, splines)
     try:
-        fit = output_error.fit_surge([record], basis)
+        sd = COUPLING_SCALE_SD if coupling_sd is None else coupling_sd
+        fit = output_error.fit_surge([record], basis, coupling_sd=sd)
         low, high = fit.mass_ci95_kg
         held = not (fit.mass_kg > 0.0 and math.isfinite(low) and math.isfinite(high)
                     and high - low <= 2.0 * MASS_RELATIVE_LIMIT * fit.mass_kg)
         if held:
-            fit = output_error.fit_surge([record], basis, mass_kg=current.mass_kg * added)
+            fit = output_error.fit_surge([record], basis, mass_kg=current.mass_kg * added, coupling_sd=sd)
     except (InputError, ValueError, np.linalg.LinAlgError):  # ValueError: the simulation diverged mid-fit
         return None
     return _model(fit, record, base, current, held)
@@ -215,7 +242,8 @@ def with_basis_spread(model: SurgeModel, base: VesselParams, current: SurgeModel
         return model
     try:
         fit.reference = output_error.fit_surge([record], spline_basis(record.speed_mps, RICHER_SPLINES),
-                                               mass_kg=fit.mass_kg if fit.mass_fixed else None)
+                                               mass_kg=fit.mass_kg if fit.mass_fixed else None,
+                                               coupling_sd=fit.coupling_prior_sd or None)
     except (InputError, ValueError, np.linalg.LinAlgError):
         return model
     return _model(fit, record, base, current, model.mass_held)
@@ -345,16 +373,17 @@ class SurgeAdapter:
             return None
         return horizon_record(t[train], f[train], u[train], self.latency_s, c[train])
 
-    def update(self, score: Score) -> bool:
+    def update(self, score: Score, coupling_sd: float | None = None) -> bool:
         """Fit a candidate on the horizon without its held-out tail and adopt it, or revert, if it predicts the
-        tail better by ``score`` (module docstring); returns True when the model changed."""
+        tail better by ``score`` (module docstring); returns True when the model changed. ``coupling_sd``: the
+        standard deviation of the prior on the coupling's scale c (None: :data:`COUPLING_SCALE_SD`)."""
         record = self.training()
         if record is None:
             return False
         now = score(self.current)
         if not math.isfinite(now):
             return False
-        candidate = fit_surge(record, self.base, self.current)
+        candidate = fit_surge(record, self.base, self.current, coupling_sd=coupling_sd)
         if candidate is not None and rejects(candidate, self.current, self.base):
             # only then the richer curve's spread (a second fit): a candidate that does not reject the current
             # model with its sampling covariance alone does not with wider intervals either

@@ -149,7 +149,8 @@ class Shadow:
             # swings with every turn, and on constant-thrust zigzags the fit took its missing speed loss for mass
             # (fits 1,352-1,382 kg, intervals missing the configured 1,300 kg; along the hull 1,259-1,335 kg)
             surge = east * math.cos(yaw) + north * math.sin(yaw)
-            # the sway-yaw coupling m₂₂·v·r of the twin's state at that time; its scale is fitted. The measured
+            # the sway-yaw coupling m₂₂·v·r of the twin's state at that time; its scale is fitted, under a prior as
+            # wide as the turning model's uncertainty of it (TurningAdapter.coupling_sd). The measured
             # sway (the GNSS velocity across the heading) was tried: it carries the heading's error (~0.1 m/s a fix
             # at 10 m/s) and the masses came out +0.4…+3.3 % high (docs/live-twin.md). That sway is only as good as
             # the twin's turning: while the turning is known wrong the sample is set aside (the force still read,
@@ -157,7 +158,8 @@ class Shadow:
             force = self._interval_thrust_N(t_s)
             if not self.sway_doubted():
                 self.adapter.add(t_s, force, surge, self.twin.m22_kg * sway * rate)
-            if self.adapter.due(t_s) and not self.model_held() and self.adapter.update(self._held_out_score(t_s)):
+            if self.adapter.due(t_s) and not self.model_held() and self.adapter.update(
+                    self._held_out_score(t_s), self.turning.coupling_sd(self.vessel())):
                 self.twin.set_config(replace(self.twin.config, vessel=self.vessel()))
         if self.settings.adapt and self.settings.adapt_turning:
             first_s = self.recent.first_s + self.settings.holdout_s + MIN_TRAINING_S

@@ -53,7 +53,14 @@ from boat_twin.ident.manoeuvring import (
     fit_manoeuvring,
 )
 from boat_twin.io.trial import Trial
-from boat_twin.shadow.adapt import FACTOR_RANGE, MAX_WAIT_PERIODS, REJECT_LEVEL, hotelling_rejects
+from boat_twin.shadow.adapt import (
+    COUPLING_SCALE_SD,
+    COUPLING_STATE_SD,
+    FACTOR_RANGE,
+    MAX_WAIT_PERIODS,
+    REJECT_LEVEL,
+    hotelling_rejects,
+)
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.vessel.params import VesselParams, derive_coefficients
 
@@ -160,6 +167,15 @@ class TurningModel:
                 "surge_factors": {k: {"value": float(v[0]), "ci95": [float(v[1]), float(v[2])]}
                                   for k, v in self.surge_factors.items()}}
 
+    def coupling_log_variance(self) -> float:
+        """Variance of log(m₂₂/a_v) from the fit's covariance (NaN when not fitted), -: the relative variance of
+        the sway-yaw coupling m₂₂·v·r the twin turns with (:meth:`TurningAdapter.coupling_sd`)."""
+        if not self.values or not self.covariance:
+            return math.nan
+        i, j = LIVE_KEYS.index("m22_kg"), LIVE_KEYS.index("sway_damping_Nspm2")
+        cov = np.array(self.covariance)
+        return float(cov[i, i] + cov[j, j] - 2.0 * cov[i, j])
+
     def rejects(self, current: dict[str, float], level: float = REJECT_LEVEL) -> bool:
         """Whether this fit's covariance rejects the ``current`` coefficients at ``level``: Hotelling's T² of the
         difference of their logarithms against its F bound on the fit's windows."""
@@ -263,6 +279,24 @@ class TurningAdapter:
         self.log(f"adopted turning coefficients ({described} of the configured): held-out normalized MSE "
                  f"{now:.2f} → {new:.2f}")
         return True
+
+    def coupling_sd(self, vessel: VesselParams) -> float:
+        """How far the twin's sway-yaw coupling m₂₂·v·r may be off, as a relative standard deviation (the surge
+        fit's prior on its scale c, :func:`~boat_twin.ident.output_error.fit_surge`), -; ``vessel``: the twin's now.
+        The twin's sway in a turn is v = (Y_T − m₁₁·u·r)/(a_v·u) (its steady sway balance), so the coupling scales
+        with m₂₂/a_v. Judged by the latest turning fit (else the adopted one): its own variance of log(m₂₂/a_v) plus
+        the squared log distance of the twin's ratio from the fit's (zero once adopted; small while the fit confirms
+        the configured coefficients, large while it rejects them), plus the sway state's own error
+        (:data:`~boat_twin.shadow.adapt.COUPLING_STATE_SD`). No fit yet:
+        :data:`~boat_twin.shadow.adapt.COUPLING_SCALE_SD` (the configured a_v's drift-angle range and the state's)."""
+        fit = self.candidate if self.candidate is not None and self.candidate.values else self.current
+        variance = fit.coupling_log_variance()
+        if not math.isfinite(variance):
+            return COUPLING_SCALE_SD
+        twin = coefficients(vessel)
+        distance = math.log((twin["m22_kg"] / twin["sway_damping_Nspm2"])
+                            / (fit.values["m22_kg"] / fit.values["sway_damping_Nspm2"]))
+        return math.sqrt(max(variance, 0.0) + distance**2 + COUPLING_STATE_SD**2)
 
     def _physical(self, model: TurningModel) -> bool:
         low, high = FACTOR_RANGE
