@@ -61,8 +61,10 @@ SURGE_SMOOTHING_S = 1.0
 """A window's initial surge is a local quadratic fit to ±this long of GNSS surge, s: 0.05 m/s noise → 0.016 m/s,
 and a change of the latency moves the fit smoothly instead of picking another noisy sample (which the surge's
 35 s time constant at low speed would carry through the whole window, and a latency fit would exploit)."""
-SWAY_OBSERVER_S = 5.0
-"""Run-in of the sway observer before each window, s: ~2 sway time constants at 1.5 m/s, 12 at 10 m/s."""
+SWAY_OBSERVER_S = 10.0
+"""Run-in of the sway observer before each window, s: ~4 sway time constants at 1.5 m/s, 26 at 10 m/s. Over
+5 s the sway from rest kept ~0.7 % at 4 m/s (e⁻⁵): 0.002-0.007 m/s, which left the noise-free replay of an
+independent integrator's zigzags 0.3-0.9× the gyro's noise off its true yaw rate (docs/identification.md)."""
 STEERING_HISTORIES_KEPT = 4
 """Actuator histories (and delayed command series) a :class:`Windows` keeps, the latest."""
 MIN_WINDOWS = 6
@@ -248,9 +250,11 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
                    surge: np.ndarray, yaw_rate: np.ndarray, actuators: np.ndarray) -> np.ndarray:
     """(k·m,) sway through water at each window's start, m/s, for each of the ``k`` vessels of ``dynamics``
     (boat j·m + w: vessel j, window w): the model's sway equation run over the :data:`SWAY_OBSERVER_S` before
-    it, from rest, driven by the commands the boat acts on and the *measured* heading, surge (GNSS) and yaw
-    rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length) and the outboards'
-    angles and lagged thrust those commands drive on each vessel (``actuators``, (n, k, 4)).
+    it, from rest, driven by the commands the boat acts on (at their switch times) and the *measured* heading,
+    surge (GNSS) and yaw rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length) and
+    the outboards' angles and lagged thrust those commands drive on each vessel (``actuators``, (n, k, 4)).
+    Each sample step is the kernel's RK4 step from the measured state with the observer's sway (the sway it
+    ends with is kept, the rest is measured again at the next sample).
 
     Sway is a fast state (time constant m22 / (Y_v·u): 0.4 s at 10 m/s), so it forgets its start; the gyro
     that drives it through the m11·u·r term is 50× less noisy than a sway read from GNSS velocity and IMU
@@ -259,7 +263,8 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
     """
     dt = windows.dt_s
     vessels = actuators.shape[1]
-    acting, _ = windows.acting(config.vessel.command_delay_s)
+    acting, switch = windows.acting(config.vessel.command_delay_s)
+    last = len(acting) - 1
     start = np.tile(windows.start_index, vessels)
     vessel = np.repeat(np.arange(vessels), windows.start_index.size)
     sway = np.zeros(start.size)
@@ -270,14 +275,16 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
         index = np.maximum(index, 0)
         states = np.zeros((sway.size, 6))
         states[:, 2], states[:, 3], states[:, 4], states[:, 5] = heading[index], surge[index], sway, yaw_rate[index]
-        commands = acting[index][None]
+        following = np.minimum(index + 1, last)  # a command issued just before the next sample acts in this step
+        commands = np.stack([acting[index], acting[following]])
         angles = actuators[index, vessel, :2]
         angles = np.where(np.isfinite(angles), angles, dynamics.steering_targets(commands[0]))
         thrust = actuators[index, vessel, 2:]
         thrust = np.where(np.isfinite(thrust), thrust, dynamics.thrust_start(commands[0]))
-        _, derivative, _ = dynamics.run(states, commands, environments, dt, 1, angles, thrust)
-        rate = derivative[0, :, 4]
-        sway = np.where(inside & np.isfinite(rate), sway + dt * rate, sway)
+        path, _, _ = dynamics.run(states, commands, environments, dt, 1, angles, thrust,
+                                  np.stack([switch[index], switch[following]]), acting[np.maximum(index - 1, 0)])
+        stepped = path[1, :, 4]
+        sway = np.where(inside & np.isfinite(stepped), stepped, sway)
     return sway
 
 
@@ -328,10 +335,51 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, act
     states = np.zeros((start.size, 6))
     states[:, 2] = motion.heading_rad[start]
     states[:, 3] = motion.surge_mps[start]
-    states[:, 5] = motion.yaw_rate_radps[start]
     states[:, 4] = _sway_observer(windows, config, dynamics, motion.heading_rad, motion.surge_mps,
                                   motion.yaw_rate_radps, actuators)
+    states[:, 5] = motion.yaw_rate_radps[start] - _mean_curvature(windows, config, dynamics, motion, actuators,
+                                                                  states[:, 4])
     return states
+
+
+def _mean_curvature(windows: Windows, config: TwinConfig, dynamics: Dynamics, motion: MeasuredMotion,
+                    actuators: np.ndarray, sway: np.ndarray) -> np.ndarray:
+    """(k·m,) what the 3-sample mean of the yaw rate (:func:`measured_motion`) adds to the rate at each window's
+    start by the rate's own shape, rad/s, as the model of each of the ``k`` vessels runs it over those samples
+    (from the sample before, measured state and the window's observed ``sway``; the commands at their switch
+    times): the mean of r̂(i + j) − r̂(i) over the samples the mean took (finite gyro, inside the trial).
+
+    Where the helm reverses at a window's start the rate has a corner there (an outboard that swings at once),
+    and the mean of the rate before and after it is not the rate at it: 0.13°/s, twice the gyro's noise, on the
+    independent integrator's 7 m/s zigzags (docs/identification.md). The model's curvature over 0.2 s is nearly
+    exact even with coefficients tens of per cent off; the correction adds no noise of its own."""
+    vessels = actuators.shape[1]
+    start = np.tile(windows.start_index, vessels)
+    vessel = np.repeat(np.arange(vessels), windows.start_index.size)
+    acting, switch = windows.acting(config.vessel.command_delay_s)
+    last = len(acting) - 1
+    first = np.maximum(start - 1, 0)
+    ticks = np.minimum(first[None, :] + np.arange(3)[:, None], last)
+    states = np.zeros((start.size, 6))
+    states[:, 2], states[:, 3] = motion.heading_rad[first], motion.surge_mps[first]
+    states[:, 4], states[:, 5] = sway, motion.yaw_rate_radps[first]
+    commands = acting[ticks]
+    angles = actuators[first, vessel, :2]
+    angles = np.where(np.isfinite(angles), angles, dynamics.steering_targets(commands[0]))
+    thrust = actuators[first, vessel, 2:]
+    thrust = np.where(np.isfinite(thrust), thrust, dynamics.thrust_start(commands[0]))
+    environments = np.tile(config.environment.as_vector(), (start.size, 1))
+    path, _, _ = dynamics.run(states, commands, environments, windows.dt_s, 1, angles, thrust, switch[ticks],
+                              acting[np.maximum(first - 1, 0)])
+    at = (start - first)[None, :]  # the row of path at each window's start
+    rate = path[..., 5]
+    offset = np.arange(3)[:, None] - at  # j of each row
+    gyro = windows.trial.yaw_rate_radps
+    taken = (np.abs(offset) <= 1) & (ticks == first[None, :] + np.arange(3)[:, None]) \
+        & np.isfinite(gyro[ticks]) & np.isfinite(rate)
+    shape = np.where(taken, rate - np.take_along_axis(rate, at, axis=0), 0.0)
+    count = taken.sum(axis=0)
+    return np.where(count > 0, shape.sum(axis=0) / np.maximum(count, 1), 0.0)
 
 
 @dataclass(frozen=True)
