@@ -361,8 +361,9 @@ def _mean_curvature(windows: Windows, config: TwinConfig, dynamics: Dynamics, mo
     first = np.maximum(start - 1, 0)
     ticks = np.minimum(first[None, :] + np.arange(3)[:, None], last)
     states = np.zeros((start.size, 6))
-    states[:, 2], states[:, 3] = motion.heading_rad[first], motion.surge_mps[first]
-    states[:, 4], states[:, 5] = sway, motion.yaw_rate_radps[first]
+    for j, measured in ((2, motion.heading_rad), (3, motion.surge_mps), (5, motion.yaw_rate_radps)):
+        states[:, j] = np.where(np.isfinite(measured[first]), measured[first], measured[start])  # a sample short
+    states[:, 4] = sway
     commands = acting[ticks]
     angles = actuators[first, vessel, :2]
     angles = np.where(np.isfinite(angles), angles, dynamics.steering_targets(commands[0]))
@@ -379,7 +380,8 @@ def _mean_curvature(windows: Windows, config: TwinConfig, dynamics: Dynamics, mo
         & np.isfinite(gyro[ticks]) & np.isfinite(rate)
     shape = np.where(taken, rate - np.take_along_axis(rate, at, axis=0), 0.0)
     count = taken.sum(axis=0)
-    return np.where(count > 0, shape.sum(axis=0) / np.maximum(count, 1), 0.0)
+    mean = shape.sum(axis=0) / np.maximum(count, 1)
+    return np.where((count > 0) & np.isfinite(mean), mean, 0.0)
 
 
 @dataclass(frozen=True)
