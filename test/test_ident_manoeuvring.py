@@ -324,21 +324,25 @@ def test_replay_of_the_independent_integrator_with_its_coefficients_agrees_from_
         independent_clean) -> None:
     """The replay with the true coefficients, from the initial states it measures itself, follows the
     independent integrator's noise-free zigzags to well below the gyro's noise, also in the 2 s after each helm
-    reversal (measured: 0.02-0.21× the 0.06°/s noise there, 0.02-0.12× over the trials). Before the sway
-    observer took RK4 steps over a 10 s run-in and the initial yaw rate lost the 3-sample mean's curvature,
-    0.57-1.43× after the reversals and 0.5-0.93× over the trials: the sway from rest not yet forgotten at
-    4 m/s, and the mean across the yaw rate's corner where a reversal meets a window's start (0.13°/s)."""
+    reversal (measured: 0.011-0.022× the 0.06°/s noise over a trial's windows, 0.010-0.015× after the
+    reversals). Before the sway observer took the kernel's RK4 step per sample over a 10 s run-in (it took Euler
+    steps over 5 s from rest, and at 4 m/s the sway had not forgotten its start) it was 0.15-0.59× and
+    0.13-0.62×. Left out: the windows that start at a reversal or at the trial's first sample, whose initial yaw
+    rate (the 3-sample mean of the gyro) averages across the rate's corner there (0.28-2.1×;
+    docs/identification.md)."""
     truth, motion = independent_clean
     config = apply_parameters(TwinConfig(vessel=VesselParams(steering_rate_radps=0.0)), truth)
     noise = math.radians(0.06)
+    reversal = np.arange(10.0, 70.0, 8.0)
     for trial in _measured(motion, _Silent()):  # type: ignore[arg-type]
         windows = cut_windows(trial, 10.0)
         error = (windows.measured["yaw_rate_radps"] - predict(windows, config).signals["yaw_rate_radps"]) / noise
-        reversal = np.arange(10.0, 70.0, 8.0)
+        cornered = np.isin(np.round(windows.t_s[0], 6), np.concatenate([[0.0], reversal]))
+        assert 0 < cornered.sum() < 4, windows.t_s[0]
         since = windows.t_s[..., None] - reversal
-        after = np.any((since >= 0.0) & (since < 2.0), axis=-1)
-        assert np.sqrt(np.nanmean(error[after] ** 2)) < 0.3, trial.metadata.source
-        assert np.sqrt(np.nanmean(error**2)) < 0.2, trial.metadata.source
+        after = np.any((since >= 0.0) & (since < 2.0), axis=-1) & ~cornered
+        assert np.sqrt(np.nanmean(error[after] ** 2)) < 0.1, trial.metadata.source
+        assert np.sqrt(np.nanmean(error[:, ~cornered] ** 2)) < 0.1, trial.metadata.source
 
 
 def test_commands_changed_between_log_samples_act_at_their_issue_times() -> None:

@@ -337,51 +337,9 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, act
     states[:, 3] = motion.surge_mps[start]
     states[:, 4] = _sway_observer(windows, config, dynamics, motion.heading_rad, motion.surge_mps,
                                   motion.yaw_rate_radps, actuators)
-    states[:, 5] = motion.yaw_rate_radps[start] - _mean_curvature(windows, config, dynamics, motion, actuators,
-                                                                  states[:, 4])
+    states[:, 5] = motion.yaw_rate_radps[start]
     return states
 
-
-def _mean_curvature(windows: Windows, config: TwinConfig, dynamics: Dynamics, motion: MeasuredMotion,
-                    actuators: np.ndarray, sway: np.ndarray) -> np.ndarray:
-    """(k·m,) what the 3-sample mean of the yaw rate (:func:`measured_motion`) adds to the rate at each window's
-    start by the rate's own shape, rad/s, as the model of each of the ``k`` vessels runs it over those samples
-    (from the sample before, measured state and the window's observed ``sway``; the commands at their switch
-    times): the mean of r̂(i + j) − r̂(i) over the samples the mean took (finite gyro, inside the trial).
-
-    Where the helm reverses at a window's start the rate has a corner there (an outboard that swings at once),
-    and the mean of the rate before and after it is not the rate at it: 0.13°/s, twice the gyro's noise, on the
-    independent integrator's 7 m/s zigzags (docs/identification.md). The model's curvature over 0.2 s is nearly
-    exact even with coefficients tens of per cent off; the correction adds no noise of its own."""
-    vessels = actuators.shape[1]
-    start = np.tile(windows.start_index, vessels)
-    vessel = np.repeat(np.arange(vessels), windows.start_index.size)
-    acting, switch = windows.acting(config.vessel.command_delay_s)
-    last = len(acting) - 1
-    first = np.maximum(start - 1, 0)
-    ticks = np.minimum(first[None, :] + np.arange(3)[:, None], last)
-    states = np.zeros((start.size, 6))
-    for j, measured in ((2, motion.heading_rad), (3, motion.surge_mps), (5, motion.yaw_rate_radps)):
-        states[:, j] = np.where(np.isfinite(measured[first]), measured[first], measured[start])  # a sample short
-    states[:, 4] = sway
-    commands = acting[ticks]
-    angles = actuators[first, vessel, :2]
-    angles = np.where(np.isfinite(angles), angles, dynamics.steering_targets(commands[0]))
-    thrust = actuators[first, vessel, 2:]
-    thrust = np.where(np.isfinite(thrust), thrust, dynamics.thrust_start(commands[0]))
-    environments = np.tile(config.environment.as_vector(), (start.size, 1))
-    path, _, _ = dynamics.run(states, commands, environments, windows.dt_s, 1, angles, thrust, switch[ticks],
-                              acting[np.maximum(first - 1, 0)])
-    at = (start - first)[None, :]  # the row of path at each window's start
-    rate = path[..., 5]
-    offset = np.arange(3)[:, None] - at  # j of each row
-    gyro = windows.trial.yaw_rate_radps
-    taken = (np.abs(offset) <= 1) & (ticks == first[None, :] + np.arange(3)[:, None]) \
-        & np.isfinite(gyro[ticks]) & np.isfinite(rate)
-    shape = np.where(taken, rate - np.take_along_axis(rate, at, axis=0), 0.0)
-    count = taken.sum(axis=0)
-    mean = shape.sum(axis=0) / np.maximum(count, 1)
-    return np.where((count > 0) & np.isfinite(mean), mean, 0.0)
 
 
 @dataclass(frozen=True)
