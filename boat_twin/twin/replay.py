@@ -61,8 +61,10 @@ SURGE_SMOOTHING_S = 1.0
 """A window's initial surge is a local quadratic fit to ±this long of GNSS surge, s: 0.05 m/s noise → 0.016 m/s,
 and a change of the latency moves the fit smoothly instead of picking another noisy sample (which the surge's
 35 s time constant at low speed would carry through the whole window, and a latency fit would exploit)."""
-SWAY_OBSERVER_S = 5.0
-"""Run-in of the sway observer before each window, s: ~2 sway time constants at 1.5 m/s, 12 at 10 m/s."""
+SWAY_OBSERVER_S = 10.0
+"""Run-in of the sway observer before each window, s: ~4 sway time constants at 1.5 m/s, 26 at 10 m/s. Over
+5 s the sway from rest kept ~0.7 % at 4 m/s (e⁻⁵): 0.002-0.007 m/s, which left the noise-free replay of an
+independent integrator's zigzags 0.3-0.9× the gyro's noise off its true yaw rate (docs/identification.md)."""
 STEERING_HISTORIES_KEPT = 4
 """Actuator histories (and delayed command series) a :class:`Windows` keeps, the latest."""
 MIN_WINDOWS = 6
@@ -248,9 +250,11 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
                    surge: np.ndarray, yaw_rate: np.ndarray, actuators: np.ndarray) -> np.ndarray:
     """(k·m,) sway through water at each window's start, m/s, for each of the ``k`` vessels of ``dynamics``
     (boat j·m + w: vessel j, window w): the model's sway equation run over the :data:`SWAY_OBSERVER_S` before
-    it, from rest, driven by the commands the boat acts on and the *measured* heading, surge (GNSS) and yaw
-    rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length) and the outboards'
-    angles and lagged thrust those commands drive on each vessel (``actuators``, (n, k, 4)).
+    it, from rest, driven by the commands the boat acts on (at their switch times) and the *measured* heading,
+    surge (GNSS) and yaw rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length) and
+    the outboards' angles and lagged thrust those commands drive on each vessel (``actuators``, (n, k, 4)).
+    Each sample step is the kernel's RK4 step from the measured state with the observer's sway (the sway it
+    ends with is kept, the rest is measured again at the next sample).
 
     Sway is a fast state (time constant m22 / (Y_v·u): 0.4 s at 10 m/s), so it forgets its start; the gyro
     that drives it through the m11·u·r term is 50× less noisy than a sway read from GNSS velocity and IMU
@@ -259,7 +263,8 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
     """
     dt = windows.dt_s
     vessels = actuators.shape[1]
-    acting, _ = windows.acting(config.vessel.command_delay_s)
+    acting, switch = windows.acting(config.vessel.command_delay_s)
+    last = len(acting) - 1
     start = np.tile(windows.start_index, vessels)
     vessel = np.repeat(np.arange(vessels), windows.start_index.size)
     sway = np.zeros(start.size)
@@ -270,14 +275,16 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
         index = np.maximum(index, 0)
         states = np.zeros((sway.size, 6))
         states[:, 2], states[:, 3], states[:, 4], states[:, 5] = heading[index], surge[index], sway, yaw_rate[index]
-        commands = acting[index][None]
+        following = np.minimum(index + 1, last)  # a command issued just before the next sample acts in this step
+        commands = np.stack([acting[index], acting[following]])
         angles = actuators[index, vessel, :2]
         angles = np.where(np.isfinite(angles), angles, dynamics.steering_targets(commands[0]))
         thrust = actuators[index, vessel, 2:]
         thrust = np.where(np.isfinite(thrust), thrust, dynamics.thrust_start(commands[0]))
-        _, derivative, _ = dynamics.run(states, commands, environments, dt, 1, angles, thrust)
-        rate = derivative[0, :, 4]
-        sway = np.where(inside & np.isfinite(rate), sway + dt * rate, sway)
+        path, _, _ = dynamics.run(states, commands, environments, dt, 1, angles, thrust,
+                                  np.stack([switch[index], switch[following]]), acting[np.maximum(index - 1, 0)])
+        stepped = path[1, :, 4]
+        sway = np.where(inside & np.isfinite(stepped), stepped, sway)
     return sway
 
 
@@ -328,10 +335,11 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, act
     states = np.zeros((start.size, 6))
     states[:, 2] = motion.heading_rad[start]
     states[:, 3] = motion.surge_mps[start]
-    states[:, 5] = motion.yaw_rate_radps[start]
     states[:, 4] = _sway_observer(windows, config, dynamics, motion.heading_rad, motion.surge_mps,
                                   motion.yaw_rate_radps, actuators)
+    states[:, 5] = motion.yaw_rate_radps[start]
     return states
+
 
 
 @dataclass(frozen=True)
