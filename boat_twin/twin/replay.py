@@ -341,7 +341,6 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, act
     return states
 
 
-
 @dataclass(frozen=True)
 class Prediction:
     """What ``config`` predicts the sensors read, window by window: signal name → (T, m), and position (T, m, 2)."""
