@@ -66,8 +66,10 @@ def thrust_heard(probe: rosnodes.Probe) -> dict[str, list[float]]:
 
 def test_the_player_sends_zero_thrust_when_its_profile_ends(tmp_path) -> None:
     commands = tmp_path / "commands.csv"
+    # the profile runs on the player's clock from its start, whatever discovery takes: its last command is held
+    # 8.5 s (on a loaded CI machine the probe heard nothing before the end of a 1.5 s hold, only the final zero)
     commands.write_text("t,thrust_left_N,thrust_right_N,angle_left_rad,angle_right_rad\n"
-                        "0,300,300,0,0\n1.5,400,350,0.1,0.1\n3,400,350,0.1,0.1\n")
+                        "0,300,300,0,0\n1.5,400,350,0.1,0.1\n10,400,350,0.1,0.1\n")
     with rosnodes.probe() as probe:
         heard = thrust_heard(probe)
         player = rosnodes.NodeProcess("player", {"commands_file": str(commands)}, tmp_path)
