@@ -258,3 +258,40 @@ def test_an_interrupt_lost_in_a_callback_is_raised_again_without_a_traceback(cap
         sys.unraisablehook = previous
         signal.signal(signal.SIGINT, handler)
     assert "Traceback" not in capsys.readouterr().err
+
+
+HALF_BUILT_RUN = """
+import sys
+from boat_twin import cli
+
+class HalfBuilt:  # an object a signal interrupted in its constructor (llvmlite's, while numba compiles)
+    def __del__(self):
+        raise AttributeError("'HalfBuilt' object has no attribute '_as_parameter_'")
+
+class Args:
+    @staticmethod
+    def handler(args):
+        global kept
+        kept = HalfBuilt()  # freed as the interpreter ends
+        held = HalfBuilt()  # freed with the stopping exception's frames
+        raise {stop}
+
+class Parser:
+    def parse_args(self, argv):
+        return Args()
+
+cli.build_parser = lambda verb: Parser()
+sys.argv = ["boat-twin", "run"]
+sys.exit(cli.main())
+"""
+
+
+@pytest.mark.parametrize(("stop", "code", "said"), [("cli.Terminated", 143, "terminated"),
+                                                    ("KeyboardInterrupt", 130, "interrupted")])
+def test_a_stopped_process_ends_without_a_destructors_traceback(stop, code, said) -> None:
+    """SIGTERM while numba compiled (the signalled-process test above, once in the full suite): "boat-twin:
+    terminated", then "Exception ignored in ObjectRef.__del__ ... Traceback ... AttributeError" from an llvmlite
+    object the signal left half built, freed as the process ended. A stopped run ends with its one line."""
+    run = subprocess.run([sys.executable, "-c", HALF_BUILT_RUN.format(stop=stop)], capture_output=True, text=True,
+                         timeout=60)
+    assert run.returncode == code and run.stderr == f"boat-twin: {said}\n", run.stderr

@@ -95,6 +95,13 @@ def _raise_lost_signal(unraisable: sys.UnraisableHookArgs) -> None:
         sys.__unraisablehook__(unraisable)
 
 
+def _drop_unraisable(unraisable: sys.UnraisableHookArgs) -> None:
+    """``sys.unraisablehook`` once a run has been stopped by Ctrl-C or SIGTERM: an object the signal left half
+    built fails in its destructor when it is freed (llvmlite's, interrupted while numba compiled: "Exception
+    ignored in ObjectRef.__del__ ... Traceback ... AttributeError" after "boat-twin: terminated"); the run's exit
+    status already says it was stopped, and a traceback would say it crashed."""
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``boat-twin`` console script. Exit codes: 0 done, 2 bad input (one line on stderr),
     130 Ctrl-C, 143 SIGTERM (an output being written is dropped; an old one stays as it was)."""
@@ -106,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError:  # not the main thread: no handler
         previous = None
     previous_hook, sys.unraisablehook = sys.unraisablehook, _raise_lost_signal
+    stopped = False
     try:
         args = build_parser(verb).parse_args(argv)
         return int(args.handler(args))
@@ -113,9 +121,11 @@ def main(argv: list[str] | None = None) -> int:
         sys.stderr.write(f"boat-twin {verb}: error: {err}\n")
         return 2
     except KeyboardInterrupt:
+        stopped, sys.unraisablehook = True, _drop_unraisable  # before the unwound frames are freed
         sys.stderr.write("boat-twin: interrupted\n")
         return 130
     except Terminated:
+        stopped, sys.unraisablehook = True, _drop_unraisable
         sys.stderr.write("boat-twin: terminated\n")
         return 143
     except Exception as err:
@@ -127,7 +137,8 @@ def main(argv: list[str] | None = None) -> int:
         sys.stderr.write(f"boat-twin {verb}: error: {where}cannot write ({write_failure(err)})\n")
         return 2
     finally:
-        sys.unraisablehook = previous_hook
+        if not (process and stopped):  # a stopped process keeps dropping them until it has ended
+            sys.unraisablehook = previous_hook
         if process and previous is not None:
             # The run is over, its outputs complete: a SIGTERM from now on cannot be acted on by Python (the
             # interpreter shuts down) and would kill the process by the signal; the process exits with the
