@@ -50,6 +50,7 @@ setup(
         "test": [
             "pytest>=7",
             "pytest-xdist>=3.6",  # --no-loadscope-reorder
+            "pytest-timeout>=2.1",  # a test that hangs fails with its stack instead of stalling the run
             "mcap-ros2-support>=0.5",
             "catkin_pkg>=1.0",
             "hypothesis>=6",

@@ -137,12 +137,13 @@ def main(argv: list[str] | None = None) -> int:
         sys.stderr.write(f"boat-twin {verb}: error: {where}cannot write ({write_failure(err)})\n")
         return 2
     finally:
-        if not (process and stopped):  # a stopped process keeps dropping them until it has ended
-            sys.unraisablehook = previous_hook
         if process and previous is not None:
-            # The run is over, its outputs complete: a SIGTERM from now on cannot be acted on by Python (the
-            # interpreter shuts down) and would kill the process by the signal; the process exits with the
-            # run's own status instead.
+            # The run is over, its outputs complete: a SIGTERM or Ctrl-C from now on cannot be acted on by Python
+            # (the interpreter shuts down, restoring the default handlers) and would kill the process by the
+            # signal after its work is done; the process exits with the run's own status instead.
             signal.signal(signal.SIGTERM, signal.SIG_IGN)
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
         elif previous is not None:
             signal.signal(signal.SIGTERM, previous)
+        if not (process and stopped):  # a stopped process keeps dropping them until it has ended
+            sys.unraisablehook = previous_hook
