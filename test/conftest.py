@@ -12,7 +12,9 @@ each at a time (``--dist loadfile``: a module's node fixture starts once), each 
 
 from __future__ import annotations
 
+import faulthandler
 import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -44,6 +46,40 @@ seconds (the identifier fed a trial, bag_player → shadow, the campaign's ten n
 staircase's recording they kept the recorder from the cores, which stamps commands late (the identifier's
 effective mass came out 27 % high, 1735 kg); last the short modules, for the worker that frees first. xdist
 hands a worker its next module before the current one ends, so the long ones go early."""
+
+
+WATCHDOG_GRACE_S = 120.0
+"""Time past pytest-timeout's ``--timeout`` after which a test still running is ended by the watchdog below, s."""
+WATCHDOG_FILE = "watchdog-stacks.txt"
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> Iterator[None]:
+    """A watchdog in C under pytest-timeout (``make test`` passes ``--timeout``), whose SIGALRM fails a hung test
+    only where the main thread gets back to Python: a test (setup, call and teardown) still running
+    WATCHDOG_GRACE_S later has every thread's stack written to WATCHDOG_FILE in its worker's temporary directory
+    (printed at the end of the run) and its worker ended, which pytest-xdist reports as a crash naming the test."""
+    limit = item.config.getoption("timeout", None)
+    if not limit:
+        yield
+        return
+    path = item.config._tmp_path_factory.getbasetemp() / WATCHDOG_FILE
+    deadline_s = float(limit) + WATCHDOG_GRACE_S
+    with open(path, "w") as stacks:
+        stacks.write(f"{item.nodeid} still running after {deadline_s:g} s:\n")
+        stacks.flush()
+        faulthandler.dump_traceback_later(deadline_s, exit=True, file=stacks)
+        try:
+            yield
+        finally:
+            faulthandler.cancel_dump_traceback_later()
+    path.unlink()
+
+
+def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter, config: pytest.Config) -> None:
+    for path in sorted(config._tmp_path_factory.getbasetemp().rglob(WATCHDOG_FILE)):
+        terminalreporter.write_sep("=", f"watchdog: {path}")
+        terminalreporter.write(path.read_text())
 
 
 def pytest_configure(config: pytest.Config) -> None:

@@ -27,6 +27,7 @@ import pytest
 from hostile import VerbFlags, command_lines
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from processes import popen_as_from_a_shell
 
 from boat_twin.cli import main
 
@@ -204,8 +205,7 @@ def test_a_real_process_signalled_at_a_seeded_moment(tmp_path, accel_stop_bag, o
     shutil.copytree(ROOT / "bags" / "thrust_steps_sample", tmp_path / "trial")  # a trial identify can fit
     before = _snapshot(tmp_path)
     line = [a.format(rep=tmp_path / "rep", trial=tmp_path / "trial", own=tmp_path / "own.mcap") for a in argv]
-    run = subprocess.Popen([BOAT_TWIN, *line], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    run = popen_as_from_a_shell([BOAT_TWIN, *line], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     time.sleep(float(np.random.default_rng(seed).uniform(1.5, 4.0)))  # start-up is ~1.5 s of imports
     run.send_signal(signum)
     code = run.wait(timeout=120)

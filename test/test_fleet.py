@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from processes import popen_as_from_a_shell
 from test_other_boat import OTTER, integrator_bag
 
 from boat_twin.cli import main
@@ -182,9 +183,8 @@ def test_a_signal_during_a_batch_leaves_each_trial_report_old_or_new_whole(accel
     out = tmp_path / "out"
     assert run_cli("follow", trials, "--each", "--out", out, "--scheduler", "sync")[0] == 0
     old = {name: _inodes(out / name) for name in "abc"}
-    run = subprocess.Popen([BOAT_TWIN, "follow", str(trials), "--each", "--out", str(out), "--scheduler", "sync",
-                            "--force"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # Ctrl-C as in a shell
+    run = popen_as_from_a_shell([BOAT_TWIN, "follow", str(trials), "--each", "--out", str(out), "--scheduler",
+                                 "sync", "--force"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     staging = out / f".a.partial-{run.pid}" / "a"
     deadline = time.monotonic() + 120.0
     while run.poll() is None and time.monotonic() < deadline:  # the first file of a's new report is written

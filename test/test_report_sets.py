@@ -3,7 +3,6 @@ a full disk or a file-size limit is one line on every writer. The signal cases s
 
 from __future__ import annotations
 
-import resource
 import shutil
 import signal
 import subprocess
@@ -12,6 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
+from processes import popen_as_from_a_shell, run_with_file_size_limit
 
 from boat_twin.cli import main
 from boat_twin.cli.identify import TABLE_OUTPUTS, TRIAL_OUTPUTS
@@ -62,9 +62,8 @@ def test_a_signal_while_identify_writes_its_reports_keeps_the_old_set_whole(tmp_
     rep = _copy(old_reports, tmp_path)
     old = _tree(rep)
     inodes = {p.name: p.stat().st_ino for p in rep.iterdir()}
-    run = subprocess.Popen([BOAT_TWIN, "identify", str(SAMPLE), "--out", str(rep), "--force"],
-                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # Ctrl-C as in a shell
+    run = popen_as_from_a_shell([BOAT_TWIN, "identify", str(SAMPLE), "--out", str(rep), "--force"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     staging = tmp_path / f".rep.partial-{run.pid}" / "rep"
     deadline = time.monotonic() + 120
     while run.poll() is None and time.monotonic() < deadline:
@@ -163,10 +162,6 @@ def test_demo_without_force_never_replaces_a_users_file(tmp_path, capsys, mine) 
 # --------------------------------------------------------------------------- full disk, file-size limit
 
 
-def _limited(limit_bytes: int) -> None:
-    resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
-
-
 @pytest.mark.parametrize(("argv", "limit"), [
     (["simulate", "accel-stop", "--duration", "60", "--out", "new.mcap"], 40_000),
     (["simulate", "accel-stop", "--duration", "60", "--storage", "sqlite3", "--out", "new"], 40_000),
@@ -182,8 +177,8 @@ def test_a_file_size_limit_is_one_line_and_leaves_nothing(tmp_path, old_reports,
     rep = _copy(old_reports, tmp_path)
     old = _tree(rep)
     argv = [a.replace("{tlog}", str(own_tlog)) for a in argv]
-    run = subprocess.run([BOAT_TWIN, *argv], cwd=tmp_path, capture_output=True, text=True, timeout=120,
-                         preexec_fn=lambda: _limited(limit))
+    run = run_with_file_size_limit([BOAT_TWIN, *argv], limit, cwd=tmp_path, capture_output=True, text=True,
+                                   timeout=120)
     assert run.returncode == 2, (run.returncode, run.stderr)
     line = _one_error_line(run.stderr)
     assert "cannot write" in line and ("File too large" in line or "disk" in line), line

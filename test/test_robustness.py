@@ -18,6 +18,7 @@ import pytest
 from hostile import VerbFlags, command_lines
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from processes import popen_as_from_a_shell
 
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig
@@ -165,9 +166,8 @@ def test_an_interrupt_while_writing_keeps_the_old_output(tmp_path, capsys, signu
     bag = tmp_path / "trial"
     assert main(["simulate", "accel-stop", "--duration", "2", "--no-noise", "--out", str(bag)]) == 0
     old = _tree(bag)
-    run = subprocess.Popen([BOAT_TWIN, "simulate", "accel-stop", "--duration", "600", "--out", str(bag), "--force"],
-                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # Ctrl-C as in a shell
+    run = popen_as_from_a_shell([BOAT_TWIN, "simulate", "accel-stop", "--duration", "600", "--out", str(bag),
+                                 "--force"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     scratch = tmp_path / f".trial.partial-{run.pid}"
     deadline = time.monotonic() + 240
     while not scratch.exists() and run.poll() is None and time.monotonic() < deadline:

@@ -45,6 +45,9 @@ the system monitor (500 ms) and the memory monitor of each worker and nanny (100
 within a second. A cluster at an address keeps its own settings."""
 CONNECT_TIMEOUT_S = 10.0
 """How long to wait for a scheduler at an address, s."""
+WORKER_START_TIMEOUT_S = 120.0
+"""How long a local cluster's worker process may take to reach its scheduler before it gives up, s (Dask's
+``death_timeout``; without one, a worker that never reports keeps the cluster's start waiting forever)."""
 
 
 def dask_installed() -> bool:
@@ -97,7 +100,8 @@ def open_client(scheduler: str = LOCAL, workers: int | None = None, quiet: bool 
         count = workers or default_workers()
         with dask.config.set(LOCAL_CLUSTER_CONFIG), \
                 LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=":0",
-                             silence_logs=logging.ERROR, env=single_thread_environment()) as cluster, \
+                             silence_logs=logging.ERROR, env=single_thread_environment(),
+                             death_timeout=WORKER_START_TIMEOUT_S) as cluster, \
                 Client(cluster) as client:
             if not quiet:
                 _say(f"local Dask cluster: {count} worker process(es), 1 thread each; dashboard "

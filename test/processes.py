@@ -1,0 +1,32 @@
+"""Processes started as a user's shell starts them, without ``preexec_fn``.
+
+``preexec_fn`` runs Python in the child between fork and exec; in a pytest worker that holds other threads (a
+Dask cluster's, a timer's) the child can deadlock there, and ``Popen`` then waits for its exec forever, a wait
+no ``timeout`` of ``subprocess.run`` covers. So the parent sets what the child must inherit around the spawn
+(SIGINT's default action), or a small ``python -c`` sets it in the child and execs the command in place (the
+same pid)."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+from typing import Any
+
+_WITH_FILE_SIZE_LIMIT = ("import os, resource, sys; n = int(sys.argv[1]); "
+                         "resource.setrlimit(resource.RLIMIT_FSIZE, (n, n)); os.execv(sys.argv[2], sys.argv[2:])")
+
+
+def popen_as_from_a_shell(argv: list[str], **kwargs: Any) -> subprocess.Popen:
+    """``Popen(argv)`` with Ctrl-C (SIGINT) at its default action, as a shell starts a command: a pytest worker
+    started in the background of a non-interactive shell ignores SIGINT, and its children would inherit that."""
+    previous = signal.signal(signal.SIGINT, signal.SIG_DFL)
+    try:
+        return subprocess.Popen(argv, **kwargs)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def run_with_file_size_limit(argv: list[str], limit_bytes: int, **kwargs: Any) -> subprocess.CompletedProcess:
+    """``subprocess.run(argv)`` under RLIMIT_FSIZE = ``limit_bytes`` (writing past it fails as on a full disk)."""
+    return subprocess.run([sys.executable, "-c", _WITH_FILE_SIZE_LIMIT, str(limit_bytes), *argv], **kwargs)
