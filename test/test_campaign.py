@@ -286,6 +286,40 @@ sys.exit(cli.main())
 """
 
 
+PRINTED_STOP_RUN = """
+import signal
+import sys
+from boat_twin import cli
+
+class Args:
+    @staticmethod
+    def handler(args):  # what numba's _dispatcher module does when its import is stopped
+        try:
+            signal.raise_signal(signal.{signame})
+        except BaseException:
+            sys.excepthook(*sys.exc_info())  # PyErr_Print
+        raise ImportError("numba._devicearray failed to import")
+
+class Parser:
+    def parse_args(self, argv):
+        return Args()
+
+cli.build_parser = lambda verb: Parser()
+sys.argv = ["boat-twin", "run"]
+sys.exit(cli.main())
+"""
+
+
+@pytest.mark.parametrize(("signame", "code", "said"), [("SIGTERM", 143, "terminated"), ("SIGINT", 130, "interrupted")])
+def test_a_stop_that_a_c_extension_printed_and_replaced_ends_the_run_as_a_stop(signame, code, said) -> None:
+    """Ctrl-C or SIGTERM while numba's C extension loads: it prints the stop ("Traceback ... KeyboardInterrupt",
+    through sys.excepthook) and raises "ImportError: numba._devicearray failed to import" (a node's start-up
+    failed so in the suite). The run ends as stopped, its one line only."""
+    run = subprocess.run([sys.executable, "-c", PRINTED_STOP_RUN.format(signame=signame)], capture_output=True,
+                         text=True, timeout=60)
+    assert run.returncode == code and run.stderr == f"boat-twin: {said}\n", run.stderr
+
+
 @pytest.mark.parametrize(("stop", "code", "said"), [("cli.Terminated", 143, "terminated"),
                                                     ("KeyboardInterrupt", 130, "interrupted")])
 def test_a_stopped_process_ends_without_a_destructors_traceback(stop, code, said) -> None:

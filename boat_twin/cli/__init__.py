@@ -17,7 +17,7 @@ import sys
 import threading
 
 from boat_twin import __version__
-from boat_twin.errors import InputError
+from boat_twin.errors import InputError, PrintedStops
 
 VERBS: dict[str, tuple[str, str]] = {
     "simulate": ("boat_twin.cli.simulate", "simulate a sea trial and write it as a ROS 2 bag"),
@@ -102,6 +102,13 @@ def _drop_unraisable(unraisable: sys.UnraisableHookArgs) -> None:
     status already says it was stopped, and a traceback would say it crashed."""
 
 
+def _say_stopped(stop: BaseException) -> int:
+    """The one line and the exit status of a run stopped by Ctrl-C (130) or SIGTERM (143)."""
+    interrupted = isinstance(stop, KeyboardInterrupt)
+    sys.stderr.write("boat-twin: interrupted\n" if interrupted else "boat-twin: terminated\n")
+    return 130 if interrupted else 143
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``boat-twin`` console script. Exit codes: 0 done, 2 bad input (one line on stderr),
     130 Ctrl-C, 143 SIGTERM (an output being written is dropped; an old one stays as it was)."""
@@ -113,6 +120,8 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError:  # not the main thread: no handler
         previous = None
     previous_hook, sys.unraisablehook = sys.unraisablehook, _raise_lost_signal
+    printed = PrintedStops((KeyboardInterrupt, Terminated))
+    previous_excepthook, sys.excepthook = sys.excepthook, printed
     stopped = False
     try:
         args = build_parser(verb).parse_args(argv)
@@ -120,17 +129,15 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as err:
         sys.stderr.write(f"boat-twin {verb}: error: {err}\n")
         return 2
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, Terminated) as stop:
         stopped, sys.unraisablehook = True, _drop_unraisable  # before the unwound frames are freed
-        sys.stderr.write("boat-twin: interrupted\n")
-        return 130
-    except Terminated:
-        stopped, sys.unraisablehook = True, _drop_unraisable
-        sys.stderr.write("boat-twin: terminated\n")
-        return 143
+        return _say_stopped(stop)
     except Exception as err:
         from boat_twin.files import is_write_failure, write_failure
 
+        if printed.stops:  # a C extension printed the stop and raised its own error (numba's import)
+            stopped, sys.unraisablehook = True, _drop_unraisable
+            return _say_stopped(printed.stops[-1])
         if not is_write_failure(err):
             raise
         where = f"{err.filename}: " if isinstance(err, OSError) and err.filename else ""
@@ -147,3 +154,4 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(signal.SIGTERM, previous)
         if not (process and stopped):  # a stopped process keeps dropping them until it has ended
             sys.unraisablehook = previous_hook
+        sys.excepthook = previous_excepthook
