@@ -260,45 +260,15 @@ def test_an_interrupt_lost_in_a_callback_is_raised_again_without_a_traceback(cap
     assert "Traceback" not in capsys.readouterr().err
 
 
-HALF_BUILT_RUN = """
-import sys
-from boat_twin import cli
-
-class HalfBuilt:  # an object a signal interrupted in its constructor (llvmlite's, while numba compiles)
-    def __del__(self):
-        raise AttributeError("'HalfBuilt' object has no attribute '_as_parameter_'")
-
-class Args:
-    @staticmethod
-    def handler(args):
-        global kept
-        kept = HalfBuilt()  # freed as the interpreter ends
-        held = HalfBuilt()  # freed with the stopping exception's frames
-        raise {stop}
-
-class Parser:
-    def parse_args(self, argv):
-        return Args()
-
-cli.build_parser = lambda verb: Parser()
-sys.argv = ["boat-twin", "run"]
-sys.exit(cli.main())
-"""
-
-
-PRINTED_STOP_RUN = """
+CLI_PROCESS = """
 import signal
 import sys
 from boat_twin import cli
-
+{prelude}
 class Args:
     @staticmethod
-    def handler(args):  # what numba's _dispatcher module does when its import is stopped
-        try:
-            signal.raise_signal(signal.{signame})
-        except BaseException:
-            sys.excepthook(*sys.exc_info())  # PyErr_Print
-        raise ImportError("numba._devicearray failed to import")
+    def handler(args):
+{handler}
 
 class Parser:
     def parse_args(self, argv):
@@ -308,6 +278,30 @@ cli.build_parser = lambda verb: Parser()
 sys.argv = ["boat-twin", "run"]
 sys.exit(cli.main())
 """
+
+
+def _boat_twin_running(handler: str, prelude: str = "") -> subprocess.CompletedProcess:
+    """A ``boat-twin`` process whose verb runs ``handler`` (a body indented 8 spaces), after ``prelude``."""
+    return subprocess.run([sys.executable, "-c", CLI_PROCESS.format(prelude=prelude, handler=handler)],
+                          capture_output=True, text=True, timeout=60)
+
+
+HALF_BUILT = """
+class HalfBuilt:  # an object a signal interrupted in its constructor (llvmlite's, while numba compiles)
+    def __del__(self):
+        raise AttributeError("'HalfBuilt' object has no attribute '_as_parameter_'")
+"""
+STOPPED_WITH_HALF_BUILT_OBJECTS = """\
+        global kept
+        kept = HalfBuilt()  # freed as the interpreter ends
+        held = HalfBuilt()  # freed with the stopping exception's frames
+        raise {stop}"""
+STOP_PRINTED_AND_REPLACED = """\
+        try:  # what numba's _dispatcher module does when its import is stopped
+            signal.raise_signal(signal.{signame})
+        except BaseException:
+            sys.excepthook(*sys.exc_info())  # PyErr_Print
+        raise ImportError("numba._devicearray failed to import")"""
 
 
 @pytest.mark.parametrize(("signame", "code", "said"), [("SIGTERM", 143, "terminated"), ("SIGINT", 130, "interrupted")])
@@ -315,8 +309,7 @@ def test_a_stop_that_a_c_extension_printed_and_replaced_ends_the_run_as_a_stop(s
     """Ctrl-C or SIGTERM while numba's C extension loads: it prints the stop ("Traceback ... KeyboardInterrupt",
     through sys.excepthook) and raises "ImportError: numba._devicearray failed to import" (a node's start-up
     failed so in the suite). The run ends as stopped, its one line only."""
-    run = subprocess.run([sys.executable, "-c", PRINTED_STOP_RUN.format(signame=signame)], capture_output=True,
-                         text=True, timeout=60)
+    run = _boat_twin_running(STOP_PRINTED_AND_REPLACED.format(signame=signame))
     assert run.returncode == code and run.stderr == f"boat-twin: {said}\n", run.stderr
 
 
@@ -326,6 +319,5 @@ def test_a_stopped_process_ends_without_a_destructors_traceback(stop, code, said
     """SIGTERM while numba compiled (the signalled-process test above, once in the full suite): "boat-twin:
     terminated", then "Exception ignored in ObjectRef.__del__ ... Traceback ... AttributeError" from an llvmlite
     object the signal left half built, freed as the process ended. A stopped run ends with its one line."""
-    run = subprocess.run([sys.executable, "-c", HALF_BUILT_RUN.format(stop=stop)], capture_output=True, text=True,
-                         timeout=60)
+    run = _boat_twin_running(STOPPED_WITH_HALF_BUILT_OBJECTS.format(stop=stop), HALF_BUILT)
     assert run.returncode == code and run.stderr == f"boat-twin: {said}\n", run.stderr
