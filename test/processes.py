@@ -27,6 +27,18 @@ def popen_as_from_a_shell(argv: list[str], **kwargs: Any) -> subprocess.Popen:
         signal.signal(signal.SIGINT, previous)
 
 
+def run_as_from_a_shell(argv: list[str], timeout_s: float, **kwargs: Any) -> subprocess.CompletedProcess:
+    """``subprocess.run(argv, capture_output=True, text=True)`` started as :func:`popen_as_from_a_shell` starts it
+    (killed after ``timeout_s``)."""
+    with popen_as_from_a_shell(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kwargs) as run:
+        try:
+            stdout, stderr = run.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            run.kill()
+            raise
+    return subprocess.CompletedProcess(argv, run.returncode, stdout, stderr)
+
+
 def run_with_file_size_limit(argv: list[str], limit_bytes: int, **kwargs: Any) -> subprocess.CompletedProcess:
     """``subprocess.run(argv)`` under RLIMIT_FSIZE = ``limit_bytes`` (writing past it fails as on a full disk)."""
     return subprocess.run([sys.executable, "-c", _WITH_FILE_SIZE_LIMIT, str(limit_bytes), *argv], **kwargs)

@@ -27,7 +27,7 @@ import pytest
 from hostile import VerbFlags, command_lines
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from processes import popen_as_from_a_shell
+from processes import popen_as_from_a_shell, run_as_from_a_shell
 
 from boat_twin.cli import main
 
@@ -281,9 +281,9 @@ sys.exit(cli.main())
 
 
 def _boat_twin_running(handler: str, prelude: str = "") -> subprocess.CompletedProcess:
-    """A ``boat-twin`` process whose verb runs ``handler`` (a body indented 8 spaces), after ``prelude``."""
-    return subprocess.run([sys.executable, "-c", CLI_PROCESS.format(prelude=prelude, handler=handler)],
-                          capture_output=True, text=True, timeout=60)
+    """A ``boat-twin`` process whose verb runs ``handler`` (a body indented 8 spaces), after ``prelude``; Ctrl-C at
+    its default action, as from a shell (a test run in the background ignores it, and so would the process)."""
+    return run_as_from_a_shell([sys.executable, "-c", CLI_PROCESS.format(prelude=prelude, handler=handler)], 60.0)
 
 
 HALF_BUILT = """
