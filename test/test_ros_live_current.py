@@ -29,6 +29,7 @@ def test_diagnose_names_a_current_hidden_in_a_live_recording(tmp_path) -> None:
     assert "thrust set to zero" not in stderr, stderr  # the boat got every command the recording holds
     result = boat_twin("diagnose", run.write(tmp_path / "live_current").as_posix())
     names = [v["effect"] for v in result["verdict"]]
-    assert names and names[0] == "water_current", result
+    said = {key: result[key] for key in ("verdict", "withheld", "ambiguous", "unexplained", "signature")}
+    assert names and names[0] == "water_current", (said, result["baseline"])  # what it said, not the windows
     east, north = (result["verdict"][0]["parameters"][k] for k in ("east_mps", "north_mps"))
     assert east == pytest.approx(0.5, abs=0.05) and north == pytest.approx(-0.3, abs=0.05)
