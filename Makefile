@@ -42,8 +42,8 @@ lint: $(STAMP)
 # of their own, a module each at a time (they mostly wait on their node processes: 3 min 25 s at load 1-4, 8 min
 # 34 s one after another at load 5-6, for the same CPU: docs/ros.md). The long studies marked
 # `slow` run with SLOW=1, which CI sets (.ci/run; also CI=true): a developer's run leaves them out.
-# A test still running after TEST_TIMEOUT_S (pytest-timeout; the longest take ~35 s, a node module's fixture
-# ~3 min on the loaded machine) fails with the stack of every thread, and the run goes on: a hang names itself
+# A test still running after TEST_TIMEOUT_S (pytest-timeout; the longest took 35 s idle, and 100.5 s, a node
+# module's fixture, with two CI runs at once: PYTEST_ADDOPTS=--durations=15 .ci/run) fails with the stack of every thread, and the run goes on: a hang names itself
 # instead of stalling the run until CI's own limit.
 SLOW ?= $(if $(filter true,$(CI)),1,)
 TEST_MARK := not ros_nodes$(if $(SLOW),, and not slow)

@@ -276,14 +276,18 @@ class Parser:
 
 cli.build_parser = lambda verb: Parser()
 sys.argv = ["boat-twin", "run"]
-sys.exit(cli.main())
+code = cli.main()
+{after}
+sys.exit(code)
 """
 
 
-def _boat_twin_running(handler: str, prelude: str = "") -> subprocess.CompletedProcess:
-    """A ``boat-twin`` process whose verb runs ``handler`` (a body indented 8 spaces), after ``prelude``; Ctrl-C at
-    its default action, as from a shell (a test run in the background ignores it, and so would the process)."""
-    return run_as_from_a_shell([sys.executable, "-c", CLI_PROCESS.format(prelude=prelude, handler=handler)], 60.0)
+def _boat_twin_running(handler: str, prelude: str = "", after: str = "") -> subprocess.CompletedProcess:
+    """A ``boat-twin`` process whose verb runs ``handler`` (a body indented 8 spaces), after ``prelude``, and which
+    runs ``after`` once the run is over; Ctrl-C at its default action, as from a shell (a test run in the
+    background ignores it, and so would the process)."""
+    script = CLI_PROCESS.format(prelude=prelude, handler=handler, after=after)
+    return run_as_from_a_shell([sys.executable, "-c", script], 60.0)
 
 
 HALF_BUILT = """
@@ -302,6 +306,15 @@ STOP_PRINTED_AND_REPLACED = """\
         except BaseException:
             sys.excepthook(*sys.exc_info())  # PyErr_Print
         raise ImportError("numba._devicearray failed to import")"""
+
+
+def test_ctrl_c_or_sigterm_once_the_run_is_over_leave_its_exit_status() -> None:
+    """A finished `simulate` signalled with Ctrl-C as the interpreter shut down was killed by SIGINT with no word,
+    its new bag in place (test_a_real_process_signalled_at_a_seeded_moment, once): once a process's run is over,
+    both signals are ignored and it exits with the run's own status."""
+    run = _boat_twin_running("        return 0", after="signal.raise_signal(signal.SIGINT)\n"
+                                                      "signal.raise_signal(signal.SIGTERM)")
+    assert run.returncode == 0 and run.stderr == "", run.stderr
 
 
 @pytest.mark.parametrize(("signame", "code", "said"), [("SIGTERM", 143, "terminated"), ("SIGINT", 130, "interrupted")])
