@@ -17,6 +17,7 @@ at 10 Hz with white noise), written as a bag through the message builders.
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pymap3d
@@ -81,10 +82,15 @@ def boat_file(tmp_path):
 
 def test_the_default_boats_turn_is_not_kept_for_a_small_boat() -> None:
     """The failure this fixes: a 16.5 kg hull over the default 6 m boat's geometry and reference turn cannot
-    derive its hull damping; the similar boat (carried to its size) can, and at 1300 kg it is the default boat."""
+    derive its hull damping; the similar boat (carried to its size) can, and at 1300 kg it is the default boat.
+    A vessel section that states another mass is carried too (issue 36), not laid over the 6 m boat."""
     resistance = {"model": "power_series", "coefficients": [0.0, 6.0, 12.0], "max_speed_mps": 2.0}
     with pytest.raises(Exception, match="negative hull damping"):
-        derive_coefficients(params_from_dict({"resistance": resistance, "mass_kg": 16.5}, "model"))
+        derive_coefficients(replace(VesselParams(), resistance=PowerSeriesResistance((0.0, 6.0, 12.0), 2.0),
+                                    mass_kg=16.5))
+    carried = params_from_dict({"resistance": resistance, "mass_kg": 16.5}, "model")
+    assert carried.length_m == pytest.approx(6.0 * (16.5 / 1300.0) ** (1 / 3))
+    assert derive_coefficients(carried).yaw_damping_Nms > 0.0
     small = similar_boat(PowerSeriesResistance((0.0, 6.0, 12.0), 3.0), 16.5)
     assert small.length_m == pytest.approx(6.0 * (16.5 / 1300.0) ** (1 / 3))
     assert small.turn_speed_mps == pytest.approx(6.0 * math.sqrt(small.length_m / 6.0))  # Froude-scaled: 2.9 m/s

@@ -46,6 +46,7 @@ from boat_twin.vessel.params import (
     VesselParams,
     held_command_limit_s,
     surge_response_time_s,
+    vessel_with_facts,
 )
 
 __all__ = ["IdentifyResult", "TrialIdentifyResult", "identify_arrays", "identify_pooled", "identify_recordings",
@@ -352,7 +353,7 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
     boat = boat or {}
     config = config or TwinConfig()
     facts: dict[str, Any] = {k: v for k, v in boat.items() if k in VesselParams.__dataclass_fields__}
-    config = replace(config, vessel=replace(config.vessel, **facts))
+    config = replace(config, vessel=vessel_with_facts(config.vessel, facts))
     records = [trial_record(trial, config) for trial in trials]
     samples = [(rec.t_s, rec.thrust_N, rec.speed_mps) for rec in records]
     fallback = boat["mass_kg"] * (1.0 + boat.get("surge_added_mass_ratio", VesselParams().surge_added_mass_ratio)) \

@@ -34,14 +34,15 @@ IDENTIFIED = ("resistance", "effective_mass_kg")
 class BoatFile:
     """The facts a boat file (``--boat``) gives identify, and what it states that identify does not read."""
 
-    facts: dict[str, float]
-    """Vessel field → value, SI (units in the names; docs/model.md)."""
+    facts: dict[str, Any]
+    """Vessel field → value, SI (units in the names; docs/model.md): numbers, and the parsed ``propulsion``,
+    ``turning`` and ``manoeuvring`` where the file states them."""
     ignored: tuple[str, ...]
     """What identify measures (``vessel.resistance``, ``vessel.effective_mass_kg``) and the twin config's other
     sections (``environment``, ``gnss``, ...), as the file names them."""
 
 
-def load_boat(path: Path) -> dict[str, float]:
+def load_boat(path: Path) -> dict[str, Any]:
     """The vessel facts of a boat file (:func:`read_boat_file`), SI."""
     return read_boat_file(path).facts
 
@@ -66,8 +67,8 @@ def read_boat_file(path: Path) -> BoatFile:
             raise InputError(f"{path}: unknown vessel field '{key}'; fields: " + ", ".join(BOAT_FIELDS))
     ignored = [f"vessel.{key}" for key in data if key in IDENTIFIED] + ignored
     facts = {key: value for key, value in data.items() if key not in IDENTIFIED}
-    params_from_dict(facts, str(path))  # numbers, signs and the reference turn's limits
-    return BoatFile({key: float(value) for key, value in facts.items()}, tuple(ignored))
+    parsed = params_from_dict(facts, str(path))  # numbers, signs, the layout and the reference turn's limits
+    return BoatFile({key: getattr(parsed, key) for key in facts}, tuple(ignored))
 
 
 def thrust_seen(trials: list[Trial]) -> dict[str, float]:

@@ -39,7 +39,14 @@ import numba
 import numpy as np
 
 from boat_twin.threads import configure_openmp
-from boat_twin.units import AIR_DENSITY_KGPM3
+from boat_twin.units import AIR_DENSITY_KGPM3, SEAWATER_DENSITY_KGPM3
+from boat_twin.vessel.actuators import (
+    COMMAND_MAPS,
+    SLIPSTREAM_KAPPA,
+    TABLE_MAX_POINTS,
+    Propulsion,
+    fujii_lift_slope_per_rad,
+)
 from boat_twin.vessel.helms import CompiledHelm, fresh_memory, helm_command
 from boat_twin.vessel.params import WINDAGE_DRAG_COEFFICIENT, VesselParams, derive_coefficients
 from boat_twin.vessel.steering import steering_target
@@ -70,6 +77,20 @@ _K_M11, _K_M22, _K_M33, _K_AV, _K_XC, _K_AR, _K_YVV, _K_NRR = range(8)
 _K_XE, _K_YE, _K_ETA_P, _K_BOLLARD, _K_REVERSE, _K_MAX_STEER = range(8, 14)
 _K_FACTOR_LEFT, _K_FACTOR_RIGHT, _K_STEER_OFFSET, _K_WIND_X, _K_WIND_Y, _K_WIND_XC, _K_STEER_RATE = range(14, 21)
 _K_THRUST_TAU = 21
+_K_GENERAL = 22
+"""0: the default layout (two steerable outboards in N at (x_e, ±y_e): the seed boat's arithmetic, kept bit for
+bit); 1: the boat file's thrusters and rudders (:mod:`boat_twin.vessel.actuators`), read from the slots below."""
+# Per thruster slot j, at _K_SLOTS + j·_SLOT: present, position, fixed angle, steered, command map, slipstream
+# diameter, propeller (K_T coefficients, wake, astern share), thrust table (points, commands, thrusts).
+_K_SLOTS = 23
+_S_PRESENT, _S_X, _S_Y, _S_ANGLE, _S_STEERED, _S_MAP, _S_DIAMETER = range(7)
+_S_KT0, _S_KT1, _S_KT2, _S_WAKE, _S_ASTERN, _S_POINTS, _S_TABLE = range(7, 14)
+_SLOT = _S_TABLE + 2 * TABLE_MAX_POINTS
+# Per rudder r, at _K_RUDDERS + r·_RUDDER: present, position, ½ρ·A_R·f_α, the washing slot (−1: none), D/span.
+_K_RUDDERS = _K_SLOTS + 2 * _SLOT
+_R_PRESENT, _R_X, _R_Y, _R_GAIN, _R_WASHED, _R_ETA = range(6)
+_RUDDER = 6
+_K_SIZE = _K_RUDDERS + 2 * _RUDDER
 
 
 def resistance_grid_mps(params: VesselParams) -> np.ndarray:
@@ -116,8 +137,40 @@ def compile_coefficients(params: VesselParams) -> np.ndarray:
             params.windage_centre_x_m,
             params.steering_rate_radps,
             params.thrust_time_constant_s,
+            0.0 if params.propulsion is None else 1.0,
+            *_layout_coefficients(params.propulsion),
         ]
     )
+
+
+def _layout_coefficients(propulsion: Propulsion | None) -> np.ndarray:
+    """The slots and rudders of the kernel's coefficient row (``_S_*``, ``_R_*``): zeros for the default layout."""
+    out = np.zeros(_K_SIZE - _K_SLOTS)
+    if propulsion is None:
+        return out
+    maps = {name: float(i) for i, name in enumerate(COMMAND_MAPS)}
+    for j, thruster in enumerate(propulsion.thrusters):
+        slot = out[j * _SLOT:(j + 1) * _SLOT]
+        slot[[_S_PRESENT, _S_X, _S_Y, _S_ANGLE, _S_STEERED, _S_MAP, _S_DIAMETER]] = [
+            1.0, thruster.x_m, thruster.y_m, thruster.angle_rad, float(thruster.steered), maps[thruster.command],
+            thruster.diameter_m]
+        if thruster.propeller is not None:
+            p = thruster.propeller
+            slot[[_S_KT0, _S_KT1, _S_KT2, _S_WAKE, _S_ASTERN]] = [*p.kt, p.wake_fraction, p.astern_ratio]
+        if thruster.table is not None:
+            points = len(thruster.table.command)
+            slot[_S_POINTS] = points
+            slot[_S_TABLE:_S_TABLE + points] = thruster.table.command
+            slot[_S_TABLE + TABLE_MAX_POINTS:_S_TABLE + TABLE_MAX_POINTS + points] = thruster.table.thrust_N
+    names = [t.name for t in propulsion.thrusters]
+    base = _K_RUDDERS - _K_SLOTS
+    for r, rudder in enumerate(propulsion.rudders):
+        washed = -1 if rudder.washed_by is None else names.index(rudder.washed_by)
+        diameter = propulsion.thrusters[washed].diameter_m if washed >= 0 else 0.0
+        gain = 0.5 * SEAWATER_DENSITY_KGPM3 * rudder.area_m2 * fujii_lift_slope_per_rad(rudder.aspect_ratio)
+        out[base + r * _RUDDER:base + (r + 1) * _RUDDER] = [
+            1.0, rudder.x_m, rudder.y_m, gain, float(washed), min(1.0, diameter / rudder.span_m)]
+    return out
 
 
 @numba.njit(cache=True)
@@ -140,6 +193,133 @@ def _delivered_thrust(command: float, u: float, k: np.ndarray) -> float:
     if abs(u) > 1e-9:
         ahead = min(ahead, k[_K_ETA_P] / abs(u))
     return min(max(command, -k[_K_REVERSE]), ahead)
+
+
+@numba.njit(cache=True)
+def _slot_thrust(j: int, command: float, u_p: float, k: np.ndarray) -> float:
+    """Thrust of slot ``j``'s thruster under ``command`` (after the lag) at the surge through the water at the
+    thruster ``u_p``, N, before its thrust factor: its command map (:mod:`boat_twin.vessel.actuators`; the numpy
+    copy is :func:`boat_twin.vessel.propulsion.thruster_thrust_N`)."""
+    base = _K_SLOTS + j * _SLOT
+    kind = k[base + _S_MAP]
+    if kind == 0.0:
+        return _delivered_thrust(command, u_p, k)
+    if kind == 1.0:
+        points = int(k[base + _S_POINTS])
+        xs = k[base + _S_TABLE:base + _S_TABLE + points]
+        ys = k[base + _S_TABLE + TABLE_MAX_POINTS:base + _S_TABLE + TABLE_MAX_POINTS + points]
+        return np.interp(command, xs, ys)
+    if abs(command) <= 1e-9:
+        return 0.0
+    d = k[base + _S_DIAMETER]
+    j_advance = (1.0 - k[base + _S_WAKE]) * u_p / (abs(command) * d)
+    kt = k[base + _S_KT0] + k[base + _S_KT1] * j_advance + k[base + _S_KT2] * j_advance * j_advance
+    thrust = SEAWATER_DENSITY_KGPM3 * command * abs(command) * d**4 * kt
+    return thrust if command >= 0.0 else k[base + _S_ASTERN] * thrust
+
+
+@numba.njit(cache=True)
+def _thrust_command(j: int, thrust_N: float, u_p: float, k: np.ndarray) -> float:
+    """The command of slot ``j``'s thruster that asks for ``thrust_N`` at the surge ``u_p`` (its map read
+    backwards): N itself; the table read from thrust to command; the shaft speed n solving
+    ρ·D⁴·(k₀·n² + k₁·n·V_A/D + k₂·V_A²/D²) = T (ahead; astern at rest, with its astern share), rev/s."""
+    base = _K_SLOTS + j * _SLOT
+    kind = k[base + _S_MAP]
+    if kind == 0.0:
+        return thrust_N
+    if kind == 1.0:
+        points = int(k[base + _S_POINTS])
+        xs = k[base + _S_TABLE:base + _S_TABLE + points]
+        ys = k[base + _S_TABLE + TABLE_MAX_POINTS:base + _S_TABLE + TABLE_MAX_POINTS + points]
+        return np.interp(thrust_N, ys, xs)
+    d = k[base + _S_DIAMETER]
+    scale = SEAWATER_DENSITY_KGPM3 * d**4
+    if thrust_N < 0.0:
+        return -np.sqrt(-thrust_N / (scale * k[base + _S_KT0] * k[base + _S_ASTERN]))
+    advance = (1.0 - k[base + _S_WAKE]) * max(u_p, 0.0) / d
+    a, b, c = k[base + _S_KT0], k[base + _S_KT1] * advance, k[base + _S_KT2] * advance * advance - thrust_N / scale
+    return (-b + np.sqrt(max(b * b - 4.0 * a * c, 0.0))) / (2.0 * a)
+
+
+@numba.njit(cache=True)
+def _layout_command(demand: np.ndarray, u: float, k: np.ndarray, out: np.ndarray) -> None:
+    """A scenario's demand — thrust per outboard (N) and steering angle (rad) of the default layout — as this
+    boat's four commands into ``out`` (4,) at its surge ``u``: a single thruster takes both outboards' thrust; a
+    boat with no steering input turns by differential thrust (the steering angle as a share s = δ/δ_max of the
+    mean thrust, added on the side that turns the bow like the angle would, s = 1 at full steering); each
+    thrust becomes its thruster's command (:func:`_thrust_command`). The default layout: the demand itself."""
+    if k[_K_GENERAL] == 0.0:
+        out[:] = demand
+        return
+    left, right, angle_left, angle_right = demand[0], demand[1], demand[2], demand[3]
+    second = _K_SLOTS + _SLOT
+    if k[second + _S_PRESENT] == 0.0:
+        left, right = left + right, 0.0
+    elif k[_K_SLOTS + _S_STEERED] == 0.0 and k[second + _S_STEERED] == 0.0 and k[_K_RUDDERS + _R_PRESENT] == 0.0:
+        share = min(max(angle_left / k[_K_MAX_STEER], -1.0), 1.0) if k[_K_MAX_STEER] > 0.0 else 0.0
+        if k[_K_SLOTS + _S_Y] < k[second + _S_Y]:  # the first thruster is the starboard one
+            share = -share
+        mean, half_difference = 0.5 * (left + right), 0.5 * (left - right)
+        left, right = mean * (1.0 + share) + half_difference, mean * (1.0 - share) - half_difference
+        angle_left = angle_right = 0.0
+    out[0] = _thrust_command(0, left, u, k)
+    out[1] = _thrust_command(1, right, u, k) if k[second + _S_PRESENT] != 0.0 else 0.0
+    out[2] = angle_left
+    out[3] = angle_right
+
+
+@numba.njit(cache=True)
+def _layout_commands(demands: np.ndarray, surge: np.ndarray, k: np.ndarray, out: np.ndarray) -> None:
+    """:func:`_layout_command` of each row of ``demands`` (n, 4) at ``surge`` (n,)."""
+    for i in range(demands.shape[0]):
+        _layout_command(demands[i], surge[i], k, out[i])
+
+
+@numba.njit(cache=True)
+def _layout_forces(u: float, v: float, r: float, thrust_left: float, thrust_right: float, d_left: float,
+                   d_right: float, k: np.ndarray, out: np.ndarray) -> None:
+    """Surge and sway force and yaw moment (N, N, N·m) of a boat file's thrusters and rudders into ``out`` (3,):
+    each thruster's thrust along its direction (its steering angle, or its fixed angle), each rudder's normal
+    force from its inflow (the hull's velocity at the rudder, and the slipstream of the thruster that washes it;
+    module docstring of :mod:`boat_twin.vessel.actuators`)."""
+    commands = (thrust_left, thrust_right)
+    angles = (d_left, d_right)
+    thrusts = np.zeros(2)
+    out[:] = 0.0
+    for j in range(2):
+        base = _K_SLOTS + j * _SLOT
+        if k[base + _S_PRESENT] == 0.0:
+            continue
+        x, y = k[base + _S_X], k[base + _S_Y]
+        factor = k[_K_FACTOR_LEFT] if j == 0 else k[_K_FACTOR_RIGHT]
+        thrusts[j] = factor * _slot_thrust(j, commands[j], u - y * r, k)
+        direction = angles[j] if k[base + _S_STEERED] == 1.0 else k[base + _S_ANGLE]
+        fx, fy = thrusts[j] * np.cos(direction), thrusts[j] * np.sin(direction)
+        out[0] += fx
+        out[1] += fy
+        out[2] += x * fy - y * fx
+    for i in range(2):
+        base = _K_RUDDERS + i * _RUDDER
+        if k[base + _R_PRESENT] == 0.0:
+            continue
+        x, y = k[base + _R_X], k[base + _R_Y]
+        u_r, v_r = u - y * r, v + x * r
+        washed = int(k[base + _R_WASHED])
+        if washed >= 0 and thrusts[washed] > 0.0:
+            d = k[_K_SLOTS + washed * _SLOT + _S_DIAMETER]
+            far = np.sqrt(u_r * u_r + 8.0 * thrusts[washed] / (SEAWATER_DENSITY_KGPM3 * np.pi * d * d))
+            eta = k[base + _R_ETA]
+            wash = abs(u_r) + SLIPSTREAM_KAPPA * (far - abs(u_r))
+            u_r = np.sqrt(eta * wash * wash + (1.0 - eta) * u_r * u_r)
+        delta = angles[i]
+        attack = delta - np.arctan2(v_r, u_r) if u_r >= 0.0 else delta - np.arctan2(-v_r, -u_r)
+        normal = k[base + _R_GAIN] * (u_r * u_r + v_r * v_r) * np.sin(attack)
+        if u_r < 0.0:  # astern the water meets the rudder's trailing edge: the force turns the other way
+            normal = -normal
+        fx, fy = -normal * np.sin(delta), normal * np.cos(delta)
+        out[0] += fx
+        out[1] += fy
+        out[2] += x * fy - y * fx
 
 
 @numba.njit(cache=True)
@@ -188,11 +368,16 @@ def _derivative(
     ``thrust_right`` (N, after the lag) and real steering angles ``d_left``, ``d_right`` (rad), written into
     ``out``."""
     psi, u, v, r = s[2], s[3], s[4], s[5]
-    t_left = k[_K_FACTOR_LEFT] * _delivered_thrust(thrust_left, u, k)
-    t_right = k[_K_FACTOR_RIGHT] * _delivered_thrust(thrust_right, u, k)
-    x_force = t_left * np.cos(d_left) + t_right * np.cos(d_right)
-    y_force = t_left * np.sin(d_left) + t_right * np.sin(d_right)
-    n_moment = k[_K_XE] * y_force - k[_K_YE] * (t_left * np.cos(d_left) - t_right * np.cos(d_right))
+    if k[_K_GENERAL] == 0.0:
+        t_left = k[_K_FACTOR_LEFT] * _delivered_thrust(thrust_left, u, k)
+        t_right = k[_K_FACTOR_RIGHT] * _delivered_thrust(thrust_right, u, k)
+        x_force = t_left * np.cos(d_left) + t_right * np.cos(d_right)
+        y_force = t_left * np.sin(d_left) + t_right * np.sin(d_right)
+        n_moment = k[_K_XE] * y_force - k[_K_YE] * (t_left * np.cos(d_left) - t_right * np.cos(d_right))
+    else:
+        forces = np.empty(3)
+        _layout_forces(u, v, r, thrust_left, thrust_right, d_left, d_right, k, forces)
+        x_force, y_force, n_moment = forces[0], forces[1], forces[2]
     c, sn = np.cos(psi), np.sin(psi)
     # Apparent wind in the body frame: wind over ground minus the hull's velocity over ground.
     air_east = env[2] - (u * c - v * sn + env[0])
@@ -583,6 +768,8 @@ def _closed_loop_boat(
             n = tick * substeps + j
             now_s = t + j * dt
             helm_command(kind, helm_parameters, now_s, states[b], memory[b], command)
+            if k[_K_GENERAL] != 0.0:
+                _layout_command(command.copy(), states[b, 3], k, command)
             differs = n == 0
             for c in range(4):
                 if command[c] != last[b, c]:
@@ -713,6 +900,16 @@ class Dynamics:
         """(N, 2) the engines' thrust commands after the lag where ``commands`` (N, 4) has held them: the
         commanded thrust."""
         return np.array(commands[:, :2], dtype=float)
+
+    def layout_commands(self, demands: np.ndarray, surge_mps: np.ndarray | float = 0.0) -> np.ndarray:
+        """(n, 4) a scenario's demands (n, 4) — thrust per outboard, N, and steering, rad, of the default layout —
+        as this boat's commands at the surge ``surge_mps`` (:func:`_layout_command`; the default layout: the
+        demands themselves)."""
+        demands = np.ascontiguousarray(demands, dtype=float)
+        out = np.empty_like(demands)
+        surge = np.broadcast_to(np.asarray(surge_mps, dtype=float), demands.shape[:1]).copy()
+        _layout_commands(demands, surge, self.model.coefficients, out)
+        return out
 
     def actuator_history(self, dt_s: float, commands: np.ndarray, switch_s: np.ndarray | None = None
                          ) -> np.ndarray:

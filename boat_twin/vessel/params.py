@@ -19,7 +19,13 @@ from boat_twin.errors import InputError
 from boat_twin.files import atomic_write_yaml, load_yaml
 from boat_twin.units import SEAWATER_DENSITY_KGPM3
 from boat_twin.validation import THRUST_LIMIT_N
-from boat_twin.vessel.resistance import ResistanceModel, dyda2021_resistance, resistance_from_dict
+from boat_twin.vessel.actuators import Propulsion, propulsion_from_dict, propulsion_to_dict
+from boat_twin.vessel.resistance import (
+    ResistanceModel,
+    TableResistance,
+    dyda2021_resistance,
+    resistance_from_dict,
+)
 
 WINDAGE_DRAG_COEFFICIENT = 0.8
 """Drag coefficient of a small boat's hull and console above water, -: 0.6-1.0 (Blendermann 1994)."""
@@ -48,6 +54,10 @@ UPPER_LIMITS = {
 HULL_POSITIONS = ("engine_x_m", "lateral_centre_x_m", "windage_centre_x_m", "engine_y_m")
 """Positions on the boat (FLU body frame, m): within ±500 m, the bound of ``length_m`` (a point on a boat no longer
 than that; checked on its own, since a boat file may give a position before the length it goes with)."""
+TURNING_SOURCES = ("reference_turn", "hull")
+"""Where the turning coefficients come from (``VesselParams.turning``)."""
+NOT_NUMBERS = ("resistance", "manoeuvring", "propulsion", "turning")
+"""Fields that are not plain numbers (checked on their own)."""
 MANOEUVRING_KEYS = ("m22_kg", "m33_kgm2", "sway_damping_Nspm2", "yaw_damping_Nms", "sway_quadratic_Ns2pm2",
                     "yaw_quadratic_Nms2")
 """Coefficients (:class:`ModelCoefficients` fields) that ``VesselParams.manoeuvring`` may set from trials."""
@@ -127,6 +137,13 @@ class VesselParams:
     """Centre of the lateral windage forward of the centre of gravity, m (console forward of midships; assumed)."""
     resistance: ResistanceModel = field(default_factory=dyda2021_resistance)
     """Calm-water surge resistance Fc(u); default the measured Table 1 of Dyda & Chumakova (2021)."""
+    propulsion: Propulsion | None = None
+    """The boat's thrusters and rudders (:mod:`boat_twin.vessel.actuators`); None: the seed boat's layout, two
+    steerable outboards commanded in N at (``engine_x_m``, ±``engine_y_m``)."""
+    turning: str = "reference_turn"
+    """Where the sway and yaw damping come from (:data:`TURNING_SOURCES`): ``reference_turn`` solves the stated
+    turn (``turn_*``) of the two outboards; ``hull`` takes Clarke et al. (1983)'s derivatives of the hull's
+    length, beam, draft and block coefficient (:func:`hull_coefficients`): any layout, no turn to state."""
     manoeuvring: dict[str, float] = field(default_factory=dict, hash=False)
     """Sway/yaw coefficients identified from trials (keys: :data:`MANOEUVRING_KEYS`, SI, each > 0) that replace
     the ones :func:`derive_coefficients` derives from the reference turn (boat_twin.ident.manoeuvring); empty:
@@ -140,8 +157,15 @@ class VesselParams:
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
                     or value <= 0.0:
                 raise InputError(f"vessel parameter 'manoeuvring': '{key}' must be a positive number, got {value!r}")
+        if self.turning not in TURNING_SOURCES:
+            raise InputError(f"vessel parameter 'turning' must be one of {', '.join(TURNING_SOURCES)}, "
+                             f"got {self.turning!r}")
+        if self.propulsion is not None and self.turning == "reference_turn" \
+                and set(self.manoeuvring) != set(MANOEUVRING_KEYS):
+            raise InputError("vessel parameter 'turning': a reference turn is the two outboards' turn; a boat with "
+                             "a propulsion section takes turning: hull (or identified manoeuvring coefficients)")
         for f in fields(self):
-            if f.name in ("resistance", "manoeuvring"):
+            if f.name in NOT_NUMBERS:
                 continue
             value = getattr(self, f.name)
             if not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -231,8 +255,63 @@ def derive_coefficients(params: VesselParams) -> ModelCoefficients:
     if set(params.manoeuvring) == set(MANOEUVRING_KEYS):  # all identified: the reference turn plays no part
         return ModelCoefficients(m11_kg=_inertia(params)["m11"], lateral_centre_x_m=params.lateral_centre_x_m,
                                  **params.manoeuvring)
-    derived = _derived_coefficients(params)
+    derived = hull_coefficients(params) if params.turning == "hull" else _derived_coefficients(params)
     return replace(derived, **params.manoeuvring) if params.manoeuvring else derived
+
+
+CLARKE_RANGE = {"beam_to_draft": (1.5, 6.0), "beam_to_length": (0.1, 0.35), "block": (0.35, 0.9)}
+"""Ratios held within these bounds in :func:`hull_coefficients`, -: about the range of the hulls behind Clarke
+et al. (1983)'s regression (ships and their models; B/T 2-4, B/L 0.1-0.2, C_B 0.5-0.85), widened to small craft's
+proportions; beyond, the formulas' sums can change sign (a wide catamaran's overall B/T of 10 would turn its
+yaw damping negative). The derivatives are a start that ``identify --manoeuvring`` replaces."""
+
+
+def hull_coefficients(params: VesselParams) -> ModelCoefficients:
+    """Sway and yaw damping from the hull's dimensions: the linear derivatives of Clarke, Gedling & Hine (1983) as
+    Fossen's MSS toolbox writes them (``clarke83.m``; Fossen 2021, §6.4), non-dimensional on ½ρL²U, with T/L, B/T,
+    B/L and the block coefficient C_B = m/(ρLBT)::
+
+        Y_v' = −π(T/L)²·(1 + 0.4·C_B·B/T)      N_v' = −π(T/L)²·(1/2 + 2.4·T/L)
+        N_r' = −π(T/L)²·(1/4 + 0.039·B/T − 0.56·B/L)
+
+    mapped onto this model's terms: a_v = −Y_v'·½ρL² (Y = −a_v·|u|·v), a_r = −N_r'·½ρL⁴ (N = −a_r·|u|·r), and the
+    lateral centre x_c such that the model's whole linear moment in v, −(m22 − m11 + x_c·a_v)·u·v, is Clarke's
+    N_v'·½ρL³·u·v (the Munk moment is part of the measured N_v). The sway and yaw added masses are Clarke's too,
+    −Y_v̇' = π(T/L)²·(1 + 0.16·C_B·B/T − 5.1·(B/L)²) on ½ρL³ and −N_ṙ' = π(T/L)²·(1/12 + 0.017·C_B·B/T − 0.33·B/L)
+    on ½ρL⁵ (not below 0); surge added mass and the cross-flow drag are this model's own (:func:`_inertia`,
+    :func:`_crossflow`). A hull may come out directionally unstable on its own (Clarke's ships often are); a rudder
+    or skeg the boat file describes adds its own damping in the equations of motion."""
+    rho = SEAWATER_DENSITY_KGPM3
+    length, beam, draft = params.length_m, params.beam_m, params.draft_m
+    beam_to_draft = min(max(beam / draft, CLARKE_RANGE["beam_to_draft"][0]), CLARKE_RANGE["beam_to_draft"][1])
+    beam_to_length = min(max(beam / length, CLARKE_RANGE["beam_to_length"][0]), CLARKE_RANGE["beam_to_length"][1])
+    block = min(max(params.mass_kg / (rho * length * beam * draft), CLARKE_RANGE["block"][0]),
+                CLARKE_RANGE["block"][1])
+    slender = math.pi * (draft / length) ** 2
+    half_rho = 0.5 * rho
+    sway_added_kg = slender * (1.0 + 0.16 * block * beam_to_draft - 5.1 * beam_to_length**2) * half_rho * length**3
+    yaw_added_kgm2 = max(slender * (1.0 / 12.0 + 0.017 * block * beam_to_draft - 0.33 * beam_to_length), 0.0) \
+        * half_rho * length**5
+    inertia = {"m11": _inertia(params)["m11"], "m22": params.mass_kg + sway_added_kg,
+               "m33": params.mass_kg * params.radius_of_gyration_yaw_m**2 + yaw_added_kgm2}
+    y_v = -slender * (1.0 + 0.4 * block * beam_to_draft)
+    n_v = -slender * (0.5 + 2.4 * draft / length)
+    n_r = -slender * (0.25 + 0.039 * beam_to_draft - 0.56 * beam_to_length)
+    a_v = -y_v * half_rho * length**2
+    a_r = -n_r * half_rho * length**4
+    x_c = (-n_v * half_rho * length**3 - (inertia["m22"] - inertia["m11"])) / a_v
+    return ModelCoefficients(
+        m11_kg=inertia["m11"], m22_kg=inertia["m22"], m33_kgm2=inertia["m33"], sway_damping_Nspm2=a_v,
+        lateral_centre_x_m=x_c, yaw_damping_Nms=a_r, sway_quadratic_Ns2pm2=_crossflow(params)[0],
+        yaw_quadratic_Nms2=_crossflow(params)[1])
+
+
+def _crossflow(params: VesselParams) -> tuple[float, float]:
+    """Cross-flow drag of the hull: (Y_vv, N_rr) = ½ρ·C_d·2T·(L, L⁴/32) (N·s²/m², N·m·s²)."""
+    rho = SEAWATER_DENSITY_KGPM3
+    area = 2.0 * params.draft_m * params.length_m
+    return (0.5 * rho * params.crossflow_drag_coefficient * area,
+            0.5 * rho * params.crossflow_drag_coefficient * 2.0 * params.draft_m * params.length_m**4 / 32.0)
 
 
 def _derived_coefficients(params: VesselParams) -> ModelCoefficients:
@@ -312,6 +391,11 @@ def max_thrust_N(params: VesselParams, speed_mps: np.ndarray) -> np.ndarray:
     return np.minimum(params.bollard_thrust_N, power_limited)
 
 
+TURN_SPEED_SHARE_OF_TOP = 0.8
+"""A boat file that states another size and no ``turn_speed_mps``: its manoeuvres start at the Froude-scaled
+speed, but not above this share of its top speed (its engines then hold it with a margin), -."""
+TURN_FACTS = ("turn_diameter_m", "turn_drift_rad", "turn_steering_rad")
+"""The reference turn's facts: a boat file that states one derives its turning from the turn."""
 SCALED_LENGTHS = ("draft_m", "radius_of_gyration_yaw_m", "lateral_centre_x_m", "engine_x_m", "turn_diameter_m",
                   "windage_centre_x_m")
 """Facts that are lengths along or under the hull: proportional to the hull length in a similar boat."""
@@ -347,13 +431,30 @@ def similar_boat(resistance: ResistanceModel, mass_kg: float, given: dict[str, A
         engine_power_W=base.engine_power_W * mass_kg / base.mass_kg * math.sqrt(scale),
     )
     facts.update(given)
+    if not any(name in given for name in TURN_FACTS + ("turning",)) and not _reference_turn_holds(facts):
+        facts["turning"] = "hull"  # the carried turn cannot be held by this boat: its hull's own damping
     return VesselParams(**facts)
+
+
+def _reference_turn_holds(facts: dict[str, Any]) -> bool:
+    """Whether a boat of ``facts`` (reference turn, no propulsion section) can hold its reference turn."""
+    if facts.get("propulsion") is not None:
+        return False
+    try:
+        _derived_coefficients(VesselParams(**facts))
+    except InputError:
+        return False
+    return True
 
 
 def params_to_dict(params: VesselParams) -> dict[str, Any]:
     """Plain data for YAML: every fact plus the resistance model's description."""
-    data = {f.name: getattr(params, f.name) for f in fields(params) if f.name not in ("resistance", "manoeuvring")}
+    data = {f.name: getattr(params, f.name) for f in fields(params) if f.name not in NOT_NUMBERS}
     data["resistance"] = params.resistance.to_dict()
+    if params.turning != "reference_turn":
+        data["turning"] = params.turning
+    if params.propulsion is not None:
+        data["propulsion"] = propulsion_to_dict(params.propulsion)
     if params.manoeuvring:
         data["manoeuvring"] = {key: float(value) for key, value in params.manoeuvring.items()}
     return data
@@ -378,14 +479,72 @@ def params_from_dict(data: Any, where: str, base: VesselParams | None = None) ->
             if not isinstance(value, dict):
                 raise InputError(f"{where}: 'manoeuvring' must be a mapping of coefficients")
             changes[key] = {str(k): _number(v, where, f"manoeuvring: {k}") for k, v in value.items()}
+        elif key == "propulsion":
+            changes[key] = propulsion_from_dict(value, f"{where}: propulsion")
+        elif key == "turning":
+            if value not in TURNING_SOURCES:
+                raise InputError(f"{where}: 'turning' must be one of {', '.join(TURNING_SOURCES)}, got {value!r}")
+            changes[key] = value
         elif key == "effective_mass_kg":
             changes["mass_kg"] = _number(value, where, key) / (1.0 + base.surge_added_mass_ratio)
         else:
             changes[key] = _number(value, where, key)
+    if "effective_mass_kg" in data:  # an identified model over its base: no boat of another size to carry
+        return _replaced(base, changes, where)
+    return vessel_with_facts(base, changes, where)
+
+
+def _replaced(base: VesselParams, changes: dict[str, Any], where: str) -> VesselParams:
     try:
         return replace(base, **changes)
     except InputError as err:
         raise InputError(f"{where}: {err}") from None
+
+
+def vessel_with_facts(base: VesselParams, facts: dict[str, Any], where: str = "boat file") -> VesselParams:
+    """``base`` with a boat file's (parsed) facts over it. Over the built-in boat, facts that state another mass or
+    length first carry it to that size (:func:`similar_boat`, its resistance Froude-scaled unless given:
+    :func:`froude_scaled_resistance`; its turning the hull's where the carried reference turn cannot hold or a
+    propulsion section is given; its manoeuvres' speed within its top speed), so what the file leaves out is
+    derived from what it gives, never the 6 m boat's own. A propulsion section without a stated turning takes the
+    hull's."""
+    if "propulsion" in facts and "turning" not in facts and set(base.manoeuvring) != set(MANOEUVRING_KEYS):
+        facts = {**facts, "turning": "hull"}
+    if not (base == VesselParams() and _states_another_size(facts)):
+        return _replaced(base, facts, where)
+    default = VesselParams()
+    mass = _number(facts.get("mass_kg", default.mass_kg), where, "mass_kg")
+    length = _number(facts.get("length_m", default.length_m * (abs(mass) / default.mass_kg) ** (1.0 / 3.0)),
+                     where, "length_m")
+    if mass <= 0.0 or length <= 0.0:
+        raise InputError(f"{where}: 'mass_kg' and 'length_m' must be positive, got {mass!r} and {length!r}")
+    resistance = facts.get("resistance") or froude_scaled_resistance(default, mass, length)
+    try:
+        params = similar_boat(resistance, mass, facts)
+        if "turn_speed_mps" not in facts:  # manoeuvres start at a speed this boat can hold
+            params = replace(params, turn_speed_mps=min(params.turn_speed_mps,
+                                                        TURN_SPEED_SHARE_OF_TOP * top_speed_mps(params)))
+        return params
+    except InputError as err:
+        raise InputError(f"{where}: {err}") from None
+
+
+def _states_another_size(data: dict[str, Any]) -> bool:
+    """Whether a vessel section states a mass or length other than the default boat's."""
+    default = VesselParams()
+    return any(key in data and isinstance(data[key], (int, float)) and not isinstance(data[key], bool)
+               and 0.0 < float(data[key]) < math.inf and float(data[key]) != getattr(default, key)
+               for key in ("mass_kg", "length_m"))
+
+
+def froude_scaled_resistance(base: VesselParams, mass_kg: float, length_m: float) -> TableResistance:
+    """``base``'s resistance carried to a geometrically similar boat of ``mass_kg`` and ``length_m`` at equal Froude
+    numbers: speeds × √(L/L₀), forces × m/m₀ (the residuary resistance coefficient kept; friction's Reynolds
+    effect ignored: a small boat's is a few % higher, Faltinsen 2005, §9.1), N; tabulated at 40 speeds."""
+    speeds = np.linspace(0.0, base.resistance.max_speed_mps, 40)
+    forces = np.maximum.accumulate(np.asarray(base.resistance.force_N(speeds), dtype=float))
+    return TableResistance(tuple(float(u) for u in speeds * math.sqrt(length_m / base.length_m)),
+                           tuple(float(f) for f in forces * mass_kg / base.mass_kg))
 
 
 def _number(value: Any, where: str, key: str) -> float:
@@ -431,12 +590,32 @@ def describe(params: VesselParams) -> dict[str, float | list[float]]:
     }
 
 
+def available_thrust_N(params: VesselParams, speed_mps: float) -> float:
+    """The whole thrust the boat's thrusters give ahead at full setting at speed through water u, N: two outboards'
+    envelope (:func:`max_thrust_N`) on the default layout; per thruster of a boat file's propulsion, the envelope
+    (newtons), the table's largest thrust (table), or the propeller at the shaft speed of its bollard thrust
+    ``bollard_thrust_N`` (propeller)."""
+    if params.propulsion is None:
+        return float(2.0 * max_thrust_N(params, np.array(speed_mps)))
+    total = 0.0
+    for thruster in params.propulsion.thrusters:
+        if thruster.table is not None:
+            total += max(thruster.table.thrust_N)
+        elif thruster.propeller is not None:
+            full = thruster.propeller.rev_per_s_for(params.bollard_thrust_N)
+            total += float(thruster.propeller.thrust(full, speed_mps))
+        else:
+            total += float(max_thrust_N(params, np.array(speed_mps)))
+    return total
+
+
 def top_speed_mps(params: VesselParams) -> float:
-    """Speed where two outboards' available thrust equals the resistance, m/s (bisection on a monotone gap)."""
+    """Speed where the available thrust (:func:`available_thrust_N`) equals the resistance, m/s (bisection on a
+    monotone gap)."""
     lo, hi = 0.1, 60.0
     for _ in range(60):
         mid = 0.5 * (lo + hi)
-        gap = 2.0 * max_thrust_N(params, np.array(mid)) - params.resistance.force_N(mid)
+        gap = available_thrust_N(params, mid) - params.resistance.force_N(mid)
         lo, hi = (mid, hi) if gap > 0 else (lo, mid)
     return 0.5 * (lo + hi)
 

@@ -365,6 +365,14 @@ SCENARIOS: Mapping[str, ScenarioFactory] = MappingProxyType({
 """Every named scenario: name (as the command line takes it) → factory."""
 
 
+def _layout_rows(params: VesselParams, demands: np.ndarray) -> np.ndarray:
+    """A profile's demand rows (thrust per outboard, N, and steering, rad) as ``params``' boat's commands, each
+    thrust read at rest (:meth:`~boat_twin.vessel.dynamics.Dynamics.layout_commands`)."""
+    from boat_twin.vessel.dynamics import Dynamics  # the kernel compiles on first use
+
+    return Dynamics(params).layout_commands(demands)
+
+
 def make_scenario(name: str, params: VesselParams, rng: np.random.Generator,
                   duration_s: float | None = None) -> Scenario:
     """Build the scenario registered as ``name``; ``duration_s`` (s) overrides its natural length."""
@@ -372,6 +380,8 @@ def make_scenario(name: str, params: VesselParams, rng: np.random.Generator,
     if factory is None:
         raise InputError(f"unknown scenario {name!r} (choose from {', '.join(SCENARIO_NAMES)})")
     scenario = factory(params, rng)
+    if params.propulsion is not None and isinstance(scenario, CommandProfile):  # the boat's own commands, at rest
+        scenario = replace(scenario, values=_layout_rows(params, scenario.values))
     if duration_s is not None:
         if not (math.isfinite(duration_s) and 0.0 < duration_s <= MAX_DURATION_S):
             raise InputError(f"--duration must be a positive number of seconds up to {MAX_DURATION_S:g} "

@@ -175,7 +175,7 @@ def simulate_chunks(
             issued = np.empty((t_s.size, states.shape[0]))
             for i, t in enumerate(t_s):
                 for j in range(substeps):
-                    command = helm.command(float(t) + j * dt_s, states)
+                    command = dynamics.layout_commands(helm.command(float(t) + j * dt_s, states), states[:, 3])
                     changed = np.ones(states.shape[0], dtype=bool) if last_command is None else np.any(
                         command != last_command, axis=1)
                     changed_s[changed], last_command = float(t) + j * dt_s, command.copy()
