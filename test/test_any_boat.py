@@ -5,6 +5,7 @@ one line."""
 
 from __future__ import annotations
 
+import json
 import math
 from contextlib import nullcontext
 from pathlib import Path
@@ -226,3 +227,20 @@ def test_a_wrong_propulsion_section_is_refused_in_one_line(change: dict, message
 def test_a_propulsion_section_cannot_take_the_outboards_reference_turn() -> None:
     with pytest.raises(InputError, match="takes turning: hull"):
         params_from_dict({"turning": "reference_turn", "propulsion": SKID["propulsion"]}, "boat.yaml")
+
+
+@pytest.mark.slow
+def test_a_skid_steer_boats_file_identifies_and_diagnoses_its_own_clean_trial_silently(tmp_path: Path) -> None:
+    """The three verbs a new user runs, on a boat file of published facts only (config/boats): its twin's clean
+    trial is identified (mass within its interval's reach) and the diagnosis against that twin names nothing."""
+    from boat_twin.cli import main
+
+    boat = Path(__file__).resolve().parents[1] / "config" / "boats" / "skid_steer_catamaran.yaml"
+    trial = tmp_path / "random.mcap"
+    assert main(["simulate", "random", "--config", str(boat), "--seed", "3", "--out", str(trial)]) == 0
+    assert main(["identify", str(trial), "--boat", str(boat), "--out", str(tmp_path / "twin")]) == 0
+    twin = tmp_path / "twin" / "twin.yaml"
+    assert twin.exists()
+    assert main(["diagnose", str(trial), "--config", str(twin), "--out", str(tmp_path / "d")]) == 0
+    report = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
+    assert report["verdict"] == [] and report["unexplained"] is False and report["withheld"] == []

@@ -13,6 +13,7 @@ from boat_twin.link.mavlink_boat import servo_calibration
 CONFIG = Path(__file__).resolve().parents[1] / "config"
 LOADERS = {
     "config": lambda path: load_twin_config(path, None, None),  # --config of simulate / diagnose
+    "boats": lambda path: load_twin_config(path, None, None),  # --config, or --boat of identify
     "cable": load_case,  # cable --case
     "mavlink": load_calibration,  # --calibration of identify / diagnose / convert
     "ros": lambda path: ros_parameters(path),  # --params-file of ROS 2 nodes (robot_localization)

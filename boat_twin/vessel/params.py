@@ -266,6 +266,11 @@ proportions; beyond, the formulas' sums can change sign (a wide catamaran's over
 yaw damping negative). The derivatives are a start that ``identify --manoeuvring`` replaces."""
 
 
+HULL_STABILITY_SHARE = 0.5
+"""The hull's destabilising sway-yaw moment at most this share of its damping product (assumed), -: see
+:func:`hull_coefficients`."""
+
+
 def hull_coefficients(params: VesselParams) -> ModelCoefficients:
     """Sway and yaw damping from the hull's dimensions: the linear derivatives of Clarke, Gedling & Hine (1983) as
     Fossen's MSS toolbox writes them (``clarke83.m``; Fossen 2021, §6.4), non-dimensional on ½ρL²U, with T/L, B/T,
@@ -279,8 +284,11 @@ def hull_coefficients(params: VesselParams) -> ModelCoefficients:
     N_v'·½ρL³·u·v (the Munk moment is part of the measured N_v). The sway and yaw added masses are Clarke's too,
     −Y_v̇' = π(T/L)²·(1 + 0.16·C_B·B/T − 5.1·(B/L)²) on ½ρL³ and −N_ṙ' = π(T/L)²·(1/12 + 0.017·C_B·B/T − 0.33·B/L)
     on ½ρL⁵ (not below 0); surge added mass and the cross-flow drag are this model's own (:func:`_inertia`,
-    :func:`_crossflow`). A hull may come out directionally unstable on its own (Clarke's ships often are); a rudder
-    or skeg the boat file describes adds its own damping in the equations of motion."""
+    :func:`_crossflow`). Clarke's ships are often directionally unstable; a small craft carries skegs, keels or
+    engine legs aft that the regression leaves out and is built to run straight, so x_c goes no further forward
+    than where the destabilising moment is :data:`HULL_STABILITY_SHARE` of the damping product
+    (m11·(m22 − m11 + x_c·a_v) = share·a_v·a_r): stable with a margin (an unstable replay diverges within a
+    window, and every small difference becomes a misfit)."""
     rho = SEAWATER_DENSITY_KGPM3
     length, beam, draft = params.length_m, params.beam_m, params.draft_m
     beam_to_draft = min(max(beam / draft, CLARKE_RANGE["beam_to_draft"][0]), CLARKE_RANGE["beam_to_draft"][1])
@@ -299,7 +307,9 @@ def hull_coefficients(params: VesselParams) -> ModelCoefficients:
     n_r = -slender * (0.25 + 0.039 * beam_to_draft - 0.56 * beam_to_length)
     a_v = -y_v * half_rho * length**2
     a_r = -n_r * half_rho * length**4
-    x_c = (-n_v * half_rho * length**3 - (inertia["m22"] - inertia["m11"])) / a_v
+    munk = inertia["m22"] - inertia["m11"]
+    x_c = min((-n_v * half_rho * length**3 - munk) / a_v,
+              (HULL_STABILITY_SHARE * a_v * a_r / inertia["m11"] - munk) / a_v)
     return ModelCoefficients(
         m11_kg=inertia["m11"], m22_kg=inertia["m22"], m33_kgm2=inertia["m33"], sway_damping_Nspm2=a_v,
         lateral_centre_x_m=x_c, yaw_damping_Nms=a_r, sway_quadratic_Ns2pm2=_crossflow(params)[0],
