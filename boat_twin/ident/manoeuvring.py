@@ -141,6 +141,9 @@ SCALED_NOTE = ("held, not fitted: the given surge model (m11 and the shape of Fc
 LEVER_ARM_NOTE = ("engine lever arm x_e: the yaw equation holds it only as x_e/m33 (with a_r/m33, x_c·a_v/m33, "
                   "N_rr/m33), so a wrong x_e rescales m33 and the yaw coefficients together; taken as given "
                   "({x_e:+.2f} m), m33, a_r and N_rr are relative to it")
+LAYOUT_LEVER_NOTE = ("the boat file's thrusters and rudders are held as given ({where}): the yaw equation holds their "
+                     "moments only over m33, so a wrong position or rudder area rescales m33 and the yaw coefficients "
+                     "together")
 TIMING_NOTE = ("STEERING TIMING: the residuals follow the steering's timing (score test t = {t:+.1f}, limit "
                "±{t_limit:g}): the outboards act {delay_s:+.2f} s late (95 % [{low:+.2f}, {high:+.2f}] s, linearized) "
                "against the model, a command delay or actuator lag it lacks; the coefficients and their intervals "
@@ -616,8 +619,11 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     noise = {s: float(np.median([d.noise[s] for d in data if s in d.noise])) for s in used}
     timing = problem.steering_timing(x, jac, fun, len(free))
     scaled = [key for key in SURGE_FACTOR_KEYS if key in free]
+    layout = base.vessel.propulsion
     notes = [SCALED_NOTE.format(fitted=", ".join(scaled)) if scaled else HELD_NOTE,
-             LEVER_ARM_NOTE.format(x_e=base.vessel.engine_x_m)]
+             LEVER_ARM_NOTE.format(x_e=base.vessel.engine_x_m) if layout is None else LAYOUT_LEVER_NOTE.format(
+                 where=", ".join([f"{t.name} x {t.x_m:+.2f} m" for t in layout.thrusters]
+                                 + [f"rudder {r.name} x {r.x_m:+.2f} m, {r.area_m2:g} m²" for r in layout.rudders]))]
     if timing["flagged"]:
         notes.append(TIMING_NOTE.format(**timing, low=timing["delay_ci95_s"][0], high=timing["delay_ci95_s"][1]))
     return ManoeuvringFit(

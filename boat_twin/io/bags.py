@@ -24,7 +24,7 @@ from boat_twin.errors import InputError
 from boat_twin.files import OutputClaim
 from boat_twin.frames import quaternion_yaw_rad
 from boat_twin.io.mcap_crc import check_chunk_crcs, fill_chunk_crcs
-from boat_twin.io.messages import TOPIC_ODOM_TRUTH, TOPICS, TS
+from boat_twin.io.messages import ACTUATOR_TOPIC, TOPIC_ODOM_TRUTH, TOPICS, TS, topic_type
 from boat_twin.io.sources import check_trial_path
 from boat_twin.io.trial import Stream, Trial, build_trial
 
@@ -67,9 +67,9 @@ def write_bag(path: Path, messages: Iterable[Message], storage: str = "mcap", fo
             for topic, stamp_ns, msg in messages:
                 conn = connections.get(topic)
                 if conn is None:
-                    conn = writer.add_connection("/" + topic, TOPICS[topic], typestore=TS)
+                    conn = writer.add_connection("/" + topic, topic_type(topic), typestore=TS)
                     connections[topic] = conn
-                writer.write(conn, stamp_ns, TS.serialize_cdr(msg, TOPICS[topic]))
+                writer.write(conn, stamp_ns, TS.serialize_cdr(msg, topic_type(topic)))
                 count += 1
         for mcap_file in bag_dir.glob("*.mcap"):
             fill_chunk_crcs(mcap_file)
@@ -230,7 +230,7 @@ def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: 
             raise InputError(f"{source}: topic {topic} has type {available[topic]}, expected "
                              f"{' or '.join(_types(role))}")
         chosen[role] = topic
-    notes = []
+    notes = _actuator_topics(available, chosen, namespace)
     for role in ROLE_TYPES:
         if role in chosen:
             continue
@@ -254,6 +254,31 @@ def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: 
                          + (f" ({hint})" if hint else "") + f"; the bag holds: {holdings(available)}; "
                          "name them with --topic gnss_fix=TOPIC / gnss_vel=TOPIC")
     return chosen, notes
+
+
+def _actuator_topics(available: dict[str, str], chosen: dict[str, str], namespace: str) -> list[str]:
+    """Command roles taken from a boat file's per-actuator topics (``thrusters/<name>/thrust|cmd|pos``,
+    ``rudders/<name>/angle``; :func:`~boat_twin.vessel.actuators.role_topics`) where the slot topics are absent:
+    thrusters in the order of their names (the boat file's slots: list them alphabetically, or remap), rudders
+    before steered thrusters. Adds them to ``chosen``; returns a note per role so read."""
+    if any(role in chosen for role in ("thrust_left", "thrust_right", "angle_left", "angle_right")):
+        return []
+    prefix = "/" + namespace.strip("/") + "/" if namespace.strip("/") else "/"
+    found = sorted(t[len(prefix):] for t, msgtype in available.items()
+                   if t.startswith(prefix) and msgtype == "std_msgs/msg/Float64"
+                   and ACTUATOR_TOPIC.match(t[len(prefix):]))
+    thrusts = [t for t in found if t.startswith("thrusters/") and not t.endswith("/pos")]
+    angles = [t for t in found if t.startswith("rudders/")] or [t for t in found if t.endswith("/pos")]
+    notes = []
+    for role, topic in [*zip(("thrust_left", "thrust_right"), thrusts), *zip(("angle_left", "angle_right"), angles)]:
+        chosen[role] = prefix + topic
+        notes.append(f"{role} read from {prefix + topic} (a boat file's actuator topic, slots in name order)")
+    if len(thrusts) == 1:
+        notes.append(ONE_THRUSTER_NOTE)
+    return notes
+
+
+ONE_THRUSTER_NOTE = "thrust_right: 0 (a single thruster's topic: the boat file's second slot is empty)"
 
 
 @contextmanager
@@ -307,6 +332,8 @@ def read_trial(
         reason = " ".join(str(err).split())  # rosbags' YAML errors span several lines
         raise InputError(f"{source}: cannot read bag ({type(err).__name__}: {reason})") from None
     streams = {role: rows.pop(role).stream() for role in topics}
+    if ONE_THRUSTER_NOTE in notes and "thrust_left" in streams:  # a boat file's single thruster: no second slot
+        streams["thrust_right"] = Stream(streams["thrust_left"].stamps_s[:1], np.zeros((1, 1)))
     trial = build_trial(streams, source, topics, origin, release=True)
     trial.metadata.stream_choices += notes
     return trial

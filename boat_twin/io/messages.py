@@ -14,7 +14,9 @@ them), ``imu_link`` the UM7 (coincides with ``base_link``).
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+import re
+
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -64,6 +66,19 @@ LIVE_TOPICS: dict[str, str] = {
 """Topics only the simulator node publishes (never in a bag the twin writes)."""
 
 COMMAND_TOPICS = (TOPIC_THRUST_LEFT, TOPIC_THRUST_RIGHT, TOPIC_ANGLE_LEFT, TOPIC_ANGLE_RIGHT)
+COMMAND_ROLE_ORDER = ("thrust_left", "thrust_right", "angle_left", "angle_right")
+"""The command roles in the order of :data:`COMMAND_TOPICS` and of a command row."""
+ACTUATOR_TOPIC = re.compile(r"^(thrusters/\w+/(thrust|cmd|pos)|rudders/\w+/angle)$")
+"""A boat file's per-actuator command topics (:func:`~boat_twin.vessel.actuators.role_topics`): std_msgs/Float64."""
+
+
+def topic_type(topic: str) -> str:
+    """The message type of one of the package's topics (relative name), an actuator's command included."""
+    if topic in TOPICS:
+        return TOPICS[topic]
+    if ACTUATOR_TOPIC.match(topic):
+        return "std_msgs/msg/Float64"
+    raise KeyError(topic)
 """Command topics in the column order of a commands array (n, 4)."""
 
 FRAME_MAP = "map"
@@ -380,14 +395,19 @@ def truth_messages(truth: TruthSeries, with_tf: bool = True) -> Iterator[tuple[s
                 yield TOPIC_TF, stamp_ns, tf_message(shared, east_m, north_m, q)
 
 
-def command_messages(t_s: np.ndarray, commands: np.ndarray) -> Iterator[tuple[str, int, Message]]:
-    """The four thruster topics per command sample; ``commands`` (n, 4) columns: thrust left/right (N),
-    steering angle left/right (rad), in the order of :data:`COMMAND_TOPICS`."""
+def command_messages(t_s: np.ndarray, commands: np.ndarray, topics: Mapping[str, str] | None = None
+                     ) -> Iterator[tuple[str, int, Message]]:
+    """The thruster topics per command sample; ``commands`` (n, 4) columns: thrust left/right (N, or the
+    thruster's own unit), steering angle left/right (rad), in the order of :data:`COMMAND_TOPICS`. ``topics``:
+    command role → topic of the roles a boat has (:func:`~boat_twin.vessel.actuators.role_topics`; a role it
+    lacks is not written); None: the four :data:`COMMAND_TOPICS`."""
+    names = COMMAND_TOPICS if topics is None else tuple(topics.get(role, "") for role in COMMAND_ROLE_ORDER)
     values = np.asarray(commands, dtype=float)
     if values.ndim != 2 or values.shape[1] != 4 or values.shape[0] != np.size(t_s):
         raise ValueError(f"commands must have shape ({np.size(t_s)}, 4), got {values.shape}")
     stamp_s = np.asarray(t_s)
     for rows in _blocks(values.shape[0]):
         for stamp_ns, row in zip(stamps_ns(stamp_s[rows]).tolist(), values[rows].tolist(), strict=True):
-            for topic, value in zip(COMMAND_TOPICS, row, strict=True):
-                yield topic, stamp_ns, float64(value)
+            for topic, value in zip(names, row, strict=True):
+                if topic:
+                    yield topic, stamp_ns, float64(value)

@@ -24,6 +24,7 @@ from boat_twin.sensors.um7 import ImuMeasurements, Um7Model
 from boat_twin.vessel.scenarios import Scenario
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ, SimulationRecord, output_ticks, simulate, simulate_chunks
 from boat_twin.vessel.tow import tow_drag_table
+from boat_twin.vessel.actuators import role_topics
 from boat_twin.vessel.truth import TruthSeries
 
 COMMAND_HEARTBEAT_S = 1.0
@@ -118,9 +119,9 @@ def command_log_ticks(t_s: np.ndarray, commands: np.ndarray, heartbeat_s: float 
 
 
 def _merged(command_t_s: np.ndarray, commands: np.ndarray, gnss: GnssMeasurements, imu: ImuMeasurements,
-            truth: TruthSeries | None) -> Iterator[messages.Message]:
+            truth: TruthSeries | None, topics: dict[str, str] | None = None) -> Iterator[messages.Message]:
     streams = [
-        messages.command_messages(command_t_s, commands),
+        messages.command_messages(command_t_s, commands, topics),
         messages.gnss_messages(gnss),
         messages.imu_messages(imu),
     ]
@@ -193,4 +194,4 @@ def compact_trial_messages(trial: CompactTrial, truth: bool = True,
         rows = (trial.command_t_s >= lo) & (trial.command_t_s < hi)
         piece = TruthSeries(**{f.name: getattr(trial.truth, f.name)[start:stop] for f in fields(TruthSeries)})
         yield from _merged(trial.command_t_s[rows], trial.commands[rows], gnss_block, imu_block,
-                           piece if truth else None)
+                           piece if truth else None, role_topics(trial.config.vessel.propulsion))

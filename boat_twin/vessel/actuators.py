@@ -39,7 +39,7 @@ from boat_twin.errors import InputError
 from boat_twin.units import SEAWATER_DENSITY_KGPM3
 from boat_twin.validation import THRUST_LIMIT_N, number, number_list
 
-__all__ = ["COMMAND_MAPS", "MAX_RUDDERS", "MAX_THRUSTERS", "TABLE_MAX_POINTS", "Propulsion", "PropellerMap",
+__all__ = ["COMMAND_MAPS", "role_topics", "MAX_RUDDERS", "MAX_THRUSTERS", "TABLE_MAX_POINTS", "Propulsion", "PropellerMap",
            "Rudder", "ThrustTable", "Thruster", "fujii_lift_slope_per_rad", "propulsion_from_dict",
            "propulsion_to_dict"]
 
@@ -327,3 +327,27 @@ def propulsion_to_dict(propulsion: Propulsion) -> dict[str, Any]:
     rudders = [{"name": r.name, "x_m": r.x_m, "y_m": r.y_m, "area_m2": r.area_m2, "aspect_ratio": r.aspect_ratio,
                 **({"washed_by": r.washed_by} if r.washed_by else {})} for r in propulsion.rudders]
     return {"thrusters": thrusters, **({"rudders": rudders} if rudders else {})}
+
+
+SLOT_ROLES = (("thrust_left", "angle_left"), ("thrust_right", "angle_right"))
+"""The command roles of the kernel's two slots: (thrust, steering input)."""
+
+
+def role_topics(propulsion: Propulsion | None) -> dict[str, str]:
+    """Command role → its topic for the roles the boat has (the VRX convention): a thruster's
+    ``thrusters/<name>/thrust`` (N) or ``.../cmd`` (its table's unit, rev/s); a steering input's
+    ``rudders/<name>/angle`` or, for a steered thruster, ``thrusters/<name>/pos`` (rad). None (the default layout):
+    the package's own ``thrusters/{left,right}/thrust|pos``."""
+    if propulsion is None:
+        return {"thrust_left": "thrusters/left/thrust", "thrust_right": "thrusters/right/thrust",
+                "angle_left": "thrusters/left/pos", "angle_right": "thrusters/right/pos"}
+    topics = {}
+    for j, (thrust_role, angle_role) in enumerate(SLOT_ROLES):
+        if j < len(propulsion.thrusters):
+            topics[thrust_role] = propulsion.thrusters[j].command_topic
+        steering = propulsion.steering_input(j)
+        if steering == "rudder":
+            topics[angle_role] = f"rudders/{propulsion.rudders[j].name}/angle"
+        elif steering == "thruster":
+            topics[angle_role] = f"thrusters/{propulsion.thrusters[j].name}/pos"
+    return topics

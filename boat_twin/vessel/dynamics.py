@@ -746,6 +746,7 @@ def _closed_loop_boat(
     dt: float,
     substeps: int,
     output_rate: float,
+    reference_surge: float,
     out_states: np.ndarray,
     out_derivatives: np.ndarray,
     out_steering: np.ndarray,
@@ -768,8 +769,8 @@ def _closed_loop_boat(
             n = tick * substeps + j
             now_s = t + j * dt
             helm_command(kind, helm_parameters, now_s, states[b], memory[b], command)
-            if k[_K_GENERAL] != 0.0:
-                _layout_command(command.copy(), states[b, 3], k, command)
+            if k[_K_GENERAL] != 0.0:  # the helm's demand as this boat's commands, read at the run's reference surge
+                _layout_command(command.copy(), reference_surge, k, command)
             differs = n == 0
             for c in range(4):
                 if command[c] != last[b, c]:
@@ -801,7 +802,8 @@ def _closed_loop_parallel(
     states: np.ndarray, steering: np.ndarray, thrust: np.ndarray, kind: int, helm_parameters: np.ndarray,
     memory: np.ndarray, history: np.ndarray, last: np.ndarray, changed: np.ndarray, first_tick: int,
     lags: np.ndarray, coefficients: np.ndarray, table: np.ndarray, u_max: float, extra: np.ndarray,
-    environments: np.ndarray, dt: float, substeps: int, output_rate: float, out_states: np.ndarray,
+    environments: np.ndarray, dt: float, substeps: int, output_rate: float, reference_surge: float,
+    out_states: np.ndarray,
     out_derivatives: np.ndarray, out_steering: np.ndarray, out_commands: np.ndarray, out_issued: np.ndarray,
 ) -> None:
     """:func:`_closed_loop_boat` of every boat, shared among numba's threads: one parallel region for the whole
@@ -811,7 +813,8 @@ def _closed_loop_parallel(
     for b in numba.prange(states.shape[0]):
         _closed_loop_boat(b, states, steering, thrust, kind, helm_parameters, memory, history, last, changed,
                           first_tick, lags, coefficients, table, u_max, extra, environments, dt, substeps,
-                          output_rate, out_states, out_derivatives, out_steering, out_commands, out_issued)
+                          output_rate, reference_surge, out_states, out_derivatives, out_steering, out_commands,
+                          out_issued)
 
 
 PARALLEL_MIN_BOATS = 64
@@ -840,6 +843,9 @@ class ClosedLoopRun:
     last_command: np.ndarray
     changed_s: np.ndarray
     next_tick: int = 0
+    reference_surge_mps: float = 0.0
+    """The surge at which a boat file's thrusters turn the helm's thrust demand into their commands (the
+    scenario's initial surge: a constant demand stays a constant command), m/s."""
 
 
 PRANGE_MIN_BOAT_TICKS = 20
@@ -942,14 +948,15 @@ class Dynamics:
         kernel(states, steering_rad, thrust, commands, self.coefficients, m.resistance_N,
                m.resistance_max_speed_mps, m.extra_drag_N, environments, dt_s)
 
-    def closed_loop(self, helm: CompiledHelm, n_boats: int, delay_s: float, dt_s: float) -> ClosedLoopRun:
+    def closed_loop(self, helm: CompiledHelm, n_boats: int, delay_s: float, dt_s: float,
+                    reference_surge_mps: float = 0.0) -> ClosedLoopRun:
         """A fresh run of ``n_boats`` boats under ``helm``, its commands acting ``delay_s`` late (s), stepped at
-        ``dt_s`` (s)."""
+        ``dt_s`` (s); its thrust demands read as commands at ``reference_surge_mps`` (:func:`_layout_command`)."""
         self._check_boats(n_boats)
         ring = int(np.ceil(delay_s / dt_s - 1e-9)) + 2
         return ClosedLoopRun(helm, float(delay_s), fresh_memory(n_boats), np.zeros((n_boats, 2)),
                              np.zeros((n_boats, 2)), np.zeros((n_boats, ring, 4)), np.zeros((n_boats, 4)),
-                             np.zeros(n_boats))
+                             np.zeros(n_boats), reference_surge_mps=float(reference_surge_mps))
 
     def run_closed_loop(self, run: ClosedLoopRun, states: np.ndarray, environments: np.ndarray, ticks: int,
                         dt_s: float, substeps: int, output_rate_hz: float
@@ -977,7 +984,8 @@ class Dynamics:
                 states, run.steering_rad, run.thrust_N, run.helm.kind, run.helm.parameters, run.memory,
                 run.history, run.last_command, run.changed_s, run.next_tick, lags, self.coefficients,
                 m.resistance_N, m.resistance_max_speed_mps, m.extra_drag_N, environments, dt_s, substeps,
-                output_rate_hz, out_states, out_derivatives, out_steering, out_commands, out_issued)
+                output_rate_hz, run.reference_surge_mps, out_states, out_derivatives, out_steering, out_commands,
+                out_issued)
         run.next_tick += ticks
         return out_states, out_derivatives, out_steering, out_commands, out_issued
 

@@ -365,12 +365,13 @@ SCENARIOS: Mapping[str, ScenarioFactory] = MappingProxyType({
 """Every named scenario: name (as the command line takes it) → factory."""
 
 
-def _layout_rows(params: VesselParams, demands: np.ndarray) -> np.ndarray:
+def _layout_rows(params: VesselParams, demands: np.ndarray, surge_mps: float) -> np.ndarray:
     """A profile's demand rows (thrust per outboard, N, and steering, rad) as ``params``' boat's commands, each
-    thrust read at rest (:meth:`~boat_twin.vessel.dynamics.Dynamics.layout_commands`)."""
+    thrust read at the profile's initial surge ``surge_mps`` (at rest for a staircase;
+    :meth:`~boat_twin.vessel.dynamics.Dynamics.layout_commands`)."""
     from boat_twin.vessel.dynamics import Dynamics  # the kernel compiles on first use
 
-    return Dynamics(params).layout_commands(demands)
+    return Dynamics(params).layout_commands(demands, surge_mps)
 
 
 def make_scenario(name: str, params: VesselParams, rng: np.random.Generator,
@@ -380,8 +381,8 @@ def make_scenario(name: str, params: VesselParams, rng: np.random.Generator,
     if factory is None:
         raise InputError(f"unknown scenario {name!r} (choose from {', '.join(SCENARIO_NAMES)})")
     scenario = factory(params, rng)
-    if params.propulsion is not None and isinstance(scenario, CommandProfile):  # the boat's own commands, at rest
-        scenario = replace(scenario, values=_layout_rows(params, scenario.values))
+    if params.propulsion is not None and isinstance(scenario, CommandProfile):  # the boat's own commands
+        scenario = replace(scenario, values=_layout_rows(params, scenario.values, scenario.initial_surge_mps))
     if duration_s is not None:
         if not (math.isfinite(duration_s) and 0.0 < duration_s <= MAX_DURATION_S):
             raise InputError(f"--duration must be a positive number of seconds up to {MAX_DURATION_S:g} "

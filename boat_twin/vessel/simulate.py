@@ -140,7 +140,8 @@ def simulate_chunks(
     helm = scenario.helm(states.shape[0])
     delay_s = params.command_delay_s
     compiled = _compiled_helm(scenario) if compiled_helm else None
-    closed_loop = None if compiled is None else dynamics.closed_loop(compiled, states.shape[0], delay_s, dt_s)
+    closed_loop = None if compiled is None else dynamics.closed_loop(compiled, states.shape[0], delay_s, dt_s,
+                                                                      scenario.initial_surge_mps)
     steering: np.ndarray | None = None
     thrust: np.ndarray | None = None
     issued_queue: deque[tuple[float, np.ndarray]] = deque()  # a closed-loop helm's commands not yet acting
@@ -175,7 +176,8 @@ def simulate_chunks(
             issued = np.empty((t_s.size, states.shape[0]))
             for i, t in enumerate(t_s):
                 for j in range(substeps):
-                    command = dynamics.layout_commands(helm.command(float(t) + j * dt_s, states), states[:, 3])
+                    command = dynamics.layout_commands(helm.command(float(t) + j * dt_s, states),
+                                                       scenario.initial_surge_mps)
                     changed = np.ones(states.shape[0], dtype=bool) if last_command is None else np.any(
                         command != last_command, axis=1)
                     changed_s[changed], last_command = float(t) + j * dt_s, command.copy()
