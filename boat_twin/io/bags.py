@@ -270,7 +270,9 @@ def _actuator_topics(available: dict[str, str], chosen: dict[str, str], namespac
     thrusts = [t for t in found if t.startswith("thrusters/") and not t.endswith("/pos")]
     angles = [t for t in found if t.startswith("rudders/")] or [t for t in found if t.endswith("/pos")]
     notes = []
-    for role, topic in [*zip(("thrust_left", "thrust_right"), thrusts), *zip(("angle_left", "angle_right"), angles)]:
+    pairs = [*zip(("thrust_left", "thrust_right"), thrusts[:2], strict=False),
+             *zip(("angle_left", "angle_right"), angles[:2], strict=False)]
+    for role, topic in pairs:
         chosen[role] = prefix + topic
         notes.append(f"{role} read from {prefix + topic} (a boat file's actuator topic, slots in name order)")
     if len(thrusts) == 1:

@@ -15,7 +15,6 @@ them), ``imu_link`` the UM7 (coincides with ``base_link``).
 from __future__ import annotations
 
 import re
-
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import replace
 from typing import Any

@@ -21,10 +21,10 @@ from boat_twin.io import messages
 from boat_twin.io.trial import Stream, Trial, build_trial
 from boat_twin.sensors.gnss import GnssMeasurements, GnssModel
 from boat_twin.sensors.um7 import ImuMeasurements, Um7Model
+from boat_twin.vessel.actuators import role_topics
 from boat_twin.vessel.scenarios import Scenario
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ, SimulationRecord, output_ticks, simulate, simulate_chunks
 from boat_twin.vessel.tow import tow_drag_table
-from boat_twin.vessel.actuators import role_topics
 from boat_twin.vessel.truth import TruthSeries
 
 COMMAND_HEARTBEAT_S = 1.0

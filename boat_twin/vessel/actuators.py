@@ -39,9 +39,9 @@ from boat_twin.errors import InputError
 from boat_twin.units import SEAWATER_DENSITY_KGPM3
 from boat_twin.validation import THRUST_LIMIT_N, number, number_list
 
-__all__ = ["COMMAND_MAPS", "role_topics", "MAX_RUDDERS", "MAX_THRUSTERS", "TABLE_MAX_POINTS", "Propulsion", "PropellerMap",
+__all__ = ["COMMAND_MAPS", "MAX_RUDDERS", "MAX_THRUSTERS", "TABLE_MAX_POINTS", "PropellerMap", "Propulsion",
            "Rudder", "ThrustTable", "Thruster", "fujii_lift_slope_per_rad", "propulsion_from_dict",
-           "propulsion_to_dict"]
+           "propulsion_to_dict", "role_topics"]
 
 COMMAND_MAPS = ("newtons", "table", "propeller")
 """How a thruster's command becomes thrust (module docstring)."""
