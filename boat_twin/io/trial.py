@@ -495,8 +495,9 @@ def long_holds(trial: Trial, limit_s: float, reason: str) -> str | None:
     that held still: the warning says both."""
     named = []
     for role, thrust in (("thrust_left", trial.thrust_left_N), ("thrust_right", trial.thrust_right_N)):
-        if thrust.size < 2:
-            continue
+        topics = trial.metadata.topics
+        if thrust.size < 2 or (role not in topics and ("thrust_left" in topics or "thrust_right" in topics)):
+            continue  # a slot with no stream (a single thruster's second): nothing was held
         starts = np.flatnonzero(np.r_[True, thrust[1:] != thrust[:-1]])  # NaN != NaN: every NaN its own run
         ends = np.r_[starts[1:], thrust.size - 1]  # a run lasts until the next value (or the trial's end)
         spans = trial.t_s[ends] - trial.t_s[starts]
