@@ -222,6 +222,8 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
         lines.append(f"twin: {vessel.length_m:.3g} m x {vessel.beam_m:.3g} m, {vessel.mass_kg:.4g} kg, bollard "
                      f"{vessel.bollard_thrust_N:.4g} N per engine (geometry from "
                      f"{args.boat or 'the default boat carried to this mass'})"
+                     + ("; turning from the hull's dimensions (Clarke et al. 1983: assumed, no turn stated)"
+                        if vessel.turning == "hull" else "")
                      + (f"; written to {args.out / 'twin.yaml'}" if args.out is not None else ""))
     for entry in result["trials"]:
         prefix = f"{entry['source']}: " if len(trials) > 1 else ""

@@ -108,6 +108,9 @@ def identified_vessel(model: dict[str, Any], given: dict[str, float], seen: dict
     facts = {k: v for k, v in given.items() if k != "mass_kg"}
     similar = similar_boat(resistance, mass, facts)
     limits: dict[str, float] = {}
+    layout = given.get("propulsion")
+    if layout is not None and any(t.command != "newtons" for t in layout.thrusters):
+        seen = {"ahead_N": 0.0, "astern_N": 0.0, "power_W": 0.0}  # commands in a table's unit or rev/s: not N
     if "bollard_thrust_N" not in given:
         limits["bollard_thrust_N"] = max(similar.bollard_thrust_N, seen["ahead_N"])
     bollard = limits.get("bollard_thrust_N", similar.bollard_thrust_N)
@@ -120,6 +123,10 @@ def identified_vessel(model: dict[str, Any], given: dict[str, float], seen: dict
     sources.update({k: "boat file" for k in facts})
     sources.update({k: "seen in the trials" if v > getattr(similar, k) else "similar boat"
                     for k, v in limits.items()})
+    if "turning" not in given:
+        sources["turning"] = ("the hull's dimensions (Clarke et al. 1983): no turn stated, or the carried one cannot "
+                              "be held" if vessel.turning == "hull" else
+                              "the default boat's reference turn carried to this size")
     for name in BOAT_FIELDS:
         sources.setdefault(name, "similar boat (the default boat carried to this size)")
     return vessel, sources
