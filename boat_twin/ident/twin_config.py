@@ -88,7 +88,7 @@ def thrust_seen(trials: list[Trial]) -> dict[str, float]:
     return {"ahead_N": ahead, "astern_N": astern, "power_W": power}
 
 
-def identified_vessel(model: dict[str, Any], given: dict[str, float], seen: dict[str, float]
+def identified_vessel(model: dict[str, Any], given: dict[str, Any], seen: dict[str, float]
                       ) -> tuple[VesselParams, dict[str, str]]:
     """The vessel of the identified twin and where each of its key facts came from.
 

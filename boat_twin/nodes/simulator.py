@@ -2,7 +2,8 @@
 and the command watchdog in boat_twin.twin.pacing.
 
 Subscribes: thrusters/{left,right}/thrust (std_msgs/Float64, N), thrusters/{left,right}/pos (rad), best effort
-(reliable and best-effort publishers both connect). Publishes every topic of boat_twin.io.messages.TOPICS that
+(reliable and best-effort publishers both connect); a boat file's propulsion section: its actuators' own topics,
+thrusters/<name>/thrust|cmd|pos and rudders/<name>/angle. Publishes every topic of boat_twin.io.messages.TOPICS that
 the twin produces (GNSS, UM7 IMU, odom/truth, and tf when tf2_msgs is installed), as the same CDR bytes a bag
 holds, with the system-default (reliable) QoS so that every subscriber connects (REP-2003); gnss/vel_cov
 (gnss/vel with the sensor model's covariance, for robot_localization); tf_static (base_link -> gnss_link,
@@ -53,6 +54,7 @@ from boat_twin.nodes.diagnostics import OK, WARN, Diagnostics, Status
 from boat_twin.nodes.spin import run_node
 from boat_twin.twin.live import LiveTwin
 from boat_twin.twin.pacing import DEFAULT_COMMAND_TIMEOUT_S, CommandWatchdog, RateMeter, TickSchedule
+from boat_twin.vessel.actuators import role_topics
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 
 if TYPE_CHECKING:
@@ -109,8 +111,11 @@ class SimulatorNode(Node):
         self.watchdog = CommandWatchdog(timeout_s)
         self.publishers_by_topic = self._sensor_publishers(truth_tf)
         self.velocity_variances = [config.gnss.velocity_stdev_mps ** 2] * 3
-        for index, topic in enumerate(messages.COMMAND_TOPICS):
-            self.create_subscription(Float64, topic, partial(self.on_command, index), conventions.COMMAND_QOS)
+        command_topics = role_topics(config.vessel.propulsion)  # a boat file's own actuators' topics
+        for index, role in enumerate(messages.COMMAND_ROLE_ORDER):
+            if role in command_topics:
+                self.create_subscription(Float64, command_topics[role], partial(self.on_command, index),
+                                         conventions.COMMAND_QOS)
         self.clock_pub: Publisher | None = None
         self.schedule = TickSchedule(1.0 / OUTPUT_RATE_HZ, factor if self.publish_clock else 1.0)
         self.overruns = 0
@@ -132,7 +137,7 @@ class SimulatorNode(Node):
         return self.link if self.link is not None else self.twin
 
     def on_command(self, index: int, msg: Float64) -> None:
-        """A thruster command (N or rad)."""
+        """A thruster or rudder command (N, the thruster's own unit, or rad)."""
         self.commands.set_command(index, msg.data)
         self.watchdog.heard(self._stamp_ns() * 1e-9)
 

@@ -23,6 +23,7 @@ from boat_twin.io import messages
 from boat_twin.sensors import decimation_step
 from boat_twin.sensors.gnss import GnssMeasurements, GnssNoise, expected_fix, fixes
 from boat_twin.sensors.um7 import ImuMeasurements, Um7Noise, expected_imu, imu_samples
+from boat_twin.vessel.actuators import role_topics
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.simulate import INTEGRATION_RATE_HZ, OUTPUT_RATE_HZ, SimulationRecord
 from boat_twin.vessel.tow import tow_drag_table
@@ -39,6 +40,7 @@ class LiveTwin:
     def __init__(self, config: TwinConfig, seed: int = 0, noise: bool = True, epoch_s: float = 0.0) -> None:
         self.config = config
         self.dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
+        self._command_topics = role_topics(config.vessel.propulsion)
         self.state = np.zeros((1, 6))
         self.steering_rad: np.ndarray | None = None
         """(1, 2) the outboards' real angles; None until the first tick starts them where it drives them."""
@@ -110,7 +112,7 @@ class LiveTwin:
                                                           self.thrust_N, switch, before)
         now = self.time_s
         self._history.append((now, states[0], commands[0], derivatives[0], steering[0]))
-        out = list(messages.command_messages(np.array([now]), commands[0]))
+        out = list(messages.command_messages(np.array([now]), commands[0], self._command_topics))
         out += self._sensor_messages()
         self.tick_index += 1
         return out
