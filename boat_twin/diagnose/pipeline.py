@@ -7,7 +7,8 @@ the cause from the effect catalogue, the extended model and the gain.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -17,8 +18,16 @@ from boat_twin.data import dyda2021_table1
 from boat_twin.data.dyda2021 import PAPER_COEFFICIENTS, PAPER_ORDERS
 from boat_twin.diagnose.defaults import WINDOW_S
 from boat_twin.diagnose.effects import catalogue
-from boat_twin.diagnose.report import DiagnosisResult, result_dict
-from boat_twin.diagnose.search import Candidate, Diagnosis, Selection, forward_select, withheld
+from boat_twin.diagnose.report import DiagnosisResult, MeasuredWind, result_dict
+from boat_twin.diagnose.search import (
+    BIC_THRESHOLD,
+    Candidate,
+    Diagnosis,
+    Selection,
+    delta_bic,
+    forward_select,
+    withheld,
+)
 from boat_twin.diagnose.structure import residual_structure
 from boat_twin.diagnose.table import TableDiagnosis, diagnose_table, table_result
 from boat_twin.errors import InputError
@@ -59,6 +68,11 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
         raise InputError(f"{trial.metadata.source}: the speed over ground is unknown throughout (a GNSS velocity "
                          "component NaN in every sample, or no velocity or fix): nothing to diagnose")
     windows = cut_windows(trial, window_s)
+    wind = measured_wind_mps(trial)
+    unaware = None
+    if wind is not None:  # a measured wind is a known input: the twin replays with it, judged against without
+        unaware = Diagnosis(windows, base).fit([])
+        base = replace(base, environment=replace(base.environment, wind_east_mps=wind[0], wind_north_mps=wind[1]))
     diagnosis = Diagnosis(windows, base, progress)
     selection = forward_select(diagnosis, catalogue(base, trial.speed_mps))
     baseline_prediction = selection.baseline.residuals.prediction
@@ -69,9 +83,32 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
     result = result_dict(windows, selection, baseline_prediction, extended_prediction, signatures, None,
                          diagnosis.sigma, held_back)
     result["windows"]["compared_fraction"] = diagnosis.projection.compared_fraction()
+    if wind is not None and unaware is not None:
+        result["measured_wind"] = measured_wind_dict(wind, delta_bic(selection.baseline, unaware))
     result["evaluations"] = diagnosis.evaluations
     return TrialDiagnosis(windows, selection, base, extended, baseline_prediction, extended_prediction, result,
                           held_back)
+
+
+def measured_wind_mps(trial: Trial) -> tuple[float, float] | None:
+    """The trial's measured true wind over ground (east, north), m/s: its mean over the recording (a steady
+    wind: the twin's environment holds one), None without an anemometer or a known sample."""
+    if trial.wind_east_mps is None or trial.wind_north_mps is None:
+        return None
+    known = np.isfinite(trial.wind_east_mps) & np.isfinite(trial.wind_north_mps)
+    if not np.any(known):
+        return None
+    return float(np.mean(trial.wind_east_mps[known])), float(np.mean(trial.wind_north_mps[known]))
+
+
+def measured_wind_dict(wind: tuple[float, float], delta_bic_value: float) -> MeasuredWind:
+    """The ``measured_wind`` entry of a diagnosis: the wind (ENU components; speed and the nautical direction it
+    comes from), and whether it explains a misfit the twin without it has (ΔBIC of the twin replayed with it
+    against the twin as configured below :data:`~boat_twin.diagnose.search.BIC_THRESHOLD`: then it is named)."""
+    east, north = wind
+    from_deg = math.degrees(math.atan2(-east, -north)) % 360.0  # clockwise from north, where the air comes from
+    return MeasuredWind(east_mps=east, north_mps=north, speed_mps=math.hypot(east, north), from_deg=from_deg,
+                        delta_bic=delta_bic_value, named=bool(delta_bic_value < BIC_THRESHOLD))
 
 
 def _presented_model(diagnosis: Diagnosis, selection: Selection,

@@ -115,11 +115,27 @@ class _DiagnosisResultBase(TypedDict):
     """Path of the written extended twin config, when one was written."""
 
 
+class MeasuredWind(TypedDict):
+    """The measured true wind of a diagnosis (``diagnose.pipeline.measured_wind_dict``)."""
+
+    east_mps: float
+    north_mps: float
+    speed_mps: float
+    from_deg: float
+    """Where the air comes from, clockwise from true north, degrees."""
+    delta_bic: float
+    """ΔBIC of the twin replayed with it against the twin as configured."""
+    named: bool
+    """It explains a misfit of the twin without it (ΔBIC below the naming threshold)."""
+
+
 class DiagnosisResult(_DiagnosisResultBase, total=False):
     """The ``--json`` contract of ``boat-twin diagnose TRIAL`` (SI units), as :func:`result_dict` builds it."""
 
     evaluations: int
     """Model replays the search ran."""
+    measured_wind: MeasuredWind
+    """The recording's measured wind, a known input of the replay (only where it has an anemometer)."""
 
 
 def signal_rmse(windows: Windows, prediction: Prediction) -> dict[str, float]:
@@ -252,6 +268,12 @@ def text_report(result: DiagnosisResult) -> str:
     lines.append("signal            baseline RMSE   extended RMSE")
     for s in ("speed_mps", *SIGNALS, "position_m"):
         lines.append(f"  {s:16s} {base[s]:10.4f}      {ext[s]:10.4f}  {UNITS[s]}")
+    wind = result.get("measured_wind")
+    if wind is not None:
+        lines.append(f"measured    wind {wind['speed_mps']:.3g} m/s from {wind['from_deg']:.0f}° (the recording's "
+                     "anemometer, mean): a known input of the replay; "
+                     + (f"named: it explains a misfit of the twin without it (ΔBIC {wind['delta_bic']:.1f})"
+                        if wind["named"] else f"the twin without it fits as well (ΔBIC {wind['delta_bic']:+.1f})"))
     if not result["verdict"] and result["unexplained"]:
         lines.append("verdict     UNEXPLAINED: the model is off the data and no catalogue effect explains it "
                      "(see the unexplained lines below" + (", and the partial causes withheld)"

@@ -36,6 +36,7 @@ ROLE_TOPICS = {
     "gnss_fix": "gnss/fix",
     "gnss_vel": "gnss/vel",
     "imu": "imu/data",
+    "wind": "wind",
 }
 """Trial role → the package's relative topic name (its type is in :data:`boat_twin.io.messages.TOPICS`)."""
 
@@ -120,6 +121,11 @@ def _scalar(msg: Any, log_s: float) -> tuple[float, float]:
     return log_s, msg.data
 
 
+def _wind(msg: Any, _log_s: float) -> tuple[float, ...]:
+    """A Vector3Stamped true wind: stamp, east, north (m/s)."""
+    return _stamp_s(msg), float(msg.vector.x), float(msg.vector.y)
+
+
 EXTRACTORS: dict[str, Callable[[Any, float], tuple[float, ...] | None]] = {
     "thrust_left": _scalar,
     "thrust_right": _scalar,
@@ -128,12 +134,13 @@ EXTRACTORS: dict[str, Callable[[Any, float], tuple[float, ...] | None]] = {
     "gnss_fix": _fix,
     "gnss_vel": _vel,
     "imu": _imu,
+    "wind": _wind,
 }
 """Role → function pulling one row (stamp in s, values...) out of one message: header stamp for sensors, log
 time for commands (std_msgs/Float64 has no header)."""
 
 ROLE_WIDTHS = {"thrust_left": 1, "thrust_right": 1, "angle_left": 1, "angle_right": 1, "gnss_fix": 3,
-               "gnss_vel": 2, "imu": 4}
+               "gnss_vel": 2, "imu": 4, "wind": 2}
 """Role → number of values per row after the stamp (the columns of its :class:`Stream`)."""
 
 BLOCK_ROWS = 4096
@@ -195,7 +202,15 @@ the body frame, rotated to ENU by its pose's yaw; its header frame taken as ENU-
 the bag's only velocity. The twin's own ground truth (``odom/truth``) is never taken for a measurement."""
 
 
+NAMED_ONLY_TYPES = {"wind": ("geometry_msgs/msg/Vector3Stamped",)}
+"""Roles read only from a topic found by name (never the one topic of a type: a UM7's ``imu/rpy`` is a
+Vector3Stamped too) → their types. ``wind``: the true wind over ground, vector x east, y north, m/s (the air's
+velocity, where it blows to), header stamp."""
+
+
 def _types(role: str) -> tuple[str, ...]:
+    if role in NAMED_ONLY_TYPES:
+        return NAMED_ONLY_TYPES[role]
     return ROLE_TYPES.get(role, (TOPICS[ROLE_TOPICS[role]],)) + FALLBACK_TYPES.get(role, ())
 
 
@@ -227,6 +242,8 @@ def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: 
                     continue
                 topic = ends[0]
         if available[topic] not in _types(role):
+            if role in NAMED_ONLY_TYPES and role not in remap:  # someone else's topic of that name: not ours
+                continue
             raise InputError(f"{source}: topic {topic} has type {available[topic]}, expected "
                              f"{' or '.join(_types(role))}")
         chosen[role] = topic

@@ -71,10 +71,18 @@ ACTUATOR_TOPIC = re.compile(r"^(thrusters/\w+/(thrust|cmd|pos)|rudders/\w+/angle
 """A boat file's per-actuator command topics (:func:`~boat_twin.vessel.actuators.role_topics`): std_msgs/Float64."""
 
 
+TOPIC_WIND = "wind"
+"""The true wind over ground an anemometer measures: geometry_msgs/Vector3Stamped in the ENU world frame, m/s
+(x east, y north: the air's velocity, where it blows to). Written by the simulator when its environment has a
+wind; read as the ``wind`` role."""
+
+
 def topic_type(topic: str) -> str:
     """The message type of one of the package's topics (relative name), an actuator's command included."""
     if topic in TOPICS:
         return TOPICS[topic]
+    if topic == TOPIC_WIND:
+        return "geometry_msgs/msg/Vector3Stamped"
     if ACTUATOR_TOPIC.match(topic):
         return "std_msgs/msg/Float64"
     raise KeyError(topic)
@@ -410,3 +418,13 @@ def command_messages(t_s: np.ndarray, commands: np.ndarray, topics: Mapping[str,
             for topic, value in zip(names, row, strict=True):
                 if topic:
                     yield topic, stamp_ns, float64(value)
+
+
+WIND_MESSAGE_PERIOD_S = 1.0
+"""The simulated anemometer's message period, s (1 Hz: a wind sensor's usual NMEA MWV rate)."""
+
+
+def wind_messages(t_s: np.ndarray, east_mps: float, north_mps: float) -> Iterator[tuple[str, int, Message]]:
+    """The true wind (ENU, m/s, where the air goes) at the times ``t_s``, on :data:`TOPIC_WIND`."""
+    for stamp_ns in stamps_ns(np.asarray(t_s)).tolist():
+        yield TOPIC_WIND, stamp_ns, vector3_stamped(header(stamp_ns, FRAME_MAP), (east_mps, north_mps, 0.0))

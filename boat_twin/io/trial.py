@@ -16,7 +16,7 @@ import numpy as np
 import pymap3d
 
 from boat_twin.errors import InputError
-from boat_twin.io.roles import COMMAND_ROLES, SENSOR_ROLES
+from boat_twin.io.roles import COMMAND_ROLES, MEASURED_INPUT_ROLES, SENSOR_ROLES
 from boat_twin.validation import THRUST_LIMIT_N
 
 GAP_TOLERANCE_PERIODS = 2.5
@@ -112,6 +112,11 @@ class Trial:
     gnss_bridged: np.ndarray | None = None
     """(n,) True where the GNSS velocity and position were interpolated across a lost sample (a dropout): not
     a measurement, and smoother than one; None: none was."""
+    wind_east_mps: np.ndarray | None = None
+    """Measured true wind over ground, east component of the air's velocity (where it blows to), m/s, where the
+    recording has an anemometer (the ``wind`` role); None: not recorded. A known input of the diagnosis."""
+    wind_north_mps: np.ndarray | None = None
+    """Measured true wind over ground, north component, m/s; None: not recorded."""
     actual_angle_rad: np.ndarray | None = None
     """The outboards' actual steering angle (mean of the two), rad, where the recording has it (a rudder-angle
     indicator; the simulator's actuator state, :func:`~boat_twin.twin.sea_trial.actual_angle_on_grid`): it trails
@@ -226,6 +231,7 @@ VALUE_LIMITS: dict[str, tuple[tuple[str, float, float, str], ...]] = {
     "gnss_vel": (("east velocity", -343.0, 343.0, "m/s"), ("north velocity", -343.0, 343.0, "m/s")),
     "imu": (("yaw", -2 * np.pi, 2 * np.pi, "rad"), ("yaw rate", -35.0, 35.0, "rad/s"),
             ("x acceleration", -160.0, 160.0, "m/s^2"), ("y acceleration", -160.0, 160.0, "m/s^2")),
+    "wind": (("wind east", -120.0, 120.0, "m/s"), ("wind north", -120.0, 120.0, "m/s")),
 }
 """Role → per value column (name, lowest, highest, unit) a recording can hold: thrust within ±1 MN (500 times
 the seed boat's bollard thrust), steering within ±π, geodetic coordinates, velocities below the speed of sound
@@ -364,10 +370,11 @@ def build_trial(
     """
     meta = TrialMetadata(source=source, topics=dict(topics))
     data = {}
-    for role in COMMAND_ROLES + SENSOR_ROLES:
+    for role in COMMAND_ROLES + SENSOR_ROLES + MEASURED_INPUT_ROLES:
         stream = streams.get(role)
         if stream is None or np.asarray(stream.stamps_s).size == 0:
-            meta.missing.append(role)
+            if role not in MEASURED_INPUT_ROLES:  # an anemometer is a bonus, not a missing stream
+                meta.missing.append(role)
             continue
         _check_values(source, role, stream)
         data[role] = _monotone_stream(role, stream, meta)
@@ -428,6 +435,10 @@ def build_trial(
         meta.gaps += [(role, float(stream.stamps_s[j] - t0), float(stream.stamps_s[j + 1] - t0)) for j in jumps]
         if release:
             del data[role], streams[role], stream
+    wind = None
+    if "wind" in data:  # held across the anemometer's own gaps only
+        wind = _interpolate(data["wind"].stamps_s, data["wind"].values, grid_abs,
+                            GAP_TOLERANCE_PERIODS / max(meta.rates_hz["wind"], 1e-9))
     with np.errstate(all="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # no role changed at most samples: an all-NaN mean
         switch = np.nan_to_num(np.nanmean(np.array(offsets), axis=0), nan=0.0) if offsets else None
@@ -470,6 +481,8 @@ def build_trial(
         metadata=meta,
         command_switch_s=switch if switch is not None and np.any(switch != 0.0) else None,
         gnss_bridged=bridged if bridged is not None and bridged.any() else None,
+        wind_east_mps=None if wind is None else wind[:, 0],
+        wind_north_mps=None if wind is None else wind[:, 1],
     )
 
 

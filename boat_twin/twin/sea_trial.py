@@ -119,15 +119,28 @@ def command_log_ticks(t_s: np.ndarray, commands: np.ndarray, heartbeat_s: float 
 
 
 def _merged(command_t_s: np.ndarray, commands: np.ndarray, gnss: GnssMeasurements, imu: ImuMeasurements,
-            truth: TruthSeries | None, topics: dict[str, str] | None = None) -> Iterator[messages.Message]:
+            truth: TruthSeries | None, topics: dict[str, str] | None = None,
+            wind: tuple[np.ndarray, float, float] | None = None) -> Iterator[messages.Message]:
     streams = [
         messages.command_messages(command_t_s, commands, topics),
         messages.gnss_messages(gnss),
         messages.imu_messages(imu),
     ]
+    if wind is not None:  # an anemometer: the true wind, when the environment has one
+        streams.append(messages.wind_messages(*wind))
     if truth is not None:
         streams.append(messages.truth_messages(truth))
     return heapq.merge(*streams, key=lambda m: m[1])
+
+
+def _anemometer(config: TwinConfig, t_s: np.ndarray) -> tuple[np.ndarray, float, float] | None:
+    """The anemometer's message times among ``t_s`` (every :data:`~boat_twin.io.messages.WIND_MESSAGE_PERIOD_S`)
+    and the environment's wind (east, north, m/s); None in calm air (no anemometer topic)."""
+    env = config.environment
+    if env.wind_east_mps == 0.0 and env.wind_north_mps == 0.0:
+        return None
+    ticks = np.round(t_s / messages.WIND_MESSAGE_PERIOD_S, 9)
+    return t_s[ticks == np.floor(ticks)], env.wind_east_mps, env.wind_north_mps
 
 
 def trial_messages(trial: SeaTrial, truth: bool = True) -> Iterator[messages.Message]:
@@ -194,4 +207,5 @@ def compact_trial_messages(trial: CompactTrial, truth: bool = True,
         rows = (trial.command_t_s >= lo) & (trial.command_t_s < hi)
         piece = TruthSeries(**{f.name: getattr(trial.truth, f.name)[start:stop] for f in fields(TruthSeries)})
         yield from _merged(trial.command_t_s[rows], trial.commands[rows], gnss_block, imu_block,
-                           piece if truth else None, role_topics(trial.config.vessel.propulsion))
+                           piece if truth else None, role_topics(trial.config.vessel.propulsion),
+                           _anemometer(trial.config, t_s[start:stop]))
