@@ -450,7 +450,8 @@ def scenario_warnings(params: VesselParams, scenario: Scenario) -> list[str]:
     if scenario.initial_surge_mps > top * 1.001:
         warnings.append(f"{scenario.name} starts at {scenario.initial_surge_mps:.3g} m/s, above this boat's top "
                         f"speed {top:.3g} m/s")
-    if isinstance(scenario, CommandProfile) and scenario.values.size:
+    newtons = params.propulsion is None or all(t.command == "newtons" for t in params.propulsion.thrusters)
+    if isinstance(scenario, CommandProfile) and scenario.values.size and newtons:  # else commands in other units
         thrust = scenario.values[:, :2]
         ahead, astern = params.bollard_thrust_N, params.reverse_thrust_ratio * params.bollard_thrust_N
         if np.max(thrust) > ahead * 1.001 or np.min(thrust) < -astern * 1.001:
