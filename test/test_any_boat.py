@@ -231,8 +231,9 @@ def test_a_propulsion_section_cannot_take_the_outboards_reference_turn() -> None
 
 @pytest.mark.slow
 def test_a_skid_steer_boats_file_identifies_and_diagnoses_its_own_clean_trial_silently(tmp_path: Path) -> None:
-    """The three verbs a new user runs, on a boat file of published facts only (config/boats): its twin's clean
-    trial is identified (mass within its interval's reach) and the diagnosis against that twin names nothing."""
+    """The verbs a new user runs, on a boat file of published facts only (config/boats): its clean trial is
+    identified into a twin, and neither the diagnosis against that twin nor the live twin following it names
+    anything."""
     from boat_twin.cli import main
 
     boat = Path(__file__).resolve().parents[1] / "config" / "boats" / "skid_steer_catamaran.yaml"
@@ -244,6 +245,9 @@ def test_a_skid_steer_boats_file_identifies_and_diagnoses_its_own_clean_trial_si
     assert main(["diagnose", str(trial), "--config", str(twin), "--out", str(tmp_path / "d")]) == 0
     report = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
     assert report["verdict"] == [] and report["unexplained"] is False and report["withheld"] == []
+    assert main(["follow", str(trial), "--config", str(twin), "--out", str(tmp_path / "f")]) == 0
+    followed = json.loads((tmp_path / "f" / "follow.json").read_text())
+    assert not any(d["causes"] or d["unexplained"] for d in followed["diagnoses"])
 
 
 def test_a_single_screw_ships_turning_is_identified_from_two_zigzags_and_predicts_a_turning_circle(
