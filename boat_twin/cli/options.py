@@ -58,9 +58,11 @@ def add_trial_options(parser: argparse.ArgumentParser, *, bags: bool = True) -> 
         parser.add_argument(
             "--columns", metavar="MAP",
             help="CSV trials: which column holds what, as QUANTITY=COLUMN,... (quantities: time s, lat/lon deg or "
-            "x/y m, vel_east/vel_north or speed m/s with course deg, heading deg or yaw rad, yaw_rate rad/s, "
-            "thrust_left/thrust_right N, angle_left/angle_right rad) or a YAML file with columns:, calibration: "
-            "(raw command → N or rad tables, e.g. PWM) and origin:; docs/bags-and-trial.md")
+            "x/y (east/north) or x_ned/y_ned m, vel_east/vel_north or speed m/s with course deg, heading deg or yaw "
+            "rad, yaw_rate rad/s counter-clockwise, thrust_left/thrust_right N, angle_left/angle_right rad) or a "
+            "YAML file with columns: (a column, or {column: C, unit: U, frame: ned|enu, sign: cw|ccw}, e.g. time "
+            "in ms, heading in deg NED), calibration: (raw command → N or rad tables, e.g. PWM) and origin:; "
+            "docs/bags-and-trial.md")
 
 
 def trial_from_args(path: Path | str, args: argparse.Namespace) -> Trial:
