@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -155,7 +156,10 @@ def run_each(args: argparse.Namespace, job: Any) -> int:
     else:
         for row in failed:
             sys.stderr.write(f"{row['trial']}: error: {row['error']}\n")
-        sys.stdout.write(f"{job.verb}: {len(result.rows)} trial(s), {len(result.rows) - len(failed)} ok "
+        others = Counter(row["status"] for row in result.rows if row["status"] not in ("ok", "error"))
+        ok = len(result.rows) - len(failed) - sum(others.values())
+        also = "".join(f", {n} {status.replace('_', ' ')}" for status, n in sorted(others.items()))
+        sys.stdout.write(f"{job.verb}: {len(result.rows)} trial(s), {ok} ok{also} "
                          f"({result.resumed} complete from an earlier run), {len(failed)} failed; summary "
                          f"{result.summary_csv}\n")
     if failed:
