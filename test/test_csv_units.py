@@ -35,11 +35,12 @@ MAPPING = {"columns": {
     "thrust_left": "left_force", "thrust_right": "right_force"}}
 
 
-def skid_steer(seed: int = 0) -> dict[str, np.ndarray]:
-    """The boat's truth at 10 Hz: t s, left and right force N, east and north m, ENU yaw rad, ENU yaw rate rad/s."""
+def skid_steer(forces: tuple[tuple[float, float, float], ...] = FORCES_N) -> dict[str, np.ndarray]:
+    """The boat's truth at 10 Hz under ``forces`` ((left N, right N, held s), ...): t s, left and right force N,
+    east and north m, ENU yaw rad, ENU yaw rate rad/s, surge m/s."""
     dt, sub = 0.1, 10
-    left = np.concatenate([np.full(int(round(s / dt)), f) for f, _, s in FORCES_N])
-    right = np.concatenate([np.full(int(round(s / dt)), f) for _, f, s in FORCES_N])
+    left = np.concatenate([np.full(int(round(s / dt)), f) for f, _, s in forces])
+    right = np.concatenate([np.full(int(round(s / dt)), f) for _, f, s in forces])
 
     def deriv(x: np.ndarray, u: np.ndarray) -> np.ndarray:
         east, north, psi, surge, rate = x
@@ -50,7 +51,7 @@ def skid_steer(seed: int = 0) -> dict[str, np.ndarray]:
     start = np.array([0.0, 0.0, math.pi / 2 - math.radians(START_HEADING_NED_DEG), 0.0, 0.0])
     rows = rk4_held(deriv, start, np.column_stack([left, right]), dt / sub, sub)
     return {"t": np.arange(left.size) * dt, "left": left, "right": right, "east": rows[:, 0], "north": rows[:, 1],
-            "yaw": rows[:, 2], "rate": rows[:, 4]}
+            "yaw": rows[:, 2], "rate": rows[:, 4], "surge": rows[:, 3]}
 
 
 def write_log(path, truth: dict[str, np.ndarray], seed: int = 0) -> None:

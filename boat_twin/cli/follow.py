@@ -90,7 +90,8 @@ def run(args: argparse.Namespace) -> int:
         from boat_twin.fleet.jobs import FollowJob, ReadOptions
 
         read = ReadOptions(parse_remap(args.topic), args.namespace or "",
-                           str(args.calibration) if args.calibration is not None else None, args.columns)
+                           str(args.calibration) if args.calibration is not None else None, args.columns,
+                           start_s=args.start, end_s=args.end)
         return run_each(args, FollowJob(twin_config_from_args(args), read))
     if len(args.trial) > 1:
         raise InputError(f"{len(args.trial)} trials given: follow reads one trial, or each of several with "

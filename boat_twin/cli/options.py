@@ -40,8 +40,8 @@ def parse_remap(items: list[str] | None) -> dict[str, str]:
 
 
 def add_trial_options(parser: argparse.ArgumentParser, *, bags: bool = True) -> None:
-    """Add --topic ROLE=TOPIC (repeatable), --namespace and --calibration FILE to a verb that reads trials
-    (``bags=False``: a verb that reads MAVLink logs only, without --namespace)."""
+    """Add --topic ROLE=TOPIC (repeatable), --namespace, --calibration FILE, --columns MAP and --start/--end S to
+    a verb that reads trials (``bags=False``: a verb that reads MAVLink logs only: --topic and --calibration)."""
     mavlink = "GLOBAL_POSITION_INT (default) or GPS_RAW_INT in a .tlog"
     parser.add_argument(
         "--topic", action="append", default=[], metavar="ROLE=TOPIC",
@@ -64,15 +64,22 @@ def add_trial_options(parser: argparse.ArgumentParser, *, bags: bool = True) -> 
             "YAML file with columns: (a column, or {column: C, unit: U, frame: ned|enu, sign: cw|ccw}, e.g. time "
             "in ms, heading in deg NED), calibration: (raw command → N or rad tables, e.g. PWM) and origin:; "
             "docs/bags-and-trial.md")
+        parser.add_argument("--start", type=float, metavar="S",
+                            help="use the trial from S seconds after its start (e.g. to leave out idling)")
+        parser.add_argument("--end", type=float, metavar="S",
+                            help="use the trial up to S seconds after its start")
 
 
 def trial_from_args(path: Path | str, args: argparse.Namespace) -> Trial:
-    """:func:`~boat_twin.io.sources.read_trial_file` with the options :func:`add_trial_options` added."""
+    """:func:`~boat_twin.io.sources.read_trial_file` with the options :func:`add_trial_options` added, cut to
+    --start/--end (:func:`~boat_twin.io.span.trial_between`)."""
     from boat_twin.io.sources import read_trial_file
+    from boat_twin.io.span import trial_between
 
-    return read_trial_file(path, remap=parse_remap(getattr(args, "topic", None)),
-                           namespace=getattr(args, "namespace", "") or "",
-                           calibration=getattr(args, "calibration", None), columns=getattr(args, "columns", None))
+    trial = read_trial_file(path, remap=parse_remap(getattr(args, "topic", None)),
+                            namespace=getattr(args, "namespace", "") or "",
+                            calibration=getattr(args, "calibration", None), columns=getattr(args, "columns", None))
+    return trial_between(trial, getattr(args, "start", None), getattr(args, "end", None))
 
 
 def twin_config_from_args(args: argparse.Namespace) -> TwinConfig:

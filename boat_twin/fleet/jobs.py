@@ -25,19 +25,24 @@ it ran (host:pid), and the peak resident memory of that process so far, MB (flat
 
 @dataclass(frozen=True)
 class ReadOptions:
-    """How a trial is read (``--topic``, ``--namespace``, ``--calibration``, ``--columns``)."""
+    """How a trial is read (``--topic``, ``--namespace``, ``--calibration``, ``--columns``, ``--start``/``--end``)."""
 
     remap: dict[str, str] = field(default_factory=dict)
     namespace: str = ""
     calibration: str | None = None
     columns: str | None = None
+    start_s: float | None = None
+    end_s: float | None = None
+    """The stretch used, s since the trial's start (None: from its start, to its end)."""
 
     def read(self, path: Path) -> Trial:
-        """:func:`~boat_twin.io.sources.read_trial_file` of ``path`` with these options."""
+        """:func:`~boat_twin.io.sources.read_trial_file` of ``path`` with these options, cut to the stretch."""
         from boat_twin.io.sources import read_trial_file
+        from boat_twin.io.span import trial_between
 
-        return read_trial_file(path, remap=self.remap, namespace=self.namespace, calibration=self.calibration,
-                               columns=self.columns)
+        trial = read_trial_file(path, remap=self.remap, namespace=self.namespace, calibration=self.calibration,
+                                columns=self.columns)
+        return trial_between(trial, self.start_s, self.end_s)
 
 
 def duration_s(trial: Trial) -> float:

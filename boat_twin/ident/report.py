@@ -15,7 +15,7 @@ from boat_twin.files import atomic_save_figure, atomic_write_text, ensure_out_di
 from boat_twin.ident.output_error import SurgeRecord
 from boat_twin.ident.paper import paper_model_values
 from boat_twin.ident.resimulate import Resimulation, resimulation_figure
-from boat_twin.ident.results import IdentifyResult, write_model_yaml
+from boat_twin.ident.results import NOT_PHYSICAL_NEXT, IdentifyResult, write_model_yaml
 from boat_twin.ident.steady import FitResult
 from boat_twin.vessel.resistance import resistance_from_dict
 
@@ -263,6 +263,8 @@ def model_lines(result: IdentifyResult) -> list[str]:
     sel, base = oe["selected"], oe["baseline"]
     cv = {c["model"]: c["cv_rmse_mps"] for c in oe["candidates"]}
     lines = [f"NOT PHYSICAL, no twin: {problem}" for problem in result["physical_problems"]]
+    if lines:
+        lines.append(NOT_PHYSICAL_NEXT)
     lines.append(f"model: output error, {sel['model']} ({oe['selection_reason']}; cross-validation: {oe['folds']})")
     table = sel["resistance_table"]
     picks = [i for i in (2, 4, 6, 8, 10) if i < len(table["speed_mps"])]

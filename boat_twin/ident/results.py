@@ -22,6 +22,13 @@ from boat_twin.ident.settling import DerivedCriteria
 from boat_twin.ident.steady import FitResult
 from boat_twin.vessel.params import VesselParams, params_to_dict
 
+NOT_PHYSICAL_NEXT = (
+    "what to do: cut the recording to where the boat runs (--start/--end S, seconds since the trial's start: "
+    "leave out long idling at either end and towing or docking); check that the thrust is the force in N per "
+    "thruster (--columns units, --calibration) and the speed over ground this boat's; a boat file (--boat) with "
+    "its mass_kg holds the mass where the data do not fix it")
+"""The line under a refusal (NOT PHYSICAL): what a user can do next."""
+
 
 class IdentifyResult(TypedDict):
     """What :func:`identify_arrays` returns: the ``--json`` contract of ``boat-twin identify`` (SI, JSON-ready)."""
