@@ -13,9 +13,11 @@ import json
 import numpy as np
 import pymap3d
 import pytest
+import yaml
 from test_csv_units import ORIGIN, skid_steer
 
 from boat_twin.cli import main
+from boat_twin.config import load_config
 from boat_twin.ident.report import model_lines
 from boat_twin.ident.results import NOT_PHYSICAL_NEXT
 from boat_twin.io.sources import read_trial_file
@@ -79,3 +81,25 @@ def test_start_and_end_cut_the_trial(idle_log, capsys) -> None:
         err = capsys.readouterr().err.strip().splitlines()
         assert err[-1].endswith("--start 250 s to --end 199.9 s keeps 0 sample(s), fewer than 20: the trial spans "
                                 "0 to 199.9 s"), err
+
+
+@pytest.mark.parametrize(("boat_mass_kg", "remarked"), [(15.0, True), (27.0, False)])
+def test_a_mass_far_from_the_boat_files_is_remarked_and_twin_yaml_has_the_trials_origin(
+        idle_log, tmp_path, capsys, boat_mass_kg, remarked) -> None:
+    boat = tmp_path / "boat.yaml"
+    boat.write_text(yaml.safe_dump({"vessel": {"mass_kg": boat_mass_kg, "length_m": 1.5, "beam_m": 0.8,
+                                               "engine_y_m": 0.35, "bollard_thrust_N": 40.0, "turn_speed_mps": 0.8}}))
+    assert main(["identify", str(idle_log), "--columns", COLUMNS, "--boat", str(boat), "--out", str(tmp_path / "o")
+                 ]) == 0
+    text = capsys.readouterr().out
+    twin = load_config(tmp_path / "o" / "twin.yaml")
+    assert twin.vessel.mass_kg == pytest.approx(26.7, rel=0.05)  # identified (28 kg with its added mass)
+    departure = f"{abs(twin.vessel.mass_kg / boat_mass_kg - 1):.0%}"
+    assert ("warning: the identified mass" in text) == remarked, text
+    if remarked:
+        assert f"the identified mass {twin.vessel.mass_kg:.4g} kg is {departure} above the boat file's 15 kg" in text
+    first = read_trial_file(idle_log, columns=COLUMNS)
+    assert (twin.gnss.origin_lat_deg, twin.gnss.origin_lon_deg) == (first.lat_deg[0], first.lon_deg[0])
+    assert twin.gnss.origin_lat_deg == pytest.approx(ORIGIN[0], abs=1e-5)  # not the default (Vladivostok)
+    assert json.loads((tmp_path / "o" / "identify.json").read_text())["twin"]["gnss_origin"][:2] == \
+        [first.lat_deg[0], first.lon_deg[0]]

@@ -111,6 +111,8 @@ def pool(pieces: list[tuple[Any, Any, Any]]) -> list[tuple[np.ndarray, np.ndarra
     return out
 
 
+MASS_DEPARTURE = 0.25
+"""An identified mass further than this share from a boat file's ``mass_kg`` is remarked in the warnings, -."""
 REST_NOISE_FACTOR = 3.0
 """A steady point slower than this many speed-noise σ is at rest (:func:`rest_floor`), -."""
 
@@ -384,7 +386,8 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
         fallback_mass_kg=fallback, couplings=[rec.coupling_N for rec in records], thrust_name=DELIVERED_THRUST,
         sources=[str(trial.metadata.source) for trial in trials])
     found.warnings += [w for trial in trials for w in trial_warnings(trial, boat)]
-    result = TrialsIdentification(found, [], None)
+    with_fix = [trial for trial in trials if np.any(np.isfinite(trial.lat_deg))]
+    result = TrialsIdentification(found, [], None, origin=with_fix[0].metadata.origin if with_fix else None)
     try:
         if found.physical_problems:
             raise InputError("the identified model is not physical: " + "; ".join(found.physical_problems))
@@ -392,6 +395,15 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
     except InputError as err:
         result.twin_error = str(err)
         found.warnings.append(f"no twin configuration: {err}")
+    if result.vessel is not None and "mass_kg" in boat and found.output_error.mass_identified:
+        departure = result.vessel.mass_kg / boat["mass_kg"] - 1.0
+        if abs(departure) > MASS_DEPARTURE:
+            found.warnings.append(
+                f"the identified mass {result.vessel.mass_kg:.4g} kg is {abs(departure):.0%} "
+                f"{'above' if departure > 0 else 'below'} the boat file's {boat['mass_kg']:.4g} kg (more than "
+                f"{MASS_DEPARTURE:.0%}): the twin uses the identified one; check the boat file's mass (as loaded: "
+                "batteries, payload, crew), the thrust's units and calibration, and whether the thrust logged is "
+                "what the propellers delivered")
     oe = found.output_error
     mass_source = "identified" if oe.mass_identified else \
         "boat file" if oe.selected.mass_fixed else "NOT identified: the fit's point estimate"
