@@ -49,7 +49,8 @@ def write_trial_report(
 
 def trial_figure(result: IdentifyResult, records: Sequence[SurgeRecord]) -> Figure:
     """The records the output-error fit read, each on the pooled time axis: the speed (a trial's surge along the
-    heading at the time it describes) with the steady-point view's settled tails and rejected segments, the
+    heading at the time it describes) with the steady-point view's settled tails (green) and the segments that
+    gave no steady point (hatched grey: the output-error fit reads every sample, theirs too), the
     thrust held over each interval (a trial's delivered along the hull) and, where the fit scaled one, the
     coupling force c·m₂₂·v·r."""
     fig = Figure(figsize=(9, 6))
@@ -64,12 +65,16 @@ def trial_figure(result: IdentifyResult, records: Sequence[SurgeRecord]) -> Figu
             ax_f.plot(rec.t_s, scale * rec.coupling_N, lw=0.8, color="tab:orange", drawstyle="steps-post",
                       label=None if coupled else f"coupling c·m22·v·r, c = {scale:.2f}")
             coupled = True
-    for seg in result["steady_points"]:
-        ax_v.axvspan(seg["end_s"] - seg["duration_s"], seg["end_s"], color="tab:green", alpha=0.25)
-    for seg in result["rejected_segments"]:
-        ax_v.axvspan(seg["start_s"], seg["end_s"], color="tab:red", alpha=0.15)
+    for k, seg in enumerate(result["steady_points"]):
+        ax_v.axvspan(seg["end_s"] - seg["duration_s"], seg["end_s"], color="tab:green", alpha=0.25,
+                     label="steady point (its settled tail)" if k == 0 else None)
+    for k, seg in enumerate(result["rejected_segments"]):  # the fit reads them too: no alarm colour
+        ax_v.axvspan(seg["start_s"], seg["end_s"], facecolor="none", edgecolor="0.6", hatch="//", lw=0.0,
+                     label="no steady point (too short or not settled: in the fit all the same)" if k == 0 else None)
     ax_v.set_ylabel("speed as fitted, m/s")
-    ax_v.set_title("the record fitted: settled tails (green), rejected segments (red)")
+    ax_v.set_title("the record fitted, every sample; the steady-point view shaded", fontsize=10)
+    if result["steady_points"] or result["rejected_segments"]:
+        ax_v.legend(fontsize=7, loc="best")
     ax_f.set_ylabel("surge force, N")
     ax_f.set_xlabel("time, s")
     if coupled:
