@@ -155,10 +155,11 @@ class FollowJob:
     verb = "follow"
     outputs = FOLLOW_OUTPUTS
     curves: ClassVar[tuple[str, ...]] = ()
-    columns = ("mass_kg", "resistance_factor", "causes", "unexplained", "misfit_speed_innovation_ratio")
+    columns = ("mass_kg", "resistance_factor", "causes", "unexplained", "misfit_speed_innovation_ratio",
+               "misfit_yaw_rate_innovation_ratio")
     """The headline at the trial's end: the adapted surge mass, kg, and resistance factor, -; the causes the
-    rolling diagnosis names and whether something is unexplained; the speed innovations' RMS over their noise
-    in the last minute, -."""
+    rolling diagnosis names and whether something is unexplained; the speed and the yaw-rate innovations' RMS
+    over their noise in the last minute, -."""
 
     def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict[str, Any]:
         """Follow the trial at ``path``, write its report into ``out`` (its texts name no directory: ``named``
@@ -173,7 +174,8 @@ class FollowJob:
         final = done.final
         return {"duration_s": duration_s(trial), "mass_kg": final["mass_kg"],
                 "resistance_factor": final["resistance_factor"], "causes": list(final["causes"]),
-                "unexplained": final["unexplained"], "misfit_speed_innovation_ratio": final["speed_innovation_ratio"]}
+                "unexplained": final["unexplained"], "misfit_speed_innovation_ratio": final["speed_innovation_ratio"],
+                "misfit_yaw_rate_innovation_ratio": final["yaw_rate_innovation_ratio"]}
 
 
 def _misfit(rmse: dict[str, float], noise: dict[str, float]) -> float | None:
