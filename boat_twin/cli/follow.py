@@ -67,7 +67,9 @@ def _text(result: dict[str, Any]) -> str:
     names = [k[: -len(RATIO_SUFFIX)].replace("_", " ") + " innov./noise" for k in ratios]
     lines = ["t_s    " + "".join(f"{n:>22s}" for n in names) + "   mass_kg   resistance ×   causes"]
     unexplained = False
-    for e in result["timeline"]:
+    final = result["final"]
+    last = result["timeline"][-1]["t_s"] if result["timeline"] else -math.inf
+    for e in result["timeline"] + ([final] if "causes" in final and final.get("t_s", -math.inf) > last else []):
         cells = "".join(f"{'-' if e.get(k) is None else format(e[k], '.2f'):>22s}" for k in ratios)
         unexplained |= bool(e["unexplained"])
         lines.append(f"{e['t_s']:7.0f}{cells}  {e['mass_kg']:8.0f}  {e['resistance_factor']:12.3f}   "

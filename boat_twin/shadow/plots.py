@@ -32,17 +32,18 @@ def innovation_figure(result: FollowResult) -> Figure:
         ax.set_ylabel(f"{name} innovation, {unit}")
         ax.legend(loc="upper right", fontsize="small")
     bottom = axes[-1]
-    times = [e["t_s"] for e in result.timeline]
+    entries = _entries(result)
+    times = [e["t_s"] for e in entries]
     for i, channel in enumerate(channels):
         key = channel.rsplit("_", 1)[0] + "_innovation_ratio"
-        ratios = [np.nan if e.get(key) is None else e[key] for e in result.timeline]
+        ratios = [np.nan if e.get(key) is None else e[key] for e in entries]
         bottom.plot(times, ratios, "o-", color=f"C{i + 3}", label=f"{CHANNEL_LABELS[channel][0]}: RMS over the last "
                     "minute / stated noise")
     bottom.axhline(1.5, color="k", ls="--", lw=1, label="1.5× (misfit above)")
     bottom.set_ylim(bottom=0.0)
     bottom.set_ylabel("innovation ratio, -")
     bottom.set_xlabel("trial time, s")
-    bottom.legend(loc="upper right", fontsize="small")
+    bottom.legend(loc="best", fontsize="small")
     fig.tight_layout()
     return fig
 
@@ -117,10 +118,10 @@ def cause_figure(result: FollowResult) -> Figure:
     """Which causes the rolling diagnosis held at each timeline entry."""
     fig = Figure(figsize=(9, 3))
     ax = fig.subplots()
-    names = sorted({c for e in result.timeline for c in e["causes"]} | {"unexplained"})
+    entries = _entries(result)
+    names = sorted({c for e in entries for c in e["causes"]} | {"unexplained"})
     for row, name in enumerate(names):
-        held = [e["t_s"] for e in result.timeline
-                if (name in e["causes"]) or (name == "unexplained" and e["unexplained"])]
+        held = [e["t_s"] for e in entries if (name in e["causes"]) or (name == "unexplained" and e["unexplained"])]
         ax.plot(held, [row] * len(held), "s", ms=6)
     ax.set_yticks(range(len(names)), names)
     ax.set_xlim(0.0, _end_s(result))  # the whole trial, also where nothing was held
@@ -133,3 +134,10 @@ def cause_figure(result: FollowResult) -> Figure:
 def _end_s(result: FollowResult) -> float:
     """The trial's last time the twin reached, s (at least 1 s: an axis of a positive span)."""
     return max([e["t_s"] for e in result.timeline] + [result.final.get("t_s", 0.0), 1.0])
+
+
+def _entries(result: FollowResult) -> list[dict[str, Any]]:
+    """The timeline's entries, then the state at the trial's end (when later than the last entry)."""
+    last = result.timeline[-1]["t_s"] if result.timeline else -np.inf
+    final = result.final
+    return [*result.timeline, final] if "causes" in final and final.get("t_s", -np.inf) > last else result.timeline
