@@ -132,6 +132,7 @@ def test_follow_each_rows_are_what_follow_reports_alone(tmp_path) -> None:
     assert rows[0]["status"] == "ok" and rows[1]["status"] == "error" and "empty.mcap" in rows[1]["error"]
     assert rows[0]["mass_kg"] == final["mass_kg"] and rows[0]["causes"] == final["causes"]
     assert rows[0]["misfit_speed_innovation_ratio"] == final["speed_innovation_ratio"]
+    assert rows[0]["misfit_yaw_rate_innovation_ratio"] == final["yaw_rate_innovation_ratio"]
     assert (tmp_path / "out" / "random" / "twin.yaml").is_file()
 
 

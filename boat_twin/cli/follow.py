@@ -7,6 +7,7 @@ Front end over :func:`boat_twin.shadow.follow.follow_trial` (the core the ``shad
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -36,16 +37,50 @@ def _progress(message: str) -> None:
     sys.stderr.flush()
 
 
+RATIO_SUFFIX = "_innovation_ratio"
+EXPLAINED = (
+    "innov./noise: RMS of a signal's innovations (measured − predicted) over the last minute over their stated "
+    "spread (sensor noise + the twin's uncertainty): about 1 means the twin predicts that signal to its noise; "
+    "above 1.5 the twin misfits it; '-': no sample yet.")
+UNEXPLAINED = (
+    "(unexplained): the rolling diagnosis found structure left in the residuals that no cause of its catalogue "
+    "explains while the twin misfits, on consecutive runs: something outside the model (an actuator fault, a "
+    "sensor error, a wrong boat file); the model is held (not adapted) meanwhile. docs/live-twin.md")
+
+
+def _ratios(result: dict[str, Any]) -> list[str]:
+    """The timeline's innovation-ratio keys, speed first (every signal the twin states a ratio of)."""
+    keys = {k for e in result["timeline"] for k in e if k.endswith(RATIO_SUFFIX)}
+    return sorted(keys, key=lambda k: (k != "speed" + RATIO_SUFFIX, k))
+
+
+def _interval(value: float, ci: list[float], held: bool, digits: int, unit: str = "") -> str:
+    """``value unit [low, high]``; in words where the interval is NaN (a value not fitted, or held)."""
+    if all(x is not None and math.isfinite(x) for x in ci):
+        return f"{value:.{digits}f}{unit} [{ci[0]:.{digits}f}, {ci[1]:.{digits}f}]"
+    why = "held: the data did not fix it, the value before is kept" if held else "configured, not fitted yet"
+    return f"{value:.{digits}f}{unit} ({why}; no interval)"
+
+
 def _text(result: dict[str, Any]) -> str:
-    lines = ["t_s      speed innov./noise   mass_kg   resistance ×   causes"]
-    for e in result["timeline"]:
-        ratio = "-" if e["speed_innovation_ratio"] is None else f"{e['speed_innovation_ratio']:.2f}"
-        lines.append(f"{e['t_s']:7.0f}  {ratio:>18s}  {e['mass_kg']:8.0f}  {e['resistance_factor']:12.3f}   "
+    ratios = _ratios(result)
+    names = [k[: -len(RATIO_SUFFIX)].replace("_", " ") + " innov./noise" for k in ratios]
+    lines = ["t_s    " + "".join(f"{n:>22s}" for n in names) + "   mass_kg   resistance ×   causes"]
+    unexplained = False
+    final = result["final"]
+    last = result["timeline"][-1]["t_s"] if result["timeline"] else -math.inf
+    for e in result["timeline"] + ([final] if "causes" in final and final.get("t_s", -math.inf) > last else []):
+        cells = "".join(f"{'-' if e.get(k) is None else format(e[k], '.2f'):>22s}" for k in ratios)
+        unexplained |= bool(e["unexplained"])
+        lines.append(f"{e['t_s']:7.0f}{cells}  {e['mass_kg']:8.0f}  {e['resistance_factor']:12.3f}   "
                      f"{', '.join(e['causes']) or '-'}{' (unexplained)' if e['unexplained'] else ''}")
     surge = result["final"]["model"]["surge"]
-    lines.append(f"final model: mass {surge['mass_kg']:.0f} kg [{surge['mass_ci95_kg'][0]:.0f}, "
-                 f"{surge['mass_ci95_kg'][1]:.0f}], resistance ×{surge['resistance_factor']:.3f} "
-                 f"[{surge['resistance_factor_ci95'][0]:.3f}, {surge['resistance_factor_ci95'][1]:.3f}]")
+    held = bool(surge.get("mass_held"))
+    lines.append(f"final model: mass {_interval(surge['mass_kg'], surge['mass_ci95_kg'], held, 0, ' kg')}, "
+                 f"resistance ×{_interval(surge['resistance_factor'], surge['resistance_factor_ci95'], False, 3)}")
+    lines.append(EXPLAINED)
+    if unexplained or result["final"].get("unexplained"):
+        lines.append(UNEXPLAINED)
     return "\n".join(lines)
 
 
@@ -57,7 +92,8 @@ def run(args: argparse.Namespace) -> int:
         from boat_twin.fleet.jobs import FollowJob, ReadOptions
 
         read = ReadOptions(parse_remap(args.topic), args.namespace or "",
-                           str(args.calibration) if args.calibration is not None else None, args.columns)
+                           str(args.calibration) if args.calibration is not None else None, args.columns,
+                           start_s=args.start, end_s=args.end)
         return run_each(args, FollowJob(twin_config_from_args(args), read))
     if len(args.trial) > 1:
         raise InputError(f"{len(args.trial)} trials given: follow reads one trial, or each of several with "
@@ -87,8 +123,9 @@ def register(subparsers: Any) -> None:
         description="Replay a recorded trial through the live twin as if it came live (faster than real time): "
         "the twin keeps in step with the boat, predicts each sensor sample, adapts its surge model (mass, "
         "resistance) when that predicts held-out data better, and runs the diagnosis on the recent window. "
-        "Prints a timeline per simulated minute: t_s (s), speed_innovation_ratio (RMS of the speed innovations "
-        "over the last minute / their stated noise, -), mass_kg, resistance_factor (-), causes.")
+        "Prints a timeline per simulated minute: t_s (s), each signal's innovation ratio (speed, yaw rate: RMS of "
+        "its innovations over the last minute / their stated noise, -), mass_kg, resistance_factor (-), causes; "
+        "then what the ratios and '(unexplained)' mean.")
     p.add_argument("trial", nargs="*", type=Path,
                    help=TRIAL_HELP + "; with --each several, directories of trials or quoted glob patterns")
     add_trial_options(p)

@@ -110,7 +110,8 @@ def _run_each(args: argparse.Namespace) -> int:
         if getattr(args, name):
             raise InputError(f"--each identifies each trial's thrust-speed model; --{name} does not apply")
     read = ReadOptions(parse_remap(args.topic), args.namespace or "",
-                       str(args.calibration) if args.calibration is not None else None, args.columns)
+                       str(args.calibration) if args.calibration is not None else None, args.columns,
+                       start_s=args.start, end_s=args.end)
     job = IdentifyJob(read, args.order, min(args.max_order, 6), args.monotone, args.steady_window,
                       args.thrust_tolerance, _boat_facts(args),
                       str(args.boat) if args.boat is not None else None, twin_config_from_args(args))

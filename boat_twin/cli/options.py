@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -39,8 +40,8 @@ def parse_remap(items: list[str] | None) -> dict[str, str]:
 
 
 def add_trial_options(parser: argparse.ArgumentParser, *, bags: bool = True) -> None:
-    """Add --topic ROLE=TOPIC (repeatable), --namespace and --calibration FILE to a verb that reads trials
-    (``bags=False``: a verb that reads MAVLink logs only, without --namespace)."""
+    """Add --topic ROLE=TOPIC (repeatable), --namespace, --calibration FILE, --columns MAP and --start/--end S to
+    a verb that reads trials (``bags=False``: a verb that reads MAVLink logs only: --topic and --calibration)."""
     mavlink = "GLOBAL_POSITION_INT (default) or GPS_RAW_INT in a .tlog"
     parser.add_argument(
         "--topic", action="append", default=[], metavar="ROLE=TOPIC",
@@ -58,18 +59,27 @@ def add_trial_options(parser: argparse.ArgumentParser, *, bags: bool = True) -> 
         parser.add_argument(
             "--columns", metavar="MAP",
             help="CSV trials: which column holds what, as QUANTITY=COLUMN,... (quantities: time s, lat/lon deg or "
-            "x/y m, vel_east/vel_north or speed m/s with course deg, heading deg or yaw rad, yaw_rate rad/s, "
-            "thrust_left/thrust_right N, angle_left/angle_right rad) or a YAML file with columns:, calibration: "
-            "(raw command → N or rad tables, e.g. PWM) and origin:; docs/bags-and-trial.md")
+            "x/y (east/north) or x_ned/y_ned m, vel_east/vel_north or speed m/s with course deg, heading deg or yaw "
+            "rad, yaw_rate rad/s counter-clockwise, thrust_left/thrust_right N, angle_left/angle_right rad) or a "
+            "YAML file with columns: (a column, or {column: C, unit: U, frame: ned|enu, sign: cw|ccw}, e.g. time "
+            "in ms, heading in deg NED), calibration: (raw command → N or rad tables, e.g. PWM) and origin:; "
+            "docs/bags-and-trial.md")
+        parser.add_argument("--start", type=float, metavar="S",
+                            help="use the trial from S seconds after its start (e.g. to leave out idling)")
+        parser.add_argument("--end", type=float, metavar="S",
+                            help="use the trial up to S seconds after its start")
 
 
 def trial_from_args(path: Path | str, args: argparse.Namespace) -> Trial:
-    """:func:`~boat_twin.io.sources.read_trial_file` with the options :func:`add_trial_options` added."""
+    """:func:`~boat_twin.io.sources.read_trial_file` with the options :func:`add_trial_options` added, cut to
+    --start/--end (:func:`~boat_twin.io.span.trial_between`)."""
     from boat_twin.io.sources import read_trial_file
+    from boat_twin.io.span import trial_between
 
-    return read_trial_file(path, remap=parse_remap(getattr(args, "topic", None)),
-                           namespace=getattr(args, "namespace", "") or "",
-                           calibration=getattr(args, "calibration", None), columns=getattr(args, "columns", None))
+    trial = read_trial_file(path, remap=parse_remap(getattr(args, "topic", None)),
+                            namespace=getattr(args, "namespace", "") or "",
+                            calibration=getattr(args, "calibration", None), columns=getattr(args, "columns", None))
+    return trial_between(trial, getattr(args, "start", None), getattr(args, "end", None))
 
 
 def twin_config_from_args(args: argparse.Namespace) -> TwinConfig:
@@ -153,7 +163,10 @@ def run_each(args: argparse.Namespace, job: Any) -> int:
     else:
         for row in failed:
             sys.stderr.write(f"{row['trial']}: error: {row['error']}\n")
-        sys.stdout.write(f"{job.verb}: {len(result.rows)} trial(s), {len(result.rows) - len(failed)} ok "
+        others = Counter(row["status"] for row in result.rows if row["status"] not in ("ok", "error"))
+        ok = len(result.rows) - len(failed) - sum(others.values())
+        also = "".join(f", {n} {status.replace('_', ' ')}" for status, n in sorted(others.items()))
+        sys.stdout.write(f"{job.verb}: {len(result.rows)} trial(s), {ok} ok{also} "
                          f"({result.resumed} complete from an earlier run), {len(failed)} failed; summary "
                          f"{result.summary_csv}\n")
     if failed:

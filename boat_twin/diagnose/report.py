@@ -320,10 +320,15 @@ def text_report(result: DiagnosisResult) -> str:
     return "\n".join(lines)
 
 
-def _concatenated(windows: Windows, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Windows joined along trial time, NaN between them so lines break."""
+def _concatenated(windows: Windows, values: np.ndarray, angle: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Windows joined along trial time, NaN between them so lines break; an ``angle`` (rad) also breaks where it
+    jumps by more than π (wrapped across ±π: not a change of the signal, and no line is drawn across it)."""
     t = np.vstack([windows.t_s, np.full((1, windows.t_s.shape[1]), np.nan)]).T.ravel()
     v = np.vstack([values, np.full((1, values.shape[1]), np.nan)]).T.ravel()
+    if angle:
+        with np.errstate(invalid="ignore"):
+            wraps = np.flatnonzero(np.abs(np.diff(v)) > np.pi) + 1
+        t, v = np.insert(t, wraps, np.nan), np.insert(v, wraps, np.nan)
     return t, v
 
 
@@ -338,17 +343,19 @@ def signal_figure(windows: Windows, baseline: Prediction, extended: Prediction, 
     same = _same_prediction(baseline, extended, signals)
     fig = Figure(figsize=(10, 2.6 * len(signals)), layout="constrained")
     for ax, s in zip(fig.subplots(len(signals), 1, squeeze=False, sharex=True)[:, 0], signals, strict=True):
+        angle = UNITS[s] == "rad"
         ax.plot(*_concatenated(windows, windows.measured[s]), ".", ms=1.5, color="0.6", label="measured")
         if same:
-            ax.plot(*_concatenated(windows, baseline.signals[s]), lw=1.2, color="C0",
+            ax.plot(*_concatenated(windows, baseline.signals[s], angle), lw=1.2, color="C0",
                     label="model (no effect named: extended = baseline)")
         else:
-            ax.plot(*_concatenated(windows, baseline.signals[s]), lw=3.0, color="C0", alpha=0.45,
+            ax.plot(*_concatenated(windows, baseline.signals[s], angle), lw=3.0, color="C0", alpha=0.45,
                     label="baseline model")
-            ax.plot(*_concatenated(windows, extended.signals[s]), lw=1.0, color="C3", label="extended model")
+            ax.plot(*_concatenated(windows, extended.signals[s], angle), lw=1.0, color="C3", label="extended model")
         ax.set_ylabel(f"{NAMES[s]}, {UNITS[s]}")
     ax.set_xlabel("trial time, s")
-    fig.legend(*ax.get_legend_handles_labels(), loc="outside upper center", ncols=3, fontsize=8, markerscale=4)
+    # below the plots: above them it would cover the figure's title (the trial, set when saved)
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncols=3, fontsize=8, markerscale=4)
     return fig
 
 
@@ -357,18 +364,19 @@ def residual_figure(windows: Windows, baseline: Prediction, extended: Prediction
     same = _same_prediction(baseline, extended, SIGNALS)
     fig = Figure(figsize=(10, 9), layout="constrained")
     for ax, s in zip(fig.subplots(len(SIGNALS), 1, sharex=True)[:], SIGNALS, strict=True):
+        angle = UNITS[s] == "rad"  # a heading residual, wrapped to ±π: broken where it wraps
         if same:
-            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], baseline.signals[s])), lw=0.6, color="C0",
-                    label="model (no effect named: extended = baseline)")
+            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], baseline.signals[s]), angle), lw=0.6,
+                    color="C0", label="model (no effect named: extended = baseline)")
         else:
-            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], baseline.signals[s])), lw=1.6, color="C0",
-                    alpha=0.45, label="baseline")
-            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], extended.signals[s])), lw=0.6, color="C3",
-                    label="extended")
+            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], baseline.signals[s]), angle), lw=1.6,
+                    color="C0", alpha=0.45, label="baseline")
+            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], extended.signals[s]), angle), lw=0.6,
+                    color="C3", label="extended")
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_ylabel(f"{NAMES[s]}\nresidual, {UNITS[s]}", fontsize=8)
     ax.set_xlabel("trial time, s")
-    fig.legend(*ax.get_legend_handles_labels(), loc="outside upper center", ncols=2, fontsize=8)
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncols=2, fontsize=8)
     return fig
 
 

@@ -11,8 +11,11 @@
 - ``DIR/summary.csv`` and ``DIR/summary.json`` (a list of rows, one per trial in the order given) are rewritten
   after every trial, each atomically and the two together with SIGINT and SIGTERM held back (they always
   agree), so that a killed run leaves the rows of the trials it finished. Each row has at least
-  ``trial``, ``status`` ("ok" or "error"), ``error`` (null when ok), ``boat``, ``source``, ``duration_s``, the
-  verb's headline (the job's ``columns``), ``seconds``, ``cpu_s``, ``worker`` and ``peak_rss_mb``.
+  ``trial``, ``status`` ("ok", "error", or a verb's own such as identify's "no_twin"), ``error`` (null unless
+  "error"), ``boat``, ``source``, ``duration_s``, the
+  verb's headline (the job's ``columns``), ``seconds``, ``cpu_s``, ``worker`` and ``peak_rss_mb``. summary.json
+  keeps every value as computed; summary.csv rounds floats to :data:`CSV_DIGITS` significant digits and leaves
+  out a job's ``curves`` (multi-point x, y lists), which go to ``DIR/curves.csv``, one point a line.
 - A failing trial (bad file, a pipeline error, even a crash of its worker) is reported in its row and never stops
   the others.
 """
@@ -22,6 +25,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 import re
 import resource
@@ -51,6 +55,11 @@ ROW_FILE = "row.json"
 """A trial's summary row in its report directory, written last: the mark of a complete report."""
 SUMMARY_CSV = "summary.csv"
 SUMMARY_JSON = "summary.json"
+CURVES_CSV = "curves.csv"
+CSV_DIGITS = 4
+"""Significant digits of a float in summary.csv and curves.csv (summary.json keeps them all)."""
+ERROR = "error"
+"""Status of a trial whose run failed."""
 
 
 class Job(Protocol):
@@ -58,6 +67,8 @@ class Job(Protocol):
 
     verb: str
     columns: tuple[str, ...]
+    curves: tuple[str, ...]
+    """(x, y) columns of ``columns`` holding a curve (lists of numbers), or ()."""
     outputs: tuple[str, ...]
     """The files of one trial's report (:mod:`boat_twin.fleet.outputs`)."""
 
@@ -77,7 +88,7 @@ class BatchResult:
     @property
     def failed(self) -> list[dict[str, Any]]:
         """The rows of the trials that failed."""
-        return [row for row in self.rows if row["status"] != "ok"]
+        return [row for row in self.rows if row["status"] == ERROR]
 
 
 def run_task(job: Job, task: TrialTask, report_dir: str, one_thread: bool) -> dict[str, Any]:
@@ -104,40 +115,56 @@ def run_task(job: Job, task: TrialTask, report_dir: str, one_thread: bool) -> di
             (report.staging / ROW_FILE).write_text(to_json(row) + "\n")
             report.commit()
     except InputError as err:
-        row.update(status="error", error=str(err))
+        row.update(status=ERROR, error=str(err))
     except Exception as err:  # noqa: BLE001  a bug or a broken file the readers did not foresee: this trial's row
-        row.update(status="error", error=f"{task.path}: {type(err).__name__}: {err}")
-    if row["status"] != "ok":
+        row.update(status=ERROR, error=f"{task.path}: {type(err).__name__}: {err}")
+    if row["status"] == ERROR:
         timed()
     return row
 
 
 def _crashed(task: TrialTask, job: Job, err: BaseException) -> dict[str, Any]:
     """The row of a trial whose task did not return (its worker died, the cluster lost it)."""
-    return {"trial": task.name, "status": "error", "error": f"task lost: {type(err).__name__}: {err}",
+    return {"trial": task.name, "status": ERROR, "error": f"task lost: {type(err).__name__}: {err}",
             "boat": task.boat, "source": task.path, "duration_s": None, **dict.fromkeys(job.columns),
             **dict.fromkeys(RUN_COLUMNS)}
 
 
-def _cell(value: Any) -> Any:
+def _cell(value: Any, digits: int | None) -> Any:
     if value is None:
         return ""
     if isinstance(value, (list, tuple)):
-        return ";".join(str(v) for v in value)
+        return ";".join(str(_cell(v, digits)) for v in value)
+    if isinstance(value, float) and digits is not None and math.isfinite(value):
+        return f"{value:.{digits}g}"
     return value
 
 
-def write_summary(out: Path, rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> None:
-    """``summary.json`` (the rows) and ``summary.csv`` (``columns``; lists joined by ``;``, null empty), each
-    atomically, the pair with SIGINT and SIGTERM held back: an interrupt never leaves one newer than the other."""
+def _table(header: Sequence[str], lines: Sequence[Sequence[Any]], digits: int | None) -> str:
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
-    writer.writerow(columns)
-    for row in rows:
-        writer.writerow([_cell(row.get(c)) for c in columns])
+    writer.writerow(header)
+    writer.writerows([_cell(v, digits) for v in line] for line in lines)
+    return text.getvalue()
+
+
+def write_summary(out: Path, rows: Sequence[dict[str, Any]], columns: Sequence[str],
+                  curves: Sequence[str] = (), digits: int | None = None) -> None:
+    """``summary.json`` (the rows) and ``summary.csv`` (``columns`` but ``curves``; lists joined by ``;``, null
+    empty, floats to ``digits`` significant digits, None: as they are) and, with ``curves`` (x, y columns),
+    ``curves.csv`` (trial, x, y: one point a line); each atomically, the set with SIGINT and SIGTERM held back: an
+    interrupt never leaves one newer than another."""
+    shown = [c for c in columns if c not in curves]
+    summary = _table(shown, [[row.get(c) for c in shown] for row in rows], digits)
+    points = []
+    if curves:
+        x, y = curves
+        points = [[row["trial"], a, b] for row in rows for a, b in zip(row.get(x) or (), row.get(y) or (), strict=True)]
     with signals_held():
         atomic_write_text(out / SUMMARY_JSON, to_json(list(rows)) + "\n")
-        atomic_write_text(out / SUMMARY_CSV, text.getvalue())
+        atomic_write_text(out / SUMMARY_CSV, summary)
+        if curves:
+            atomic_write_text(out / CURVES_CSV, _table(("trial", *curves), points, digits))
 
 
 def _clean_leftovers(out: Path, tasks: Sequence[TrialTask]) -> None:
@@ -159,7 +186,7 @@ def _failed_last_time(out: Path) -> set[str]:
         return set()
     if not isinstance(rows, list):
         return set()
-    return {row["trial"] for row in rows if isinstance(row, dict) and row.get("status") == "error" and "trial" in row}
+    return {row["trial"] for row in rows if isinstance(row, dict) and row.get("status") == ERROR and "trial" in row}
 
 
 def _complete_row(report_dir: Path) -> dict[str, Any] | None:
@@ -168,7 +195,7 @@ def _complete_row(report_dir: Path) -> dict[str, Any] | None:
         row = json.loads((report_dir / ROW_FILE).read_text())
     except (OSError, ValueError):
         return None
-    return row if isinstance(row, dict) and row.get("status") == "ok" else None
+    return row if isinstance(row, dict) and row.get("status") not in (None, ERROR) else None
 
 
 class Progress:
@@ -184,7 +211,7 @@ class Progress:
     def update(self, row: dict[str, Any]) -> None:
         """Count ``row`` and redraw."""
         self.done += 1
-        self.errors += row["status"] != "ok"
+        self.errors += row["status"] == ERROR
         filled = self.WIDTH * self.done // max(self.total, 1)
         elapsed = time.monotonic() - self.start
         self.stream.write(f"\r{self.verb} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {self.done}/{self.total}"
@@ -222,7 +249,7 @@ def run_batch(job: Job, tasks: Sequence[TrialTask], out: Path, client: Any = Non
 
         def finished(task: TrialTask, row: dict[str, Any]) -> None:
             rows[task.name] = row
-            write_summary(out, [rows[t.name] for t in tasks if t.name in rows], columns)
+            write_summary(out, [rows[t.name] for t in tasks if t.name in rows], columns, job.curves, CSV_DIGITS)
             if progress is not None:
                 progress(row)
 
@@ -232,7 +259,7 @@ def run_batch(job: Job, tasks: Sequence[TrialTask], out: Path, client: Any = Non
         else:
             _run_on_dask(client, job, pending, out, finished)
         ordered = [rows[t.name] for t in tasks]
-        write_summary(out, ordered, columns)
+        write_summary(out, ordered, columns, job.curves, CSV_DIGITS)
     return BatchResult(ordered, resumed, out / SUMMARY_CSV, out / SUMMARY_JSON)
 
 

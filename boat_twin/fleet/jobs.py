@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -15,6 +15,9 @@ from boat_twin.io.trial import Trial
 
 COMMON_COLUMNS = ("trial", "status", "error", "boat", "source", "duration_s")
 """Columns every summary row starts with (then the verb's :attr:`columns`, then :data:`RUN_COLUMNS`)."""
+NO_TWIN = "no_twin"
+"""Status of an identify row whose trial ran but gave no twin.yaml (its ``physical_problems`` and warnings say
+why): not an error, not ok."""
 RUN_COLUMNS = ("seconds", "cpu_s", "worker", "peak_rss_mb")
 """Columns every summary row ends with: the task's wall time and the CPU time of its process meanwhile, s, where
 it ran (host:pid), and the peak resident memory of that process so far, MB (flat over a batch: no leak)."""
@@ -22,19 +25,24 @@ it ran (host:pid), and the peak resident memory of that process so far, MB (flat
 
 @dataclass(frozen=True)
 class ReadOptions:
-    """How a trial is read (``--topic``, ``--namespace``, ``--calibration``, ``--columns``)."""
+    """How a trial is read (``--topic``, ``--namespace``, ``--calibration``, ``--columns``, ``--start``/``--end``)."""
 
     remap: dict[str, str] = field(default_factory=dict)
     namespace: str = ""
     calibration: str | None = None
     columns: str | None = None
+    start_s: float | None = None
+    end_s: float | None = None
+    """The stretch used, s since the trial's start (None: from its start, to its end)."""
 
     def read(self, path: Path) -> Trial:
-        """:func:`~boat_twin.io.sources.read_trial_file` of ``path`` with these options."""
+        """:func:`~boat_twin.io.sources.read_trial_file` of ``path`` with these options, cut to the stretch."""
         from boat_twin.io.sources import read_trial_file
+        from boat_twin.io.span import trial_between
 
-        return read_trial_file(path, remap=self.remap, namespace=self.namespace, calibration=self.calibration,
-                               columns=self.columns)
+        trial = read_trial_file(path, remap=self.remap, namespace=self.namespace, calibration=self.calibration,
+                                columns=self.columns)
+        return trial_between(trial, self.start_s, self.end_s)
 
 
 def duration_s(trial: Trial) -> float:
@@ -64,11 +72,14 @@ class IdentifyJob:
                "curve_N", "heldout_rmse_mps", "baseline_heldout_rmse_mps", "physical_problems", "steady_points",
                "misfit_speed_rmse_mps", "warnings")
     """The headline: the model's effective mass and its 95 % interval, kg (null when the data do not identify
-    it); the selected output-error model (``baseline`` or ``spline-K``) and its resistance Fc at eleven speeds
-    from 0 to the top measured one (m/s, N); the held-out speed RMSE of the model and of the baseline
-    a·u + b·u|u|, m/s; why the model is not physical (empty: it is); steady points seen; the re-simulation's
-    speed RMSE (the identified model run on the trial's commands against the measured speed), m/s; warnings
-    counted."""
+    it, even where a boat file's mass is held); the selected output-error model (``baseline`` or ``spline-K``) and
+    its resistance Fc at eleven speeds from 0 to the top measured one (m/s, N: in summary.json and curves.csv,
+    not in summary.csv); the held-out speed RMSE of the model and of the baseline a·u + b·u|u|, m/s; why the
+    model is not physical (empty: it is); steady points seen; the re-simulation's speed RMSE (the identified
+    model run on the trial's commands against the measured speed), m/s; warnings counted. The row's status is
+    ``no_twin`` when no twin.yaml was written (the model is not physical, or no mass is known)."""
+    curves = ("curve_speed_mps", "curve_N")
+    """(x, y) columns holding a curve: written to curves.csv, one point a line, not into a summary.csv cell."""
 
     def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict[str, Any]:
         """Identify the trial at ``path``, write its report into ``out`` (``named``: the directory its texts
@@ -85,10 +96,11 @@ class IdentifyJob:
         write_identify_report(out, result, found, str(path), self.boat_file, named)
         oe = result["output_error"]
         selected, table = oe["selected"], oe["selected"]["resistance_table"]
-        known = "effective_mass_kg" in result["model"]
+        known = oe["mass_identified"] and "effective_mass_kg" in result["model"]
         low, high = selected["mass_ci95_kg"] if known else (None, None)
         heldout = {c["model"]: c["cv_rmse_mps"] for c in oe["candidates"]}
-        return {"duration_s": duration_s(trial), "mass_kg": result["model"].get("effective_mass_kg"),
+        return {"status": "ok" if found.vessel is not None else NO_TWIN, "duration_s": duration_s(trial),
+                "mass_kg": result["model"]["effective_mass_kg"] if known else None,
                 "mass_ci95_low_kg": low, "mass_ci95_high_kg": high, "mass_identified": oe["mass_identified"],
                 "model": selected["model"], "curve_speed_mps": table["speed_mps"], "curve_N": table["force_N"],
                 "heldout_rmse_mps": heldout[selected["model"]], "baseline_heldout_rmse_mps": heldout["baseline"],
@@ -107,6 +119,7 @@ class DiagnoseJob:
     window_s: float | None = None
     verb = "diagnose"
     outputs = DIAGNOSE_OUTPUTS
+    curves: ClassVar[tuple[str, ...]] = ()
     columns = ("verdict", "unexplained", "ambiguous", "withheld", "misfit_x_noise", "misfit_extended_x_noise")
     """The headline: the named effects; whether a structured residual is left that no catalogue effect explains;
     the candidates the trial cannot tell apart; the causes withheld from the verdict (they leave real, structured
@@ -141,10 +154,12 @@ class FollowJob:
     read: ReadOptions = field(default_factory=ReadOptions)
     verb = "follow"
     outputs = FOLLOW_OUTPUTS
-    columns = ("mass_kg", "resistance_factor", "causes", "unexplained", "misfit_speed_innovation_ratio")
+    curves: ClassVar[tuple[str, ...]] = ()
+    columns = ("mass_kg", "resistance_factor", "causes", "unexplained", "misfit_speed_innovation_ratio",
+               "misfit_yaw_rate_innovation_ratio")
     """The headline at the trial's end: the adapted surge mass, kg, and resistance factor, -; the causes the
-    rolling diagnosis names and whether something is unexplained; the speed innovations' RMS over their noise
-    in the last minute, -."""
+    rolling diagnosis names and whether something is unexplained; the speed and the yaw-rate innovations' RMS
+    over their noise in the last minute, -."""
 
     def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict[str, Any]:
         """Follow the trial at ``path``, write its report into ``out`` (its texts name no directory: ``named``
@@ -159,7 +174,8 @@ class FollowJob:
         final = done.final
         return {"duration_s": duration_s(trial), "mass_kg": final["mass_kg"],
                 "resistance_factor": final["resistance_factor"], "causes": list(final["causes"]),
-                "unexplained": final["unexplained"], "misfit_speed_innovation_ratio": final["speed_innovation_ratio"]}
+                "unexplained": final["unexplained"], "misfit_speed_innovation_ratio": final["speed_innovation_ratio"],
+                "misfit_yaw_rate_innovation_ratio": final["yaw_rate_innovation_ratio"]}
 
 
 def _misfit(rmse: dict[str, float], noise: dict[str, float]) -> float | None:

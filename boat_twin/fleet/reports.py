@@ -16,6 +16,7 @@ from boat_twin.files import atomic_save_figure, atomic_write_text, ensure_out_di
 from boat_twin.ident.pipeline import TrialIdentifyResult
 from boat_twin.ident.report import write_trial_report
 from boat_twin.ident.results import TrialsIdentification
+from boat_twin.sensors.gnss import GnssConfig
 from boat_twin.shadow.follow import FollowResult
 
 
@@ -24,12 +25,15 @@ def write_identify_report(out: Path, result: TrialIdentifyResult, found: TrialsI
                           true_resistance_N: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
     """The report of :func:`~boat_twin.ident.pipeline.identify_trials` (``result``, the contract of ``found``) on
     the trials read from ``sources`` into ``out``: twin.yaml (when a mass is known; geometry from ``boat_file`` or
-    the default boat), identify.json, model.yaml and the figures of the records the fit read (resimulation.png
-    for a single trial; ``true_resistance_N``, speed m/s → N, drawn when known). ``named``: the directory the
-    texts name (default ``out``; a report set's final name when ``out`` is its staging copy)."""
+    the default boat; the GNSS origin the first trial's), identify.json, model.yaml and the figures of the records
+    the fit read (resimulation.png for a single trial; ``true_resistance_N``, speed m/s → N, drawn when known).
+    ``named``: the directory the texts name (default ``out``; a report set's final name when ``out`` is its
+    staging copy)."""
     ensure_out_dir(out)
     if found.vessel is not None:
-        save_config(TwinConfig(vessel=found.vessel), out / "twin.yaml",
+        lat, lon, alt = found.origin or (GnssConfig.origin_lat_deg, GnssConfig.origin_lon_deg, GnssConfig.origin_alt_m)
+        gnss = GnssConfig(origin_lat_deg=lat, origin_lon_deg=lon, origin_alt_m=alt)
+        save_config(TwinConfig(vessel=found.vessel, gnss=gnss), out / "twin.yaml",
                     f"boat_twin twin of the boat identified from {sources}\n"
                     f"geometry: {boat_file or 'the default boat carried to the identified mass'}; where each fact "
                     "came from: identify.json 'twin'\n"

@@ -35,7 +35,7 @@ from boat_twin.ident.results import (
     trials_identification_dict,
     write_model_yaml,
 )
-from boat_twin.ident.settling import derive_criteria
+from boat_twin.ident.settling import DerivedCriteria, derive_criteria
 from boat_twin.ident.steady import FitResult, fit_power_series, select_order
 from boat_twin.ident.trial_record import DELIVERED_THRUST, known_samples, trial_record
 from boat_twin.ident.twin_config import identified_vessel, thrust_seen
@@ -112,19 +112,34 @@ def pool(pieces: list[tuple[Any, Any, Any]]) -> list[tuple[np.ndarray, np.ndarra
     return out
 
 
+MASS_DEPARTURE = 0.25
+"""An identified mass further than this share from a boat file's ``mass_kg`` is remarked in the warnings, -."""
+REST_NOISE_FACTOR = 3.0
+"""A steady point slower than this many speed-noise σ is at rest (:func:`rest_floor`), -."""
+
+
+def rest_floor(derived: DerivedCriteria) -> float:
+    """Speed below which a steady point is the boat at rest, not a speed its thrust held, m/s:
+    :data:`REST_NOISE_FACTOR` × the speed's white noise σ measured on the trial (``derived``): the speed over
+    ground of a boat lying still is the magnitude of that noise (its mean 1.25 σ for two axes of noise σ, 99 % of
+    it below 3.03 σ), whatever trickle of thrust an idling ESC logs."""
+    return REST_NOISE_FACTOR * derived.speed_noise_mps
+
+
 def physical_problems(fit: SurgeFit, points: list[dict[str, float]],
                       pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], thrust_name: str = "thrust",
-                      sources: list[str] | None = None) -> list[str]:
+                      sources: list[str] | None = None, rest_mps: float = 0.0) -> list[str]:
     """Why the identified model is not physical (empty: it is): a mass that is not positive, a resistance above
     the (positive) thrust that held a steady speed, or above the largest thrust of the fitted ``pieces`` at a
     speed the boat sustained for 5 s, or a curve that decreases. ``thrust_name`` says what the pieces' thrust is
-    and ``sources`` names each piece (the messages name what was checked)."""
+    and ``sources`` names each piece (the messages name what was checked). Steady points at rest (slower than
+    ``rest_mps``: :func:`rest_floor`) are not checked."""
     problems = []
     if not (np.isfinite(fit.mass_kg) and fit.mass_kg > 0.0):
         problems.append(f"effective mass {fit.mass_kg:.4g} kg is not positive")
     for p in points:
-        if p["thrust_N"] <= 0.0:  # at rest (or astern): the speed over ground is the GNSS noise floor
-            continue
+        if p["thrust_N"] <= 0.0 or p["speed_mps"] < rest_mps:
+            continue  # at rest (or astern): the speed over ground is the GNSS noise floor
         force = float(fit.resistance_N(np.array([p["speed_mps"]]))[0])
         if force > (1.0 + OVER_THRUST) * p["thrust_N"] + 3.0 * p.get("thrust_stderr_N", 0.0):
             problems.append(f"Fc({p['speed_mps']:.2f} m/s) = {force:.4g} N is above the {p['thrust_N']:.4g} N "
@@ -273,7 +288,13 @@ def identify_pooled(
     )
     for piece in pieces:
         replay_online(*piece, online)
-    problems = physical_problems(oe.selected, steady_point_dicts(points), pieces, thrust_name, sources)
+    rest = rest_floor(derived)
+    problems = physical_problems(oe.selected, steady_point_dicts(points), pieces, thrust_name, sources, rest)
+    at_rest = [p for p in physical_problems(oe.selected, steady_point_dicts(points), pieces, thrust_name, sources)
+               if p not in problems]
+    if at_rest:
+        warnings.append(f"not checked, at rest (speed below {rest:.3g} m/s = {REST_NOISE_FACTOR:g}× the speed "
+                        "noise: there the speed over ground is the noise's magnitude): " + "; ".join(at_rest))
     return Identification(oe, problems, points, rejected, derived, fits, chosen, reason, dyn, dynamic_error,
                           _online_view(online, fits, chosen, dyn), model, warnings, records)
 
@@ -366,7 +387,8 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
         fallback_mass_kg=fallback, couplings=[rec.coupling_N for rec in records], thrust_name=DELIVERED_THRUST,
         sources=[str(trial.metadata.source) for trial in trials])
     found.warnings += [w for trial in trials for w in trial_warnings(trial, boat)]
-    result = TrialsIdentification(found, [], None)
+    with_fix = [trial for trial in trials if np.any(np.isfinite(trial.lat_deg))]
+    result = TrialsIdentification(found, [], None, origin=with_fix[0].metadata.origin if with_fix else None)
     try:
         if found.physical_problems:
             raise InputError("the identified model is not physical: " + "; ".join(found.physical_problems))
@@ -374,6 +396,15 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
     except InputError as err:
         result.twin_error = str(err)
         found.warnings.append(f"no twin configuration: {err}")
+    if result.vessel is not None and "mass_kg" in boat and found.output_error.mass_identified:
+        departure = result.vessel.mass_kg / boat["mass_kg"] - 1.0
+        if abs(departure) > MASS_DEPARTURE:
+            found.warnings.append(
+                f"the identified mass {result.vessel.mass_kg:.4g} kg is {abs(departure):.0%} "
+                f"{'above' if departure > 0 else 'below'} the boat file's {boat['mass_kg']:.4g} kg (more than "
+                f"{MASS_DEPARTURE:.0%}): the twin uses the identified one; check the boat file's mass (as loaded: "
+                "batteries, payload, crew), the thrust's units and calibration, and whether the thrust logged is "
+                "what the propellers delivered")
     oe = found.output_error
     mass_source = "identified" if oe.mass_identified else \
         "boat file" if oe.selected.mass_fixed else "NOT identified: the fit's point estimate"

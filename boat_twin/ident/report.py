@@ -15,7 +15,7 @@ from boat_twin.files import atomic_save_figure, atomic_write_text, ensure_out_di
 from boat_twin.ident.output_error import SurgeRecord
 from boat_twin.ident.paper import paper_model_values
 from boat_twin.ident.resimulate import Resimulation, resimulation_figure
-from boat_twin.ident.results import IdentifyResult, write_model_yaml
+from boat_twin.ident.results import NOT_PHYSICAL_NEXT, IdentifyResult, write_model_yaml
 from boat_twin.ident.steady import FitResult
 from boat_twin.vessel.resistance import resistance_from_dict
 
@@ -49,7 +49,8 @@ def write_trial_report(
 
 def trial_figure(result: IdentifyResult, records: Sequence[SurgeRecord]) -> Figure:
     """The records the output-error fit read, each on the pooled time axis: the speed (a trial's surge along the
-    heading at the time it describes) with the steady-point view's settled tails and rejected segments, the
+    heading at the time it describes) with the steady-point view's settled tails (green) and the segments that
+    gave no steady point (hatched grey: the output-error fit reads every sample, theirs too), the
     thrust held over each interval (a trial's delivered along the hull) and, where the fit scaled one, the
     coupling force c·m₂₂·v·r."""
     fig = Figure(figsize=(9, 6))
@@ -64,12 +65,16 @@ def trial_figure(result: IdentifyResult, records: Sequence[SurgeRecord]) -> Figu
             ax_f.plot(rec.t_s, scale * rec.coupling_N, lw=0.8, color="tab:orange", drawstyle="steps-post",
                       label=None if coupled else f"coupling c·m22·v·r, c = {scale:.2f}")
             coupled = True
-    for seg in result["steady_points"]:
-        ax_v.axvspan(seg["end_s"] - seg["duration_s"], seg["end_s"], color="tab:green", alpha=0.25)
-    for seg in result["rejected_segments"]:
-        ax_v.axvspan(seg["start_s"], seg["end_s"], color="tab:red", alpha=0.15)
+    for k, seg in enumerate(result["steady_points"]):
+        ax_v.axvspan(seg["end_s"] - seg["duration_s"], seg["end_s"], color="tab:green", alpha=0.25,
+                     label="steady point (its settled tail)" if k == 0 else None)
+    for k, seg in enumerate(result["rejected_segments"]):  # the fit reads them too: no alarm colour
+        ax_v.axvspan(seg["start_s"], seg["end_s"], facecolor="none", edgecolor="0.6", hatch="//", lw=0.0,
+                     label="no steady point (too short or not settled: in the fit all the same)" if k == 0 else None)
     ax_v.set_ylabel("speed as fitted, m/s")
-    ax_v.set_title("the record fitted: settled tails (green), rejected segments (red)")
+    ax_v.set_title("the record fitted, every sample; the steady-point view shaded", fontsize=10)
+    if result["steady_points"] or result["rejected_segments"]:
+        ax_v.legend(fontsize=7, loc="best")
     ax_f.set_ylabel("surge force, N")
     ax_f.set_xlabel("time, s")
     if coupled:
@@ -263,6 +268,8 @@ def model_lines(result: IdentifyResult) -> list[str]:
     sel, base = oe["selected"], oe["baseline"]
     cv = {c["model"]: c["cv_rmse_mps"] for c in oe["candidates"]}
     lines = [f"NOT PHYSICAL, no twin: {problem}" for problem in result["physical_problems"]]
+    if lines:
+        lines.append(NOT_PHYSICAL_NEXT)
     lines.append(f"model: output error, {sel['model']} ({oe['selection_reason']}; cross-validation: {oe['folds']})")
     table = sel["resistance_table"]
     picks = [i for i in (2, 4, 6, 8, 10) if i < len(table["speed_mps"])]

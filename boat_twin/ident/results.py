@@ -22,6 +22,13 @@ from boat_twin.ident.settling import DerivedCriteria
 from boat_twin.ident.steady import FitResult
 from boat_twin.vessel.params import VesselParams, params_to_dict
 
+NOT_PHYSICAL_NEXT = (
+    "what to do: cut the recording to where the boat runs (--start/--end S, seconds since the trial's start: "
+    "leave out long idling at either end and towing or docking); check that the thrust is the force in N per "
+    "thruster (--columns units, --calibration) and the speed over ground this boat's; a boat file (--boat) with "
+    "its mass_kg holds the mass where the data do not fix it")
+"""The line under a refusal (NOT PHYSICAL): what a user can do next."""
+
 
 class IdentifyResult(TypedDict):
     """What :func:`identify_arrays` returns: the ``--json`` contract of ``boat-twin identify`` (SI, JSON-ready)."""
@@ -145,6 +152,9 @@ class TrialsIdentification:
     vessel: VesselParams | None
     vessel_sources: dict[str, Any] = field(default_factory=dict)
     twin_error: str = ""
+    origin: tuple[float, float, float] | None = None
+    """The first trial's geodetic origin (lat deg, lon deg, ellipsoidal height m) for the twin's GNSS, None: the
+    trials have no fix."""
 
 
 def steady_point_dicts(points: list[tuple[int, SteadySegment]]) -> list[dict[str, float]]:
@@ -176,7 +186,8 @@ def trials_identification_dict(found: TrialsIdentification) -> TrialIdentifyResu
     """The ``--json`` contract of an identification of trials: :func:`identification_dict`, the identified twin
     (``twin``), the first trial (``trial``, ``resimulation``) and every trial (``trials``)."""
     result = TrialIdentifyResult(**identification_dict(found.identification))
-    result["twin"] = ({"vessel": params_to_dict(found.vessel), "sources": found.vessel_sources}
+    result["twin"] = ({"vessel": params_to_dict(found.vessel), "sources": found.vessel_sources,
+                       "gnss_origin": list(found.origin) if found.origin is not None else None}
                       if found.vessel is not None else {"error": found.twin_error})
     entries = [replay.to_dict() for replay in found.trials]
     result["trial"] = {k: x for k, x in entries[0].items() if k != "resimulation"}

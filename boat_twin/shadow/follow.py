@@ -16,7 +16,7 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.frames import wrap_pi
 from boat_twin.io.trial import Trial
-from boat_twin.shadow.session import Shadow, ShadowSettings
+from boat_twin.shadow.session import RATIO_CHANNELS, Shadow, ShadowSettings
 from boat_twin.shadow.sync import COMMAND_KINDS, SENSOR_KINDS
 
 TIMELINE_PERIOD_S = 60.0
@@ -41,6 +41,9 @@ class FollowResult:
     coefficients (:meth:`~boat_twin.shadow.turning.TurningAdapter.to_dict`)."""
     diagnoses: list[dict[str, Any]] = field(default_factory=list)
     """Every rolling diagnosis run (RollingResult.to_dict)."""
+    innovations: dict[str, np.ndarray] = field(default_factory=dict)
+    """Channel (:data:`~boat_twin.shadow.session.RATIO_CHANNELS`: speed m/s, yaw rate rad/s) → (n, 3) t_s,
+    innovation, its stated spread (the plots draw them)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The contract: ``timeline``, ``final``, plus ``log`` and ``diagnoses``."""
@@ -52,8 +55,9 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
     """Feed ``trial`` to a live twin of ``config`` (see the module docstring)."""
     log: list[str] = []
     shadow = Shadow(config, settings, log.append)
-    speed: list[tuple[float, float, float]] = []
-    shadow.on_innovation = lambda n: speed.append((n.t_s, n.value, n.stdev)) if n.channel == "speed_mps" else None
+    traces: dict[str, list[tuple[float, float, float]]] = {channel: [] for channel in RATIO_CHANNELS}
+    shadow.on_innovation = lambda n: traces[n.channel].append((n.t_s, n.value, n.stdev)) \
+        if n.channel in traces else None
     timeline: list[dict[str, Any]] = []
     models: list[dict[str, Any]] = []
     diagnoses: list[dict[str, Any]] = []
@@ -77,7 +81,9 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
     final = {**_entry(shadow), "model": shadow.model(), "twin": _twin_summary(shadow)}
     if not timeline:
         timeline.append(_entry(shadow))
-    return FollowResult(timeline, final, log, shadow.twin_config(), np.array(speed).reshape(-1, 3), models, diagnoses)
+    innovations = {channel: np.array(rows).reshape(-1, 3) for channel, rows in traces.items()}
+    return FollowResult(timeline, final, log, shadow.twin_config(), innovations["speed_mps"], models, diagnoses,
+                        innovations)
 
 
 def trial_samples(trial: Trial) -> Iterator[tuple[str, float, tuple[float, ...]]]:
