@@ -281,10 +281,12 @@ class ReportSet:
     ``DIR`` already holding one of ``names`` is refused; ``DIR`` itself may exist (it is locked for the run).
     """
 
-    def __init__(self, path: Path, names: tuple[str, ...], force: bool) -> None:
+    def __init__(self, path: Path, names: tuple[str, ...], force: bool,
+                 kinds: dict[str, str | tuple[str, ...]] | None = None) -> None:
         if path.is_symlink() and resolved_path(path).is_dir():
             path = resolved_path(path)  # write into the directory the link names, keep the link
-        self._check(path, names, force)
+        self._kinds = kinds or {}
+        self._check(path, names, force, self._kinds)
         self.path = path
         self._dir_lock = _lock_directory(path) if path.is_dir() else None
         try:
@@ -293,7 +295,7 @@ class ReportSet:
             self._unlock_dir()
             raise
         try:
-            self._check(path, names, force)  # again: the claim may have restored a set a killed run moved aside
+            self._check(path, names, force, self._kinds)  # again: the claim may have restored a set moved aside
             self.staging = self._claim.scratch / path.name
             if path.is_dir():
                 _link_tree(path, self.staging)
@@ -310,13 +312,16 @@ class ReportSet:
             raise
 
     @staticmethod
-    def _check(path: Path, names: tuple[str, ...], force: bool) -> None:
+    def _check(path: Path, names: tuple[str, ...], force: bool, kinds: dict[str, str | tuple[str, ...]]) -> None:
         if path.exists() and not path.is_dir():
             raise InputError(f"{path}: --out must be a directory for the reports, and this is a file")
-        if not force:
-            for name in names:
-                if (path / name).exists() or (path / name).is_symlink():
-                    raise InputError(f"{path / name} exists; use --force to overwrite it")
+        for name in names:
+            item = path / name
+            if not (item.exists() or item.is_symlink()):
+                continue
+            if not force:
+                raise InputError(f"{item} exists; use --force to overwrite it")
+            _check_same_kind(item, kinds.get(name, "file"))
 
     def commit(self) -> None:
         """Swap the complete new set in place of ``DIR``."""
@@ -340,6 +345,24 @@ class ReportSet:
         if hasattr(self, "_claim"):
             self._claim.__exit__(kind, exc, tb)
         self._unlock_dir()
+
+
+def _check_same_kind(item: Path, kind: str | tuple[str, ...]) -> None:
+    """--force replaces ``item`` (one output of a report set) only if it is an output of ``kind``: a key of
+    :data:`REPLACEABLE` (a report file: ``"file"``), or the names of the files of a report directory (a directory
+    holding only such files). A directory where a file goes, a user's file inside a report directory: refused."""
+    if isinstance(kind, tuple):
+        what = f"directory of {', '.join(kind)}"
+        same = item.is_dir() and not item.is_symlink() and all(
+            entry.name in kind and entry.is_file() for entry in item.iterdir())
+    else:
+        what, replaceable = REPLACEABLE[kind]
+        same = replaceable(item)
+    if not same:
+        found = ("a directory holding other files" if isinstance(kind, tuple) and item.is_dir() else
+                 "a directory" if item.is_dir() else "a file" if item.is_file() else "not a regular file")
+        raise InputError(f"{item}: is {found}, not a {what}; --force replaces only an output of the same kind, "
+                         "refusing to replace it")
 
 
 def _link_tree(source: Path, target: Path) -> None:
