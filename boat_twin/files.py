@@ -158,6 +158,25 @@ def replace_output(new: Path, path: Path) -> None:
     _remove(old)
 
 
+def sync_tree(path: Path) -> None:
+    """``fsync`` the file ``path``, or every file and directory under the directory ``path``: data a file system
+    accepted into its cache but could not place (a full disk under delayed allocation, a quota, NFS) is an
+    OSError here, not a file silently short after the rename."""
+    items = [path] if not path.is_dir() else [Path(root) / name for root, _, files in os.walk(path)
+                                              for name in (*files, ".")]
+    for item in items:
+        mode = os.lstat(item).st_mode
+        if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):  # a link, or a user's FIFO a report set keeps
+            continue
+        fd = os.open(item, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        except OSError as err:
+            raise OSError(err.errno, err.strerror, str(item)) from None
+        finally:
+            os.close(fd)
+
+
 class OutputClaim:
     """The exclusive right to write the output ``path`` until :meth:`release` (or the end of a ``with``).
 
@@ -218,7 +237,17 @@ class OutputClaim:
 
     def commit(self, new: Path) -> None:
         """Move the complete new output ``new`` (inside :attr:`scratch`) to ``path``. SIGINT and SIGTERM are
-        held back during the renames (and acted on right after): a signal never lands between them."""
+        held back during the renames (and acted on right after): a signal never lands between them. Every file
+        of ``new`` is flushed to the disk first (:func:`sync_tree`): a full disk reported only then is an error
+        here, and nothing incomplete is renamed into place."""
+        try:
+            sync_tree(new)
+        except OSError as err:
+            if not is_write_failure(err):
+                raise
+            inside = Path(err.filename).relative_to(new) if new.is_dir() else Path()
+            raise InputError(f"{self.path / inside}: cannot write it ({write_failure(err)}); nothing was "
+                             "replaced") from None
         with signals_held():
             replace_output(new, self.path)
 
@@ -342,9 +371,26 @@ class ReportSet:
         return self
 
     def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: object) -> None:
-        if hasattr(self, "_claim"):
-            self._claim.__exit__(kind, exc, tb)
-        self._unlock_dir()
+        named = self._named(exc) if exc is not None and hasattr(self, "staging") else None
+        try:
+            if hasattr(self, "_claim"):
+                self._claim.__exit__(kind, None if named is not None else exc, tb)
+        finally:
+            self._unlock_dir()
+        if named is not None:
+            raise named from None
+
+    def _named(self, exc: BaseException) -> InputError | None:
+        """An error about a file of the new set, naming it as ``DIR/NAME`` (the user's name for it), not by its
+        place in the scratch copy; None for any other error."""
+        scratch = str(self.staging)
+        if isinstance(exc, InputError) and scratch in str(exc):
+            return InputError(str(exc).replace(scratch, str(self.path)))
+        filename = str(getattr(exc, "filename", None) or "")
+        if is_write_failure(exc) and filename.startswith(scratch):
+            return InputError(f"{self.path}{filename[len(scratch):]}: cannot write it ({write_failure(exc)}); nothing "
+                              "was replaced")
+        return None
 
 
 def _check_same_kind(item: Path, kind: str | tuple[str, ...]) -> None:

@@ -3,6 +3,8 @@ a full disk or a file-size limit on every writer, a long command file (progress,
 
 from __future__ import annotations
 
+import errno
+import os
 import shutil
 import signal
 import subprocess
@@ -11,7 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
-from processes import popen_as_from_a_shell
+from processes import popen_as_from_a_shell, run_with_file_size_limit
 
 from boat_twin.cli import main
 
@@ -141,3 +143,79 @@ def test_a_signal_stops_a_long_command_file_within_a_second(tmp_path, signum, co
     assert said in ("boat-twin: interrupted\n", "boat-twin: terminated\n") and said == rest, rest
     assert out.read_bytes() == b"\x89MCAP0\r\nthe old bag"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["long.csv", "o.mcap"]
+
+
+# --------------------------------------------------------------------------- a full disk
+
+
+def _old_outputs(tmp_path: Path) -> dict[str, bytes]:
+    """Yesterday's outputs of every verb under test, in ``tmp_path``: a bag, a bag directory, a .tlog, a plot,
+    a report set beside a user's notes, a cable plot."""
+    (tmp_path / "new.mcap").write_bytes(b"\x89MCAP0\r\nyesterday's bag")
+    (tmp_path / "new").mkdir()
+    (tmp_path / "new" / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    (tmp_path / "new.tlog").write_bytes(b"\x00" * 8 + b"\xfd yesterday's log")
+    (tmp_path / "track.png").write_bytes(b"yesterday's track")
+    (tmp_path / "rep").mkdir()
+    for name in ("identify.json", "fits.png", "diagnosis_table.png", "notes.txt"):
+        (tmp_path / "rep" / name).write_text(f"yesterday's {name}")
+    (tmp_path / "plots").mkdir()
+    (tmp_path / "plots" / "cable_depth.png").write_bytes(b"yesterday's plot")
+    return _tree(tmp_path)
+
+
+WRITERS = [
+    (["simulate", "accel-stop", "--duration", "20", "--out", "new.mcap", "--force"], "new.mcap"),
+    (["simulate", "accel-stop", "--duration", "20", "--storage", "sqlite3", "--out", "new", "--force"], "new"),
+    (["simulate", "accel-stop", "--duration", "20", "--plot", "track.png", "--force"], "track.png"),
+    (["simulate", "accel-stop", "--duration", "5", "--tlog", "new.tlog", "--force"], "new.tlog"),
+    (["convert", "{tlog}", "--out", "new.mcap", "--force"], "new.mcap"),
+    (["identify", "--table", "dyda2021", "--out", "rep", "--force"], "rep/"),
+    (["diagnose", "--table", "dyda2021", "--out", "rep", "--force"], "rep/"),
+    (["cable", "depth", "--case", str(CABLE_CASE), "--plot", "--out", "plots", "--force"], "plots/cable_depth.png"),
+]
+"""Every kind of writer (bag in MCAP and sqlite3, .tlog, plot, report set, cable plot) and what it names."""
+
+
+@pytest.mark.parametrize(("argv", "named"), WRITERS)
+def test_a_full_disk_reported_only_when_the_data_reach_the_disk_is_one_line(tmp_path, capsys, monkeypatch,
+                                                                            own_tlog, argv, named) -> None:
+    """A file system that takes the writes into its cache and reports the full disk only when they are flushed
+    (delayed allocation, a quota, NFS): every writer flushes each file to the disk (fsync) before renaming it into
+    place, so the failure is exit 2 and one line naming the output by its own name, the old outputs untouched."""
+    old = _old_outputs(tmp_path)
+    monkeypatch.chdir(tmp_path)
+
+    def full(fd: int) -> None:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(os, "fsync", full)
+    assert main([a.replace("{tlog}", str(own_tlog)) for a in argv]) == 2
+    line = _one_error_line(capsys.readouterr().err)
+    assert f"error: {named}" in line and "No space left on device" in line and "partial" not in line, line
+    assert _tree(tmp_path) == old  # no scratch, no lock, nothing replaced
+
+
+@pytest.mark.parametrize(("argv", "named", "limit"), [
+    (["cable", "convergence", "--case", str(CABLE_CASE), "--plot", "--out", "OUT", "--force"],
+     "OUT/cable_convergence.png", 20_000),
+    (["identify", "--table", "dyda2021", "--out", "rep", "--force"], "rep/", 20_000),
+    pytest.param(["identify", str(SAMPLE), "--out", "rep", "--force"], "rep/", 20_000, marks=pytest.mark.slow),
+    pytest.param(["diagnose", str(SAMPLE), "--out", "rep", "--force"], "rep/", 20_000, marks=pytest.mark.slow),
+    pytest.param(["follow", str(SAMPLE), "--out", "rep", "--force"], "rep/", 20_000, marks=pytest.mark.slow),
+])
+def test_a_file_size_limit_names_the_output_and_keeps_the_old_one(tmp_path, argv, named, limit) -> None:
+    """RLIMIT_FSIZE (as a full disk) in a real ``boat-twin``, the cases of issue 41: exit 2, one line naming
+    the file by its name in --out (never the scratch copy's), the old outputs byte-identical."""
+    (tmp_path / "OUT").mkdir()
+    (tmp_path / "OUT" / "cable_convergence.png").write_bytes(b"yesterday's plot")
+    (tmp_path / "rep").mkdir()
+    for name in ("identify.json", "diagnosis.json", "follow.json", "fits.png", "notes.txt"):
+        (tmp_path / "rep" / name).write_text(f"yesterday's {name}")
+    old = _tree(tmp_path)
+    run = run_with_file_size_limit([BOAT_TWIN, *argv], limit, cwd=tmp_path, capture_output=True, text=True,
+                                   timeout=600)
+    assert run.returncode == 2, (run.returncode, run.stderr)
+    line = _one_error_line(run.stderr)
+    assert f"error: {named}" in line and "cannot write it (File too large)" in line and "partial" not in line, line
+    assert _tree(tmp_path) == old
