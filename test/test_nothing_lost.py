@@ -96,14 +96,17 @@ def _command_csv(path: Path, rows: int, step_s: float = 0.1) -> Path:
 
 
 def test_a_long_command_file_shows_its_progress_on_stderr(tmp_path, capsys, monkeypatch) -> None:
-    """Progress lines while simulating and while writing the bag, in simulated seconds of the whole (here one
-    per look at the clock; a user sees one every PROGRESS_EVERY_S of wall time), the last at the end."""
+    """Progress lines while reading the file, simulating and writing the bag, in simulated seconds of the whole
+    (here one per look at the clock; a user sees one every PROGRESS_EVERY_S of wall time), the last at the end."""
     import boat_twin.cli.simulate as simulate
+    import boat_twin.vessel.scenarios as scenarios
 
     commands = _command_csv(tmp_path / "long.csv", 1200, step_s=1.0)
     monkeypatch.setattr(simulate, "PROGRESS_EVERY_S", 0.0)
+    monkeypatch.setattr(scenarios, "PROGRESS_ROWS", 500)
     assert main(["simulate", "--commands", str(commands), "--out", str(tmp_path / "o.mcap")]) == 0
     lines = capsys.readouterr().err.splitlines()
+    assert lines[:2] == [f"simulate: reading {commands}: up to {t} s" for t in (499, 999)], lines[:3]
     simulated = [line for line in lines if line.startswith("simulate: simulated ")]
     writing = [line for line in lines if line.startswith(f"simulate: writing {tmp_path / 'o.mcap'}: ")]
     assert simulated and simulated[-1] == "simulate: simulated 1199 of 1199 s", lines

@@ -34,10 +34,12 @@ PROGRESS_MESSAGES = 4096
 
 class Progress:
     """Progress lines on stderr of a long ``simulate`` (at most one per :data:`PROGRESS_EVERY_S` of wall time):
-    ``simulate: simulated 1200 of 30000 s``, then ``simulate: writing o.mcap: 1200 of 30000 s``."""
+    ``simulate: reading c.csv: up to 1200 s``, ``simulate: simulated 1200 of 30000 s``, then ``simulate: writing
+    o.mcap: 1200 of 30000 s``."""
 
-    def __init__(self, duration_s: float) -> None:
-        self.duration_s = duration_s
+    def __init__(self) -> None:
+        self.duration_s: float | None = None
+        """The simulated time of the whole run, s, once known."""
         self._next = time.monotonic() + PROGRESS_EVERY_S
 
     def report(self, what: str, t_s: float) -> None:
@@ -45,8 +47,13 @@ class Progress:
         now = time.monotonic()
         if now >= self._next:
             self._next = now + PROGRESS_EVERY_S
-            sys.stderr.write(f"simulate: {what} {t_s:.0f} of {self.duration_s:.0f} s\n")
+            whole = f"of {self.duration_s:.0f} s" if self.duration_s is not None else "s"
+            sys.stderr.write(f"simulate: {what} {t_s:.0f} {whole}\n")
             sys.stderr.flush()
+
+    def reading(self, path: Path, t_s: float) -> None:
+        """``progress`` of :func:`~boat_twin.vessel.scenarios.read_command_csv`."""
+        self.report(f"reading {path}: up to", t_s)
 
     def simulated(self, t_s: float) -> None:
         """``progress`` of :func:`~boat_twin.twin.sea_trial.run_compact_trial`."""
@@ -120,7 +127,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run)
 
 
-def _scenario(args: argparse.Namespace, config: TwinConfig) -> Scenario:
+def _scenario(args: argparse.Namespace, config: TwinConfig, progress: Progress | None = None) -> Scenario:
     import numpy as np
 
     from boat_twin.vessel.scenarios import MAX_DURATION_S, CommandProfile, make_scenario, read_command_csv
@@ -136,7 +143,7 @@ def _scenario(args: argparse.Namespace, config: TwinConfig) -> Scenario:
             t_abs = trial.t_s + trial.metadata.start_time_s
             profile = CommandProfile(args.commands.name, t_abs, values, float(t_abs[-1]))
         else:
-            profile = read_command_csv(args.commands)
+            profile = read_command_csv(args.commands, progress.reading if progress is not None else None)
         if args.duration is not None:
             return make_scenario_with_duration(profile, args.duration)
         if not profile.duration_s <= MAX_DURATION_S:
@@ -208,13 +215,14 @@ def run(args: argparse.Namespace) -> int:
     config = twin_config_from_args(args)
     if args.mavlink is not None or args.tlog is not None:
         return _run_mavlink(args, config)
-    scenario = _scenario(args, config)
+    progress = Progress()
+    scenario = _scenario(args, config, progress)
     if args.out is None and args.plot is None and not args.json:
         raise InputError("nothing to do: give --out BAG (and/or --plot PNG, --json)")
     warnings = scenario_warnings(config.vessel, scenario)
     for warning in warnings:
         sys.stderr.write(f"warning: {warning}\n")
-    progress = Progress(scenario.duration_s)
+    progress.duration_s = scenario.duration_s
     trial = run_compact_trial(config, scenario, args.seed, noise=not args.no_noise, progress=progress.simulated)
     result = {"scenario": scenario.name, "seed": args.seed, **summarize(trial.truth),
               "vessel": describe(config.vessel), "warnings": warnings}
