@@ -61,6 +61,20 @@ def test_force_never_replaces_a_directory_where_a_report_goes(tmp_path, capsys, 
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]  # no scratch, no lock left
 
 
+def test_cable_refuses_a_directory_where_its_plot_goes_before_any_work(tmp_path, capsys) -> None:
+    """``cable convergence --plot --out OUT --force`` with ``OUT/cable_convergence.png/`` a user's directory:
+    refused before the study (no progress line, nothing else printed; depth and length check as early), the
+    user's file kept."""
+    verb = "convergence"
+    mine = tmp_path / "OUT" / f"cable_{verb}.png"
+    mine.mkdir(parents=True)
+    (mine / "notes.txt").write_text("the user's own")
+    assert main(["cable", verb, "--case", str(CABLE_CASE), "--plot", "--out", str(tmp_path / "OUT"), "--force"]) == 2
+    captured = capsys.readouterr()
+    assert captured.err == f"boat-twin cable: error: {mine}: is not a file; refusing to replace it\n", captured.err
+    assert captured.out == "" and (mine / "notes.txt").read_text() == "the user's own"
+
+
 def test_force_still_replaces_the_verbs_own_report_directory(tmp_path) -> None:
     """The same check lets --force replace what the verb wrote itself: demo's ``identify/`` of identify's files
     (only those), its bag, its plot."""
