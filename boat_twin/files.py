@@ -168,7 +168,10 @@ def sync_tree(path: Path) -> None:
         mode = os.lstat(item).st_mode
         if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):  # a link, or a user's FIFO a report set keeps
             continue
-        fd = os.open(item, os.O_RDONLY)
+        try:
+            fd = os.open(item, os.O_RDONLY)
+        except PermissionError:  # a user's unreadable file a report set keeps (linked, not written by this run)
+            continue
         try:
             os.fsync(fd)
         except OSError as err:

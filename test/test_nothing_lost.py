@@ -236,3 +236,26 @@ def test_a_file_size_limit_names_the_output_and_keeps_the_old_one(tmp_path, argv
     line = _one_error_line(run.stderr)
     assert f"error: {named}" in line and "cannot write it (File too large)" in line and "partial" not in line, line
     assert _tree(tmp_path) == old
+
+
+def test_a_users_unreadable_file_beside_the_reports_does_not_stop_the_flush(tmp_path, monkeypatch) -> None:
+    """The flush before the swap opens every file of the new set, the user's other files of DIR (hard links)
+    included: one this user may not read (mode 0200; root reads anything, so refused here by a stand-in for
+    open) is skipped, not a crash; it was never written by this run."""
+    from boat_twin.files import ReportSet
+
+    rep = tmp_path / "rep"
+    rep.mkdir()
+    (rep / "secret").write_text("write-only")
+    real_open = os.open
+
+    def refusing_open(path: object, flags: int, *args: object, **kwargs: object) -> int:
+        if str(path).endswith("secret") and flags == os.O_RDONLY and not kwargs:
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
+        return real_open(path, flags, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(os, "open", refusing_open)
+    with ReportSet(rep, ("identify.json",), False) as reports:
+        (reports.staging / "identify.json").write_text("{}")
+        reports.commit()
+    assert _tree(rep) == {"identify.json": b"{}", "secret": b"write-only"}
