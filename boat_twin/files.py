@@ -158,6 +158,28 @@ def replace_output(new: Path, path: Path) -> None:
     _remove(old)
 
 
+def sync_tree(path: Path) -> None:
+    """``fsync`` the file ``path``, or every file and directory under the directory ``path``: data a file system
+    accepted into its cache but could not place (a full disk under delayed allocation, a quota, NFS) is an
+    OSError here, not a file silently short after the rename."""
+    items = [path] if not path.is_dir() else [Path(root) / name for root, _, files in os.walk(path)
+                                              for name in (*files, ".")]
+    for item in items:
+        mode = os.lstat(item).st_mode
+        if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):  # a link, or a user's FIFO a report set keeps
+            continue
+        try:
+            fd = os.open(item, os.O_RDONLY)
+        except PermissionError:  # a user's unreadable file a report set keeps (linked, not written by this run)
+            continue
+        try:
+            os.fsync(fd)
+        except OSError as err:
+            raise OSError(err.errno, err.strerror, str(item)) from None
+        finally:
+            os.close(fd)
+
+
 class OutputClaim:
     """The exclusive right to write the output ``path`` until :meth:`release` (or the end of a ``with``).
 
@@ -218,7 +240,17 @@ class OutputClaim:
 
     def commit(self, new: Path) -> None:
         """Move the complete new output ``new`` (inside :attr:`scratch`) to ``path``. SIGINT and SIGTERM are
-        held back during the renames (and acted on right after): a signal never lands between them."""
+        held back during the renames (and acted on right after): a signal never lands between them. Every file
+        of ``new`` is flushed to the disk first (:func:`sync_tree`): a full disk reported only then is an error
+        here, and nothing incomplete is renamed into place."""
+        try:
+            sync_tree(new)
+        except OSError as err:
+            if not is_write_failure(err):
+                raise
+            inside = Path(err.filename).relative_to(new) if new.is_dir() else Path()
+            raise InputError(f"{self.path / inside}: cannot write it ({write_failure(err)}); nothing was "
+                             "replaced") from None
         with signals_held():
             replace_output(new, self.path)
 
@@ -281,10 +313,12 @@ class ReportSet:
     ``DIR`` already holding one of ``names`` is refused; ``DIR`` itself may exist (it is locked for the run).
     """
 
-    def __init__(self, path: Path, names: tuple[str, ...], force: bool) -> None:
+    def __init__(self, path: Path, names: tuple[str, ...], force: bool,
+                 kinds: dict[str, str | tuple[str, ...]] | None = None) -> None:
         if path.is_symlink() and resolved_path(path).is_dir():
             path = resolved_path(path)  # write into the directory the link names, keep the link
-        self._check(path, names, force)
+        self._kinds = kinds or {}
+        self._check(path, names, force, self._kinds)
         self.path = path
         self._dir_lock = _lock_directory(path) if path.is_dir() else None
         try:
@@ -293,7 +327,7 @@ class ReportSet:
             self._unlock_dir()
             raise
         try:
-            self._check(path, names, force)  # again: the claim may have restored a set a killed run moved aside
+            self._check(path, names, force, self._kinds)  # again: the claim may have restored a set moved aside
             self.staging = self._claim.scratch / path.name
             if path.is_dir():
                 _link_tree(path, self.staging)
@@ -310,13 +344,16 @@ class ReportSet:
             raise
 
     @staticmethod
-    def _check(path: Path, names: tuple[str, ...], force: bool) -> None:
+    def _check(path: Path, names: tuple[str, ...], force: bool, kinds: dict[str, str | tuple[str, ...]]) -> None:
         if path.exists() and not path.is_dir():
             raise InputError(f"{path}: --out must be a directory for the reports, and this is a file")
-        if not force:
-            for name in names:
-                if (path / name).exists() or (path / name).is_symlink():
-                    raise InputError(f"{path / name} exists; use --force to overwrite it")
+        for name in names:
+            item = path / name
+            if not (item.exists() or item.is_symlink()):
+                continue
+            if not force:
+                raise InputError(f"{item} exists; use --force to overwrite it")
+            _check_same_kind(item, kinds.get(name, "file"))
 
     def commit(self) -> None:
         """Swap the complete new set in place of ``DIR``."""
@@ -337,9 +374,44 @@ class ReportSet:
         return self
 
     def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: object) -> None:
-        if hasattr(self, "_claim"):
-            self._claim.__exit__(kind, exc, tb)
-        self._unlock_dir()
+        named = self._named(exc) if exc is not None and hasattr(self, "staging") else None
+        try:
+            if hasattr(self, "_claim"):
+                self._claim.__exit__(kind, None if named is not None else exc, tb)
+        finally:
+            self._unlock_dir()
+        if named is not None:
+            raise named from None
+
+    def _named(self, exc: BaseException) -> InputError | None:
+        """An error about a file of the new set, naming it as ``DIR/NAME`` (the user's name for it), not by its
+        place in the scratch copy; None for any other error."""
+        scratch = str(self.staging)
+        if isinstance(exc, InputError) and scratch in str(exc):
+            return InputError(str(exc).replace(scratch, str(self.path)))
+        filename = str(getattr(exc, "filename", None) or "")
+        if is_write_failure(exc) and filename.startswith(scratch):
+            return InputError(f"{self.path}{filename[len(scratch):]}: cannot write it ({write_failure(exc)}); nothing "
+                              "was replaced")
+        return None
+
+
+def _check_same_kind(item: Path, kind: str | tuple[str, ...]) -> None:
+    """--force replaces ``item`` (one output of a report set) only if it is an output of ``kind``: a key of
+    :data:`REPLACEABLE` (a report file: ``"file"``), or the names of the files of a report directory (a directory
+    holding only such files). A directory where a file goes, a user's file inside a report directory: refused."""
+    if isinstance(kind, tuple):
+        what = f"directory of {', '.join(kind)}"
+        same = item.is_dir() and not item.is_symlink() and all(
+            entry.name in kind and entry.is_file() for entry in item.iterdir())
+    else:
+        what, replaceable = REPLACEABLE[kind]
+        same = replaceable(item)
+    if not same:
+        found = ("a directory holding other files" if isinstance(kind, tuple) and item.is_dir() else
+                 "a directory" if item.is_dir() else "a file" if item.is_file() else "not a regular file")
+        raise InputError(f"{item}: is {found}, not a {what}; --force replaces only an output of the same kind, "
+                         "refusing to replace it")
 
 
 def _link_tree(source: Path, target: Path) -> None:

@@ -32,6 +32,14 @@ def _case(args: argparse.Namespace) -> CableCase:
     return with_overrides(case, tow_speed_mps=getattr(args, "tow_speed", None), segment_length_m=args.segment_length)
 
 
+def _check_plot(args: argparse.Namespace, name: str) -> None:
+    """With --plot, refuse ``--out/name`` before any work if it may not be written (exists without --force, or is
+    not a file): :func:`_save` checks again when it writes."""
+    path = Path(args.out) / name
+    if args.plot and (path.exists() or path.is_symlink()):
+        prepare_output(path, args.force)
+
+
 def _save(args: argparse.Namespace, name: str, figure: object) -> Path:
     path = ensure_out_dir(Path(args.out)) / name
     prepare_output(path, args.force)
@@ -66,6 +74,7 @@ def _depth(args: argparse.Namespace) -> int:
     from boat_twin.cable.problems import solve_depth
 
     case = _case(args)
+    _check_plot(args, "cable_depth.png")
     return _report(args, case, solve_depth(case, args.length))
 
 
@@ -73,6 +82,7 @@ def _length(args: argparse.Namespace) -> int:
     from boat_twin.cable.problems import solve_length
 
     case = _case(args)
+    _check_plot(args, "cable_length.png")
     return _report(args, case, solve_length(case, args.depth))
 
 
@@ -80,6 +90,7 @@ def _convergence(args: argparse.Namespace) -> int:
     from boat_twin.cable.convergence import PAPER_SEGMENTS_M, convergence_study
 
     case = _case(args)
+    _check_plot(args, "cable_convergence.png")
     study = convergence_study(case, args.segments or PAPER_SEGMENTS_M, args.tolerance, progress=_progress)
     if args.plot:
         from boat_twin.cable.plot import convergence_figure

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 from boat_twin.cli import verb_help
 from boat_twin.errors import InputError
 from boat_twin.files import ReportSet, refuse_input_as_output, to_json
+from boat_twin.fleet.outputs import IDENTIFY_OUTPUTS
 from boat_twin.units import KGF_N, KNOT_MPS
 
 if TYPE_CHECKING:
@@ -21,6 +22,8 @@ SAMPLE_SEED = 1
 """Seed the sample was made with."""
 OUTPUTS = ("thrust_steps", "sample_trial.png", "identify")
 """What ``demo --out DIR`` writes: the regenerated bag, the plot, the identification report."""
+OUTPUT_KINDS: dict[str, str | tuple[str, ...]] = {"thrust_steps": "bag", "identify": IDENTIFY_OUTPUTS}
+"""What --force may replace at each of :data:`OUTPUTS` (the plot: a file): a bag, a directory of identify's reports."""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -65,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.sample.exists():
         raise InputError(f"{args.sample}: sample bag not found (run from the repository root, or 'make sample')")
     refuse_input_as_output(args.out, args.sample)
-    with ReportSet(args.out, OUTPUTS, args.force) as reports:
+    with ReportSet(args.out, OUTPUTS, args.force, OUTPUT_KINDS) as reports:
         code = _run(args, args.out, reports.staging)
         reports.commit()
     return code

@@ -7,8 +7,10 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import time
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from boat_twin.cli import verb_help
 from boat_twin.cli.options import twin_config_from_args
@@ -24,6 +26,47 @@ if TYPE_CHECKING:
 
 SEED_MAX = 2**63 - 1
 """Largest --seed: the int64 range of a ROS 2 integer parameter (the simulator node's ``seed``)."""
+PROGRESS_EVERY_S = 5.0
+"""Wall time between two progress lines of a long simulation on stderr, s (a short run prints none)."""
+PROGRESS_MESSAGES = 4096
+"""Messages written between two looks at the clock."""
+
+
+class Progress:
+    """Progress lines on stderr of a long ``simulate`` (at most one per :data:`PROGRESS_EVERY_S` of wall time):
+    ``simulate: reading c.csv: up to 1200 s``, ``simulate: simulated 1200 of 30000 s``, then ``simulate: writing
+    o.mcap: 1200 of 30000 s``."""
+
+    def __init__(self) -> None:
+        self.duration_s: float | None = None
+        """The simulated time of the whole run, s, once known."""
+        self._next = time.monotonic() + PROGRESS_EVERY_S
+
+    def report(self, what: str, t_s: float) -> None:
+        """Say that ``what`` reached the simulated time ``t_s``, if the last line is :data:`PROGRESS_EVERY_S` old."""
+        now = time.monotonic()
+        if now >= self._next:
+            self._next = now + PROGRESS_EVERY_S
+            whole = f"of {self.duration_s:.0f} s" if self.duration_s is not None else "s"
+            sys.stderr.write(f"simulate: {what} {t_s:.0f} {whole}\n")
+            sys.stderr.flush()
+
+    def reading(self, path: Path, t_s: float) -> None:
+        """``progress`` of :func:`~boat_twin.vessel.scenarios.read_command_csv`."""
+        self.report(f"reading {path}: up to", t_s)
+
+    def simulated(self, t_s: float) -> None:
+        """``progress`` of :func:`~boat_twin.twin.sea_trial.run_compact_trial`."""
+        self.report("simulated", t_s)
+
+    def writing(self, messages: Iterable[Any], out: Path) -> Iterator[Any]:
+        """``messages`` (topic, stamp in ns, message), passed on, reported as written to ``out``."""
+        first_ns = None
+        for count, message in enumerate(messages):
+            if count % PROGRESS_MESSAGES == 0:
+                first_ns = message[1] if first_ns is None else first_ns
+                self.report(f"writing {out}:", (message[1] - first_ns) * 1e-9)
+            yield message
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -84,7 +127,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run)
 
 
-def _scenario(args: argparse.Namespace, config: TwinConfig) -> Scenario:
+def _scenario(args: argparse.Namespace, config: TwinConfig, progress: Progress | None = None) -> Scenario:
     import numpy as np
 
     from boat_twin.vessel.scenarios import MAX_DURATION_S, CommandProfile, make_scenario, read_command_csv
@@ -100,7 +143,7 @@ def _scenario(args: argparse.Namespace, config: TwinConfig) -> Scenario:
             t_abs = trial.t_s + trial.metadata.start_time_s
             profile = CommandProfile(args.commands.name, t_abs, values, float(t_abs[-1]))
         else:
-            profile = read_command_csv(args.commands)
+            profile = read_command_csv(args.commands, progress.reading if progress is not None else None)
         if args.duration is not None:
             return make_scenario_with_duration(profile, args.duration)
         if not profile.duration_s <= MAX_DURATION_S:
@@ -172,13 +215,15 @@ def run(args: argparse.Namespace) -> int:
     config = twin_config_from_args(args)
     if args.mavlink is not None or args.tlog is not None:
         return _run_mavlink(args, config)
-    scenario = _scenario(args, config)
+    progress = Progress()
+    scenario = _scenario(args, config, progress)
     if args.out is None and args.plot is None and not args.json:
         raise InputError("nothing to do: give --out BAG (and/or --plot PNG, --json)")
     warnings = scenario_warnings(config.vessel, scenario)
     for warning in warnings:
         sys.stderr.write(f"warning: {warning}\n")
-    trial = run_compact_trial(config, scenario, args.seed, noise=not args.no_noise)
+    progress.duration_s = scenario.duration_s
+    trial = run_compact_trial(config, scenario, args.seed, noise=not args.no_noise, progress=progress.simulated)
     result = {"scenario": scenario.name, "seed": args.seed, **summarize(trial.truth),
               "vessel": describe(config.vessel), "warnings": warnings}
     figures = manoeuvre_figures(scenario, trial.truth, config.vessel.length_m)
@@ -188,7 +233,8 @@ def run(args: argparse.Namespace) -> int:
         from boat_twin.io.bags import write_bag
 
         result["bag"] = str(args.out)
-        result["messages"] = write_bag(args.out, compact_trial_messages(trial), args.storage, args.force)
+        result["messages"] = write_bag(args.out, progress.writing(compact_trial_messages(trial), args.out),
+                                       args.storage, args.force)
     if args.plot is not None:
         from boat_twin.files import atomic_save_figure
         from boat_twin.plots import manoeuvre_figure

@@ -391,11 +391,16 @@ def make_scenario(name: str, params: VesselParams, rng: np.random.Generator,
     return scenario
 
 
-def read_command_csv(path: Path) -> CommandProfile:
+PROGRESS_ROWS = 65536
+"""Rows of a command CSV read between two calls of its ``progress``."""
+
+
+def read_command_csv(path: Path, progress: Callable[[Path, float], None] | None = None) -> CommandProfile:
     """Read a command profile from CSV with header ``t,thrust_left_N,thrust_right_N,angle_left_rad,angle_right_rad``.
 
     Times must increase strictly; the simulation runs until the last row's time (the last row is held
-    only if a longer ``--duration`` is given).
+    only if a longer ``--duration`` is given). ``progress(path, t_s)``: called every :data:`PROGRESS_ROWS` rows
+    with the time reached, s.
     """
     regular_input(path, "command CSV file")
     try:
@@ -428,6 +433,8 @@ def read_command_csv(path: Path) -> CommandProfile:
                 if rows and values[0] <= rows[-1][0]:
                     raise InputError(f"{path}:{line_no}: time {values[0]} s does not increase")
                 rows.append(values)
+                if progress is not None and len(rows) % PROGRESS_ROWS == 0:
+                    progress(path, values[0])
     except OSError as err:
         raise InputError(f"{path}: cannot read ({err.strerror})") from None
     except UnicodeDecodeError:
