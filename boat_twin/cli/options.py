@@ -160,3 +160,38 @@ def run_each(args: argparse.Namespace, job: Any) -> int:
         raise InputError(f"{len(failed)} of {len(result.rows)} trial(s) failed, each named with its error in "
                          f"{result.summary_csv} (first: {failed[0]['trial']})")
     return 0
+
+
+def add_foxglove_options(parser: argparse.ArgumentParser, what: str) -> None:
+    """Add --foxglove [HOST:PORT] and --foxglove-speed to a verb that can show ``what`` in Foxglove."""
+    from boat_twin.view.address import DEFAULT_HOST, DEFAULT_PORT, VIEW_MCAP
+
+    parser.add_argument(
+        "--foxglove", nargs="?", const="", metavar="HOST:PORT",
+        help=f"show {what} live in Foxglove (needs foxglove-sdk: pip install '.[view]'): a Foxglove WebSocket "
+        f"server on HOST:PORT (default {DEFAULT_HOST}:{DEFAULT_PORT}, loopback; port 0: any free port, printed); "
+        f"with --out the same channels go to DIR/{VIEW_MCAP} (channels and the saved layout: docs/live-twin.md)")
+    parser.add_argument("--foxglove-speed", type=float, default=1.0, metavar="FACTOR",
+                        help="with --foxglove: stream seconds per wall-clock second (default 1: real time; 0: as "
+                        "fast as it runs)")
+
+
+def foxglove_address(args: argparse.Namespace) -> tuple[str, int] | None:
+    """--foxglove's (host, port), None without it; the SDK checked to be there (one line if not)."""
+    if args.foxglove is None:
+        return None
+    from boat_twin.view.address import parse_address, require_sdk
+
+    if not (args.foxglove_speed >= 0.0 and args.foxglove_speed < float("inf")):
+        raise InputError(f"--foxglove-speed must be a number >= 0 (0: as fast as it runs), got {args.foxglove_speed}")
+    address = parse_address(args.foxglove)
+    require_sdk()
+    return address
+
+
+def announce_view(url: str | None) -> None:
+    """Say where the live view listens (stderr, so that --json stays clean)."""
+    if url is not None:
+        sys.stderr.write(f"foxglove: live view on {url} (Foxglove: Open connection, Foxglove WebSocket; layout "
+                         "config/foxglove/twin_layout.json)\n")
+        sys.stderr.flush()

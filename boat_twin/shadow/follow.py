@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -23,6 +23,22 @@ TIMELINE_PERIOD_S = 60.0
 """One timeline entry per this much trial time, s."""
 COMMAND_HEARTBEAT_S = 1.0
 """A held command is fed again at least this often, s."""
+
+
+class FollowObserver(Protocol):
+    """Watches a followed trial from outside the core (the Foxglove view, ``boat_twin.view``)."""
+
+    def attach(self, shadow: Shadow) -> None:
+        """The Shadow before its first sample."""
+
+    def log_line(self, line: str) -> None:
+        """Each line the Shadow logs."""
+
+    def sample(self, kind: str, t_s: float, values: tuple[float, ...]) -> None:
+        """After the Shadow took each sample."""
+
+    def finish(self) -> None:
+        """After the last sample was processed."""
 
 
 @dataclass
@@ -48,12 +64,21 @@ class FollowResult:
 
 
 def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | None = None,
-                 progress: Callable[[str], None] | None = None) -> FollowResult:
-    """Feed ``trial`` to a live twin of ``config`` (see the module docstring)."""
+                 progress: Callable[[str], None] | None = None, observer: FollowObserver | None = None
+                 ) -> FollowResult:
+    """Feed ``trial`` to a live twin of ``config`` (see the module docstring); ``observer`` sees it happen."""
     log: list[str] = []
-    shadow = Shadow(config, settings, log.append)
+
+    def log_line(line: str) -> None:
+        log.append(line)
+        if observer is not None:
+            observer.log_line(line)
+
+    shadow = Shadow(config, settings, log_line)
     speed: list[tuple[float, float, float]] = []
     shadow.on_innovation = lambda n: speed.append((n.t_s, n.value, n.stdev)) if n.channel == "speed_mps" else None
+    if observer is not None:
+        observer.attach(shadow)
     timeline: list[dict[str, Any]] = []
     models: list[dict[str, Any]] = []
     diagnoses: list[dict[str, Any]] = []
@@ -62,6 +87,8 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
     end_s = float(trial.t_s[-1]) if trial.t_s.size else 0.0
     for kind, t, values in trial_samples(trial):
         shadow.add(kind, t, values)
+        if observer is not None:
+            observer.sample(kind, t, values)
         if shadow.rolling.runs != seen_runs and shadow.rolling.latest is not None:
             seen_runs = shadow.rolling.runs
             diagnoses.append(shadow.rolling.latest.to_dict())
@@ -74,6 +101,8 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
             if progress is not None:
                 progress(f"follow: {t:.0f} of {end_s:.0f} s")
     shadow.flush()
+    if observer is not None:
+        observer.finish()
     final = {**_entry(shadow), "model": shadow.model(), "twin": _twin_summary(shadow)}
     if not timeline:
         timeline.append(_entry(shadow))
