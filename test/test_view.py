@@ -8,14 +8,11 @@ from __future__ import annotations
 import base64
 import json
 import os
-import selectors
 import signal
-import struct
 import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import Any
 
 import pytest
 from processes import popen_as_from_a_shell
@@ -24,17 +21,13 @@ from boat_twin.errors import InputError
 from boat_twin.view.address import DEFAULT_HOST, DEFAULT_PORT, parse_address
 
 foxglove = pytest.importorskip("foxglove", reason="the view extra (foxglove-sdk) is not installed")
-websockets_sync = pytest.importorskip("websockets.sync.client")
-descriptor_pb2 = pytest.importorskip("google.protobuf.descriptor_pb2")
+pytest.importorskip("websockets.sync.client")
+pytest.importorskip("google.protobuf.descriptor_pb2")
+from foxglove_client import collect, decoder, read_url  # noqa: E402 - the skips first
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "bags" / "thrust_steps_sample"
 BOAT_TWIN = Path(sys.executable).with_name("boat-twin")
-SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
-"""The Foxglove WebSocket protocol by its two names: the SDK's server (0.30) accepts only the new one, identical to
-the old ``foxglove.websocket.v1`` but for the name (an old client's handshake gets HTTP 400)."""
-MESSAGE_DATA = 0x01
-"""Opcode of a binary messageData frame: u8 opcode, u32 subscription id, u64 log time ns, payload (little endian)."""
 WANTED = ("/boat/fix", "/twin/fix", "/twin/innovations/speed_mps", "/twin/model")
 FOLLOW_DEADLINE_S = 600.0
 """The whole follow of the 930 s sample (~15 s idle, ~50 s at a load of 6 on two cores)."""
@@ -49,6 +42,9 @@ def test_addresses_default_to_loopback_and_bad_ones_are_one_line() -> None:
     for bad in ("127.0.0.1:70000", "127.0.0.1:port", "bags/thrust_steps_sample"):
         with pytest.raises(InputError, match="expected HOST:PORT"):
             parse_address(bad)
+    with pytest.raises(InputError, match="not a loopback address; pass --allow-remote"):
+        parse_address("192.0.2.1:8765")  # TEST-NET-1: refused before anything is bound
+    assert parse_address("192.0.2.1:8765", allow_remote=True) == ("192.0.2.1", 8765)
 
 
 def test_the_saved_layout_is_the_one_the_views_topics_give() -> None:
@@ -76,96 +72,6 @@ def test_without_the_sdk_foxglove_is_refused_in_one_line(tmp_path: Path) -> None
         "install foxglove-sdk)"], done.stderr
 
 
-def decoder(channel: dict[str, Any]) -> Any:
-    """A function bytes → dict for an advertised channel (protobuf with its FileDescriptorSet, or JSON)."""
-    if channel["encoding"] == "json":
-        return lambda data: json.loads(data)
-    assert channel["encoding"] == "protobuf" and channel["schemaEncoding"] == "protobuf", channel
-    from google.protobuf import descriptor_pool, json_format, message_factory
-
-    files = descriptor_pb2.FileDescriptorSet.FromString(base64.b64decode(channel["schema"])).file
-    return _protobuf_decoder(files, channel["schemaName"], descriptor_pool, message_factory, json_format)
-
-
-def _protobuf_decoder(files: Any, name: str, descriptor_pool: Any, message_factory: Any, json_format: Any) -> Any:
-    pool = descriptor_pool.DescriptorPool()
-    pending = list(files)
-    while pending:  # dependencies first, whatever the set's order
-        added = []
-        for file in pending:
-            try:
-                pool.Add(file)
-                added.append(file)
-            except TypeError:
-                continue
-        assert added, f"unresolved protobuf dependencies of {name}"
-        pending = [f for f in pending if f not in added]
-    cls = message_factory.GetMessageClass(pool.FindMessageTypeByName(name))
-    return lambda data: json_format.MessageToDict(cls.FromString(data), preserving_proto_field_name=True)
-
-
-def read_url(process: subprocess.Popen, deadline: float) -> str:
-    """The ``foxglove: live view on ws://...`` line of the process's stderr (bounded wait)."""
-    assert process.stderr is not None
-    selector = selectors.DefaultSelector()
-    selector.register(process.stderr, selectors.EVENT_READ)
-    text = b""
-    while time.monotonic() < deadline:
-        if selector.select(timeout=max(0.0, min(1.0, deadline - time.monotonic()))):
-            chunk = os.read(process.stderr.fileno(), 4096)
-            if not chunk:
-                break
-            text += chunk
-            for line in text.decode(errors="replace").splitlines():
-                if line.startswith("foxglove: live view on ws://"):
-                    return line.split()[4]
-    raise AssertionError(f"no live-view line from follow: {text.decode(errors='replace')!r}")
-
-
-def collect(url: str, deadline: float, enough: int = 20) -> tuple[dict[str, Any], dict[str, list[dict[str, Any]]]]:
-    """Connect as a Foxglove client, subscribe to :data:`WANTED` as they are advertised, decode messageData until
-    ``enough`` of each (or the deadline)."""
-    channels: dict[int, dict[str, Any]] = {}
-    by_subscription: dict[int, tuple[str, Any]] = {}
-    received: dict[str, list[dict[str, Any]]] = {topic: [] for topic in WANTED}
-    info: dict[str, Any] = {}
-    while True:  # the server is up once it printed its address, but allow a slow accept
-        try:
-            ws = websockets_sync.connect(url, subprotocols=SUBPROTOCOLS, open_timeout=10)
-            break
-        except OSError:
-            assert time.monotonic() < deadline, f"cannot connect to {url}"
-            time.sleep(0.2)
-    with ws:
-        assert ws.subprotocol in SUBPROTOCOLS
-        while time.monotonic() < deadline and min(len(v) for v in received.values()) < enough:
-            try:
-                frame = ws.recv(timeout=max(0.1, min(2.0, deadline - time.monotonic())))
-            except TimeoutError:
-                continue
-            if isinstance(frame, str):
-                message = json.loads(frame)
-                if message["op"] == "serverInfo":
-                    info = message
-                elif message["op"] == "advertise":
-                    subscribe = []
-                    for channel in message["channels"]:
-                        channels[channel["id"]] = channel
-                        if channel["topic"] in WANTED:
-                            sub_id = len(by_subscription) + 1
-                            by_subscription[sub_id] = (channel["topic"], decoder(channel))
-                            subscribe.append({"id": sub_id, "channelId": channel["id"]})
-                    if subscribe:
-                        ws.send(json.dumps({"op": "subscribe", "subscriptions": subscribe}))
-                continue
-            if frame[0] != MESSAGE_DATA:
-                continue
-            sub_id, log_time_ns = struct.unpack_from("<IQ", frame, 1)
-            topic, decode = by_subscription[sub_id]
-            received[topic].append({"log_time_ns": log_time_ns, **decode(frame[13:])})
-    return info, received
-
-
 def test_follow_serves_the_twin_to_a_foxglove_client_and_records_it(tmp_path: Path) -> None:
     deadline = time.monotonic() + FOLLOW_DEADLINE_S
     out = tmp_path / "out"
@@ -175,7 +81,7 @@ def test_follow_serves_the_twin_to_a_foxglove_client_and_records_it(tmp_path: Pa
     try:
         url = read_url(process, deadline)
         assert url.startswith("ws://127.0.0.1:") and not url.endswith(":0"), url
-        info, received = collect(url, min(deadline, time.monotonic() + 120.0))
+        info, received = collect(url, WANTED, min(deadline, time.monotonic() + 120.0))
         stdout, stderr = process.communicate(timeout=max(1.0, deadline - time.monotonic()))
     finally:
         if process.poll() is None:

@@ -162,8 +162,9 @@ def run_each(args: argparse.Namespace, job: Any) -> int:
     return 0
 
 
-def add_foxglove_options(parser: argparse.ArgumentParser, what: str) -> None:
-    """Add --foxglove [HOST:PORT] and --foxglove-speed to a verb that can show ``what`` in Foxglove."""
+def add_foxglove_options(parser: argparse.ArgumentParser, what: str, allow_remote: bool = True) -> None:
+    """Add --foxglove [HOST:PORT] and --foxglove-speed to a verb that can show ``what`` in Foxglove (and
+    --allow-remote, unless the verb has its own: ``allow_remote`` False)."""
     from boat_twin.view.address import DEFAULT_HOST, DEFAULT_PORT, VIEW_MCAP
 
     parser.add_argument(
@@ -174,6 +175,10 @@ def add_foxglove_options(parser: argparse.ArgumentParser, what: str) -> None:
     parser.add_argument("--foxglove-speed", type=float, default=1.0, metavar="FACTOR",
                         help="with --foxglove: stream seconds per wall-clock second (default 1: real time; 0: as "
                         "fast as it runs)")
+    if allow_remote:
+        parser.add_argument("--allow-remote", action="store_true",
+                            help="allow a --foxglove address that is not loopback (serves the boat's position to "
+                            "the network)")
 
 
 def foxglove_address(args: argparse.Namespace) -> tuple[str, int] | None:
@@ -184,7 +189,7 @@ def foxglove_address(args: argparse.Namespace) -> tuple[str, int] | None:
 
     if not (args.foxglove_speed >= 0.0 and args.foxglove_speed < float("inf")):
         raise InputError(f"--foxglove-speed must be a number >= 0 (0: as fast as it runs), got {args.foxglove_speed}")
-    address = parse_address(args.foxglove)
+    address = parse_address(args.foxglove, allow_remote=args.allow_remote)
     require_sdk()
     return address
 

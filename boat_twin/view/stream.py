@@ -135,10 +135,11 @@ class TwinView:
         """The frames of ``poses`` (which → east m, north m, ENU yaw rad) in ``map``; the hulls drawn in them."""
         m = self._fg.messages
         stamp, ns = self._time(t_s)
-        transforms = []
+        transforms, shown = [], []
         for which, (east, north, yaw) in poses.items():
             if not all(math.isfinite(x) for x in (east, north, yaw)):
                 continue
+            shown.append(which)
             q = quaternion_xyzw(np.zeros(1), np.zeros(1), np.array([yaw]))[0].tolist()
             transforms.append(m.FrameTransform(
                 timestamp=stamp, parent_frame_id=FRAME_MAP, child_frame_id=FRAMES[which],
@@ -148,7 +149,7 @@ class TwinView:
         self._tf.log(m.FrameTransforms(transforms=transforms), log_time=ns)
         if t_s >= self._next_scene_s:
             self._next_scene_s = t_s + SCENE_PERIOD_S
-            self._scene.log(m.SceneUpdate(entities=[self._hull(which, stamp) for which in FRAMES]), log_time=ns)
+            self._scene.log(m.SceneUpdate(entities=[self._hull(which, stamp) for which in shown]), log_time=ns)
 
     def _hull(self, which: str, stamp: Any) -> Any:
         """The hull as a box with an arrow along its heading, locked to its body frame."""
