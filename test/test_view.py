@@ -139,3 +139,29 @@ def test_follow_serves_the_twin_to_a_foxglove_client_and_records_it(tmp_path: Pa
         assert schemas[f"/twin/innovations/{channel}"] == ("json", "boat_twin.Innovation", "jsonschema")
     assert counts["/twin/fix"] > 5000 and counts["/twin/log"] >= 1  # 10 Hz over 930 s; the verdicts
     assert len(fixes) == counts["/twin/fix"] and 42.9 < fixes[-1]["latitude"] < 43.2
+
+
+def test_simulate_records_its_view_beside_the_bag_and_keeps_it_without_force(tmp_path: Path) -> None:
+    bag = tmp_path / "run.mcap"
+    argv = [str(BOAT_TWIN), "simulate", "zigzag-20-20", "--duration", "20", "--out", str(bag), "--foxglove",
+            "127.0.0.1:0", "--foxglove-speed", "0", "--json"]
+    done = subprocess.run(argv, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    view = tmp_path / "run.view.mcap"
+    assert json.loads(done.stdout)["view"] == str(view)
+    assert "foxglove: live view on ws://127.0.0.1:" in done.stderr
+    from mcap.reader import make_reader
+
+    with view.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    schemas = {ch.topic: summary.schemas[ch.schema_id].name for ch in summary.channels.values()}
+    counts = {summary.channels[i].topic: n for i, n in summary.statistics.channel_message_counts.items()}
+    assert schemas == {"/twin/fix": "foxglove.LocationFix", "/boat/fix": "foxglove.LocationFix",
+                       "/tf": "foxglove.FrameTransforms", "/scene": "foxglove.SceneUpdate"}
+    assert counts["/twin/fix"] == 201 and counts["/boat/fix"] >= 150  # truth at 10 Hz; the fixes less dropouts
+    before = view.read_bytes()
+    bag.unlink()  # the bag alone gone: the view is still refused without --force
+    refused = subprocess.run(argv, capture_output=True, text=True, timeout=300)
+    assert refused.returncode == 2 and "run.view.mcap" in refused.stderr and view.read_bytes() == before
+    assert not bag.exists(), "the simulation was run though its view could not be written"
