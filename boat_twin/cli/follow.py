@@ -18,6 +18,7 @@ from boat_twin.cli.options import (
     add_foxglove_options,
     add_trial_options,
     announce_view,
+    assumed_config,
     claim_out_dir,
     foxglove_address,
     parse_remap,
@@ -94,6 +95,9 @@ def run(args: argparse.Namespace) -> int:
                 view.close()
         if not args.json:
             sys.stderr.write("\r" + " " * 62 + "\r")
+        done.warnings += assumed_config(args)
+        if not args.json:
+            sys.stderr.write("".join(f"warning: {w}\n" for w in done.warnings))
         result = done.to_dict()
         if out is not None:
             write_follow_report(out, done, config, str(trial_path))

@@ -80,6 +80,14 @@ def twin_config_from_args(args: argparse.Namespace) -> TwinConfig:
     return load_twin_config(args.config, args.model, tuple(current) if current else None)
 
 
+def assumed_config(args: argparse.Namespace) -> list[str]:
+    """The report warning of a verb run without --config or --model: the built-in boat was assumed."""
+    if args.config is None and args.model is None:
+        return ["no --config or --model: the built-in boat (its mass, resistance, turning, engines and sensors) "
+                "was assumed, not given"]
+    return []
+
+
 def trial_inputs(args: argparse.Namespace) -> list[Path]:
     """The files a verb reading trials takes in (trials, --calibration, a --columns YAML, --config, --model,
     --boat, --validate): none may lie inside its --out."""

@@ -120,6 +120,9 @@ class DiagnosisResult(_DiagnosisResultBase, total=False):
 
     evaluations: int
     """Model replays the search ran."""
+    warnings: list[str]
+    """What the diagnosis did not take from the trial as given (commands not to trust, what reading lost:
+    :func:`~boat_twin.diagnose.pipeline.diagnose_trial`); empty: nothing."""
 
 
 def signal_rmse(windows: Windows, prediction: Prediction) -> dict[str, float]:

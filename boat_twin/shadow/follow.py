@@ -14,6 +14,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from boat_twin.config import TwinConfig
+from boat_twin.diagnose.pipeline import command_warnings
 from boat_twin.frames import wrap_pi
 from boat_twin.io.trial import Trial
 from boat_twin.shadow.session import Shadow, ShadowSettings
@@ -57,10 +58,15 @@ class FollowResult:
     coefficients (:meth:`~boat_twin.shadow.turning.TurningAdapter.to_dict`)."""
     diagnoses: list[dict[str, Any]] = field(default_factory=list)
     """Every rolling diagnosis run (RollingResult.to_dict)."""
+    warnings: list[str] = field(default_factory=list)
+    """What the follow did not take from the trial as given: commands not to trust, what reading lost (signals
+    missing, spans without samples, dropped samples: :meth:`~boat_twin.io.trial.TrialMetadata.warnings`), a
+    model held at the end."""
 
     def to_dict(self) -> dict[str, Any]:
-        """The contract: ``timeline``, ``final``, plus ``log`` and ``diagnoses``."""
-        return {"timeline": self.timeline, "final": self.final, "diagnoses": self.diagnoses, "log": self.log}
+        """The contract: ``timeline``, ``final``, ``warnings``, plus ``log`` and ``diagnoses``."""
+        return {"timeline": self.timeline, "final": self.final, "warnings": self.warnings,
+                "diagnoses": self.diagnoses, "log": self.log}
 
 
 def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | None = None,
@@ -106,7 +112,20 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
     final = {**_entry(shadow), "model": shadow.model(), "twin": _twin_summary(shadow)}
     if not timeline:
         timeline.append(_entry(shadow))
-    return FollowResult(timeline, final, log, shadow.twin_config(), np.array(speed).reshape(-1, 3), models, diagnoses)
+    return FollowResult(timeline, final, log, shadow.twin_config(), np.array(speed).reshape(-1, 3), models, diagnoses,
+                        follow_warnings(trial, config, shadow))
+
+
+def follow_warnings(trial: Trial, config: TwinConfig, shadow: Shadow) -> list[str]:
+    """:attr:`FollowResult.warnings` of ``trial`` followed by ``shadow`` from ``config``."""
+    source = trial.metadata.source
+    found = [f"{source}: {w}" for w in command_warnings(trial, config.vessel)] + trial.metadata.warnings()
+    if shadow.model_held():
+        found.append("the model was held at the end: the live diagnosis held `unexplained` or left structure "
+                     "while the twin misfit, so no fit was adopted then (a cause the model lacks)")
+    if not shadow.twin.synchronised:
+        found.append("the twin was not synchronised at the end: no fix, velocity and IMU heading together")
+    return found
 
 
 def trial_samples(trial: Trial) -> Iterator[tuple[str, float, tuple[float, ...]]]:
