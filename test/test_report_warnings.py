@@ -1,6 +1,7 @@
-"""Reports say what was assumed or lost (issue 39): a recording missing 33 s of every topic (as a damaged MCAP chunk
-loses them) and its IMU altogether is followed, diagnosed and identified; each report's ``warnings`` names the
-missing signal and the span, the ``--each`` rows count them, and a run without boat facts says what it assumed."""
+"""Reports say what was assumed or lost, and show the track (issue 39): a recording missing 33 s of every topic
+(as a damaged MCAP chunk loses them) and its IMU altogether is followed, diagnosed and identified; each report's
+``warnings`` names the missing signal and the span, the ``--each`` rows count them, a run without boat facts says
+what it assumed; the track map draws the measured fixes against the twin's predictions on equal axes."""
 
 from __future__ import annotations
 
@@ -62,6 +63,7 @@ def test_follow_and_its_each_row_report_the_loss_and_the_assumed_boat(damaged: P
 
     row = FollowJob()(damaged, tmp_path / "each")
     assert row["warnings"] == len(json.loads((tmp_path / "each" / "follow.json").read_text())["warnings"]) >= 4
+    assert (tmp_path / "each" / "follow_track.png").stat().st_size > 10_000
 
 
 def test_identify_reports_the_loss_and_that_no_boat_facts_were_given(damaged: Path) -> None:
@@ -84,3 +86,24 @@ def test_diagnose_and_its_each_row_report_the_loss(tmp_path: Path) -> None:
     assert any("imu: 1 span(s) without samples" in w for w in warnings), warnings
     row = DiagnoseJob()(gapped, tmp_path / "each")
     assert row["warnings"] == len(warnings) >= 3
+    assert (tmp_path / "each" / "diagnosis_track.png").stat().st_size > 10_000
+
+
+def test_the_track_map_is_measured_against_predicted_on_equal_axes_with_start_and_end(tmp_path: Path) -> None:
+    from boat_twin.shadow.follow import follow_trial
+    from boat_twin.view.track_map import follow_track_figure
+
+    trial = read_trial(_recording(tmp_path / "gapped.mcap", imu=True))  # the twin needs the IMU to start
+    done = follow_trial(trial, TwinConfig())
+    t, measured, predicted = done.track[:, 0], done.track[:, 1:3], done.track[:, 3:5]
+    fixes = np.isfinite(trial.east_m)
+    assert t.size > 0.8 * np.count_nonzero(fixes)  # one row per fix once synchronised
+    assert not np.any((t >= LOST_S[0]) & (t < LOST_S[1]))  # nothing where the recording lost every topic
+    error_m = np.hypot(*(measured - predicted).T)
+    assert np.median(error_m) < 3.0  # the twin predicts each fix within the GNSS noise
+    ax = follow_track_figure(done, "track").axes[0]
+    assert ax.get_aspect() == 1.0
+    lines = {line.get_label(): line for line in ax.get_lines()}
+    np.testing.assert_allclose(lines["start"].get_xydata()[0], measured[0])
+    np.testing.assert_allclose(lines["end"].get_xydata()[0], measured[-1])
+    np.testing.assert_allclose(lines["measured (GNSS)"].get_xydata(), measured)

@@ -18,7 +18,7 @@ from boat_twin.diagnose.pipeline import command_warnings
 from boat_twin.frames import wrap_pi
 from boat_twin.io.trial import Trial
 from boat_twin.shadow.session import Shadow, ShadowSettings
-from boat_twin.shadow.sync import COMMAND_KINDS, SENSOR_KINDS
+from boat_twin.shadow.sync import COMMAND_KINDS, SENSOR_KINDS, Innovation
 
 TIMELINE_PERIOD_S = 60.0
 """One timeline entry per this much trial time, s."""
@@ -58,6 +58,9 @@ class FollowResult:
     coefficients (:meth:`~boat_twin.shadow.turning.TurningAdapter.to_dict`)."""
     diagnoses: list[dict[str, Any]] = field(default_factory=list)
     """Every rolling diagnosis run (RollingResult.to_dict)."""
+    track: np.ndarray = field(default_factory=lambda: np.zeros((0, 5)))
+    """(n, 5) t_s, measured east m, north m, and the twin's prediction of them, per GNSS fix (local ENU about the
+    twin's first fix)."""
     warnings: list[str] = field(default_factory=list)
     """What the follow did not take from the trial as given: commands not to trust, what reading lost (signals
     missing, spans without samples, dropped samples: :meth:`~boat_twin.io.trial.TrialMetadata.warnings`), a
@@ -82,7 +85,20 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
 
     shadow = Shadow(config, settings, log_line)
     speed: list[tuple[float, float, float]] = []
-    shadow.on_innovation = lambda n: speed.append((n.t_s, n.value, n.stdev)) if n.channel == "speed_mps" else None
+    east: dict[float, tuple[float, float]] = {}
+    track: list[tuple[float, float, float, float, float]] = []
+
+    def trace(item: Innovation) -> None:
+        if item.channel == "speed_mps":
+            speed.append((item.t_s, item.value, item.stdev))
+        elif item.channel == "east_m":
+            east.clear()
+            east[item.t_s] = (item.measured, item.predicted)
+        elif item.channel == "north_m" and item.t_s in east:
+            (e_measured, e_predicted) = east[item.t_s]
+            track.append((item.t_s, e_measured, item.measured, e_predicted, item.predicted))
+
+    shadow.on_innovation = trace
     if observer is not None:
         observer.attach(shadow)
     timeline: list[dict[str, Any]] = []
@@ -113,7 +129,7 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
     if not timeline:
         timeline.append(_entry(shadow))
     return FollowResult(timeline, final, log, shadow.twin_config(), np.array(speed).reshape(-1, 3), models, diagnoses,
-                        follow_warnings(trial, config, shadow))
+                        np.array(track).reshape(-1, 5), follow_warnings(trial, config, shadow))
 
 
 def follow_warnings(trial: Trial, config: TwinConfig, shadow: Shadow) -> list[str]:
