@@ -1,6 +1,7 @@
 # boat_twin: every target sets up its own virtual environment. `make demo` installs the package alone (what the
 # demo needs); every other target adds the test tools, ROS 2 Jazzy's core (PyPI wheels, the `ros` extra of
-# setup.py: ros-jazzy-rclpy, ros-jazzy-rmw-fastrtps-cpp and the message packages) and Dask (the `fleet` extra).
+# setup.py: ros-jazzy-rclpy, ros-jazzy-rmw-fastrtps-cpp and the message packages), Dask (the `fleet` extra) and
+# the foxglove-sdk (the `view` extra).
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
@@ -29,7 +30,7 @@ $(BASE_STAMP): setup.py setup.cfg package.xml
 	touch $(BASE_STAMP)
 
 $(STAMP): $(BASE_STAMP)
-	$(PIP_INSTALL) -e '.[test,ros,fleet]'
+	$(PIP_INSTALL) -e '.[test,ros,fleet,view]'
 	touch $(STAMP)
 
 lint: $(STAMP)

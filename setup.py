@@ -58,12 +58,19 @@ setup(
             "mypy>=1.8",
             "types-PyYAML",
             "MoorPy>=1.0",
+            "websockets>=13",  # test_view.py: a Foxglove WebSocket client (the sync client's recv timeout)
+            "protobuf>=4.21",  # test_view.py: decodes the view's messages with their advertised schemas
         ],
         # Fleets (boat_twin.fleet: --each batches and --ensemble runs on a Dask cluster; docs/fleet.md). Without it
         # they run in the calling process.
         "fleet": [
             "dask>=2024.1",
             "distributed>=2024.1",
+        ],
+        # The twin seen in Foxglove (boat_twin.view: --foxglove on follow and simulate, the nodes' foxglove
+        # parameter; docs/live-twin.md). Without it those options are refused in one line.
+        "view": [
+            "foxglove-sdk>=0.30",
         ],
         # Benchmarks only (benchmarks/bench_zigzag_inverse.py: the neural-network inverse map of Pashentsev 2025).
         "bench": [

@@ -22,6 +22,7 @@ LAYERS = (
     ("ident", "diagnose", "plots"),  # analyses of trials: siblings over one core (SIBLINGS)
     ("shadow",),  # the live twin following a boat: uses identification (adaptation) and the diagnosis catalogue
     ("link",),  # the twin as a live MAVLink boat
+    ("view",),  # the twin seen in Foxglove: live WebSocket and MCAP channels of what the shadow twin finds
     ("fleet",),  # many trials and large ensembles as tasks on Dask (or one after another)
     ("nodes", "cli"),  # front ends: ROS 2 nodes, the boat-twin command
 )

@@ -17,6 +17,7 @@ from boat_twin.cli.options import (
     TRIAL_HELP,
     add_fleet_options,
     add_trial_options,
+    assumed_config,
     claim_out_dir,
     parse_remap,
     run_each,
@@ -42,23 +43,20 @@ TABLE_OUTPUTS = (EXTENDED_MODEL_NAME, "diagnosis_table.png")
 
 
 def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
-    from boat_twin.diagnose.pipeline import diagnose_trial
+    from boat_twin.diagnose.pipeline import command_warnings, diagnose_trial
     from boat_twin.diagnose.report import text_report
     from boat_twin.fleet.reports import write_diagnosis_report
-    from boat_twin.io.trial import long_holds, thrust_outliers
-    from boat_twin.vessel.params import HELD_COMMAND_TIME_CONSTANTS, held_command_limit_s, surge_response_time_s
 
     trial = trial_from_args(args.trial, args)
     config = twin_config_from_args(args)
     summary = trial.metadata.summary_line()  # what identify prints of a trial
-    held = long_holds(trial, held_command_limit_s(config.vessel), f"{HELD_COMMAND_TIME_CONSTANTS:g} x the model's "
-                      f"surge response time, {surge_response_time_s(config.vessel):.0f} s")
-    warnings = [w for w in [thrust_outliers(trial, config.vessel.bollard_thrust_N), held] if w]
+    warnings = command_warnings(trial, config.vessel)
     sys.stderr.write("".join(f"{line}\n" for line in [summary, *(f"warning: {w}" for w in warnings)]))
     done = diagnose_trial(trial, config, args.window, None if args.json else _progress)
     if not args.json:
         sys.stderr.write("\r" + " " * 72 + "\r")
     result = done.result
+    result["warnings"] += assumed_config(args)
     if out is not None:
         write_diagnosis_report(out, done, str(args.trial), args.out)
     print(to_json(result) if args.json else text_report(result))

@@ -16,8 +16,12 @@ from boat_twin.cli import verb_help
 from boat_twin.cli.options import (
     TRIAL_HELP,
     add_fleet_options,
+    add_foxglove_options,
     add_trial_options,
+    announce_view,
+    assumed_config,
     claim_out_dir,
+    foxglove_address,
     parse_remap,
     run_each,
     trial_from_args,
@@ -27,6 +31,7 @@ from boat_twin.cli.options import (
 from boat_twin.errors import InputError
 from boat_twin.files import to_json
 from boat_twin.fleet.outputs import FOLLOW_OUTPUTS
+from boat_twin.view.address import VIEW_MCAP
 
 OUTPUTS = FOLLOW_OUTPUTS
 """What ``follow TRIAL --out DIR`` writes."""
@@ -88,6 +93,9 @@ def run(args: argparse.Namespace) -> int:
     """Follow the trial; print the timeline (text or JSON); plots, JSON and the adapted twin.yaml into --out."""
     if not args.trial:
         raise InputError("give a TRIAL (bag, .mcap, .tlog, .BIN, .csv)")
+    if args.each and args.foxglove is not None:
+        raise InputError("--foxglove shows one trial as it is followed: not with --each")
+    address = foxglove_address(args)
     if args.each:
         from boat_twin.fleet.jobs import FollowJob, ReadOptions
 
@@ -99,16 +107,33 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"{len(args.trial)} trials given: follow reads one trial, or each of several with "
                          "--each --out DIR")
     trial_path = args.trial[0]
-    with claim_out_dir(args.out, OUTPUTS, args.force, trial_inputs(args)) as reports:
+    names = OUTPUTS + ((VIEW_MCAP,) if address is not None else ())
+    with claim_out_dir(args.out, names, args.force, trial_inputs(args)) as reports:
         out = reports.staging if reports else None  # the whole set is swapped in when complete
         from boat_twin.fleet.reports import write_follow_report
         from boat_twin.shadow.follow import follow_trial
 
         trial = trial_from_args(trial_path, args)
         config = twin_config_from_args(args)
-        done = follow_trial(trial, config, progress=None if args.json else _progress)
+        if address is None:
+            done = follow_trial(trial, config, progress=None if args.json else _progress)
+        else:
+            from boat_twin.view.observer import Pacer, ShadowView
+            from boat_twin.view.stream import TwinView
+
+            view = TwinView(address, out / VIEW_MCAP if out is not None else None, trial.metadata.start_time_s,
+                            (config.vessel.length_m, config.vessel.beam_m))
+            try:
+                announce_view(view.url)
+                done = follow_trial(trial, config, progress=None if args.json else _progress,
+                                    observer=ShadowView(view, Pacer(args.foxglove_speed)))
+            finally:
+                view.close()
         if not args.json:
             sys.stderr.write("\r" + " " * 62 + "\r")
+        done.warnings += assumed_config(args)
+        if not args.json:
+            sys.stderr.write("".join(f"warning: {w}\n" for w in done.warnings))
         result = done.to_dict()
         if out is not None:
             write_follow_report(out, done, config, str(trial_path))
@@ -139,4 +164,6 @@ def register(subparsers: Any) -> None:
                    "noise band, the model converging with its 95 %% intervals, the cause timeline)")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs in --out")
     p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
+    add_foxglove_options(p, "the boat's and the twin's tracks, the boat in 3-D, the innovations against their "
+                         "noise band, the adapted model and the diagnosis verdicts")
     p.set_defaults(handler=run)

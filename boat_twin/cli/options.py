@@ -90,6 +90,14 @@ def twin_config_from_args(args: argparse.Namespace) -> TwinConfig:
     return load_twin_config(args.config, args.model, tuple(current) if current else None)
 
 
+def assumed_config(args: argparse.Namespace) -> list[str]:
+    """The report warning of a verb run without --config or --model: the built-in boat was assumed."""
+    if args.config is None and args.model is None:
+        return ["no --config or --model: the built-in boat (its mass, resistance, turning, engines and sensors) "
+                "was assumed, not given"]
+    return []
+
+
 def trial_inputs(args: argparse.Namespace) -> list[Path]:
     """The files a verb reading trials takes in (trials, --calibration, a --columns YAML, --config, --model,
     --boat, --validate): none may lie inside its --out."""
@@ -173,3 +181,43 @@ def run_each(args: argparse.Namespace, job: Any) -> int:
         raise InputError(f"{len(failed)} of {len(result.rows)} trial(s) failed, each named with its error in "
                          f"{result.summary_csv} (first: {failed[0]['trial']})")
     return 0
+
+
+def add_foxglove_options(parser: argparse.ArgumentParser, what: str, allow_remote: bool = True) -> None:
+    """Add --foxglove [HOST:PORT] and --foxglove-speed to a verb that can show ``what`` in Foxglove (and
+    --allow-remote, unless the verb has its own: ``allow_remote`` False)."""
+    from boat_twin.view.address import DEFAULT_HOST, DEFAULT_PORT, VIEW_MCAP
+
+    parser.add_argument(
+        "--foxglove", nargs="?", const="", metavar="HOST:PORT",
+        help=f"show {what} live in Foxglove (needs foxglove-sdk: pip install '.[view]'): a Foxglove WebSocket "
+        f"server on HOST:PORT (default {DEFAULT_HOST}:{DEFAULT_PORT}, loopback; port 0: any free port, printed); "
+        f"with --out the same channels go to DIR/{VIEW_MCAP} (channels and the saved layout: docs/live-twin.md)")
+    parser.add_argument("--foxglove-speed", type=float, default=1.0, metavar="FACTOR",
+                        help="with --foxglove: stream seconds per wall-clock second (default 1: real time; 0: as "
+                        "fast as it runs)")
+    if allow_remote:
+        parser.add_argument("--allow-remote", action="store_true",
+                            help="allow a --foxglove address that is not loopback (serves the boat's position to "
+                            "the network)")
+
+
+def foxglove_address(args: argparse.Namespace) -> tuple[str, int] | None:
+    """--foxglove's (host, port), None without it; the SDK checked to be there (one line if not)."""
+    if args.foxglove is None:
+        return None
+    from boat_twin.view.address import parse_address, require_sdk
+
+    if not (args.foxglove_speed >= 0.0 and args.foxglove_speed < float("inf")):
+        raise InputError(f"--foxglove-speed must be a number >= 0 (0: as fast as it runs), got {args.foxglove_speed}")
+    address = parse_address(args.foxglove, allow_remote=args.allow_remote)
+    require_sdk()
+    return address
+
+
+def announce_view(url: str | None) -> None:
+    """Say where the live view listens (stderr, so that --json stays clean)."""
+    if url is not None:
+        sys.stderr.write(f"foxglove: live view on {url} (Foxglove: Open connection, Foxglove WebSocket; layout "
+                         "config/foxglove/twin_layout.json)\n")
+        sys.stderr.flush()

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from boat_twin.cli import verb_help
-from boat_twin.cli.options import twin_config_from_args
+from boat_twin.cli.options import add_foxglove_options, announce_view, foxglove_address, twin_config_from_args
 from boat_twin.errors import InputError
 from boat_twin.files import prepare_output, refuse_input_as_output, to_json
 from boat_twin.fleet.engine import LOCAL, SCHEDULER_HELP
@@ -21,6 +21,7 @@ from boat_twin.vessel.scenario_names import SCENARIO_NAMES
 
 if TYPE_CHECKING:
     from boat_twin.config import TwinConfig
+    from boat_twin.twin.sea_trial import CompactTrial
     from boat_twin.vessel.scenarios import CommandProfile, Scenario
     from boat_twin.vessel.truth import TruthSeries
 
@@ -123,7 +124,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=int, metavar="N",
                    help="with --ensemble and --scheduler local: worker processes (default: one per core)")
     p.add_argument("--allow-remote", action="store_true",
-                   help="allow a --mavlink address that is not loopback (exposes the twin to the network)")
+                   help="allow a --mavlink or --foxglove address that is not loopback (exposes the twin to the "
+                   "network)")
+    add_foxglove_options(p, "the simulated boat's true track and hull and its GNSS fixes", allow_remote=False)
     p.set_defaults(handler=run)
 
 
@@ -209,7 +212,13 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--plot {args.plot}: writes a PNG; give a file name ending in .png")
     if args.plot is not None and (args.mavlink is not None or args.tlog is not None):
         raise InputError("--plot applies to a batch simulation, not to --mavlink / --tlog")
-    for output, kind in ((args.out, "bag"), (args.tlog, "tlog"), (args.plot, "file")):
+    address = foxglove_address(args)
+    if address is not None and (args.mavlink is not None or args.tlog is not None):
+        raise InputError("--foxglove shows a batch simulation: not with --mavlink / --tlog (the simulator node's "
+                         "foxglove parameter shows a live one)")
+    view_mcap = view_mcap_path(args.out) if address is not None and args.out is not None else None
+    refuse_input_as_output(view_mcap, args.commands, args.config, args.model)
+    for output, kind in ((args.out, "bag"), (args.tlog, "tlog"), (args.plot, "file"), (view_mcap, "file")):
         if output is not None:
             prepare_output(output, args.force, kind)  # refused before the simulation, checked again when written
     config = twin_config_from_args(args)
@@ -217,8 +226,8 @@ def run(args: argparse.Namespace) -> int:
         return _run_mavlink(args, config)
     progress = Progress()
     scenario = _scenario(args, config, progress)
-    if args.out is None and args.plot is None and not args.json:
-        raise InputError("nothing to do: give --out BAG (and/or --plot PNG, --json)")
+    if args.out is None and args.plot is None and not args.json and address is None:
+        raise InputError("nothing to do: give --out BAG (and/or --plot PNG, --json, --foxglove)")
     warnings = scenario_warnings(config.vessel, scenario)
     for warning in warnings:
         sys.stderr.write(f"warning: {warning}\n")
@@ -242,6 +251,10 @@ def run(args: argparse.Namespace) -> int:
         title = f"simulate {scenario.name}, seed {args.seed}" + ("" if args.config is None else f", {args.config}")
         atomic_save_figure(args.plot, manoeuvre_figure(trial.truth, figures, execute_time_s(scenario), title))
         result["plot"] = str(args.plot)
+    if address is not None:
+        _show(args, address, view_mcap, trial)
+        if view_mcap is not None:
+            result["view"] = str(view_mcap)
     if args.json:
         print(to_json(result))
     else:
@@ -255,7 +268,42 @@ def run(args: argparse.Namespace) -> int:
             print(f"wrote {result['messages']} messages to {args.out}")
         if args.plot is not None:
             print(f"wrote {args.plot}")
+        if "view" in result:
+            print(f"wrote {result['view']}")
     return 0
+
+
+def view_mcap_path(out: Path) -> Path:
+    """Where ``--foxglove`` records the view beside the bag ``--out``: BAG.view.mcap (x.mcap: x.view.mcap)."""
+    stem = out.stem if out.suffix.lower() == ".mcap" else out.name
+    return out.with_name(f"{stem}.view.mcap")
+
+
+def _show(args: argparse.Namespace, address: tuple[str, int], view_mcap: Path | None, trial: CompactTrial) -> None:
+    """--foxglove: the run replayed into the live view at --foxglove-speed (recorded to ``view_mcap``)."""
+    from boat_twin.files import OutputClaim
+    from boat_twin.view.observer import Pacer
+    from boat_twin.view.simulation import show_trial
+    from boat_twin.view.stream import TwinView
+
+    config = trial.config
+    hull = (config.vessel.length_m, config.vessel.beam_m)
+    if view_mcap is None:
+        view = TwinView(address, None, hull_m=hull)
+        try:
+            announce_view(view.url)
+            show_trial(view, trial, Pacer(args.foxglove_speed))
+        finally:
+            view.close()
+        return
+    with OutputClaim(view_mcap, force=args.force, kind="file") as claim:
+        view = TwinView(address, claim.scratch / view_mcap.name, hull_m=hull)
+        try:
+            announce_view(view.url)
+            show_trial(view, trial, Pacer(args.foxglove_speed))
+        finally:
+            view.close()
+        claim.commit(claim.scratch / view_mcap.name)
 
 
 def _run_ensemble(args: argparse.Namespace) -> int:

@@ -31,9 +31,15 @@ from boat_twin.diagnose.search import (
 from boat_twin.diagnose.structure import residual_structure
 from boat_twin.diagnose.table import TableDiagnosis, diagnose_table, table_result
 from boat_twin.errors import InputError
-from boat_twin.io.trial import Trial
+from boat_twin.io.trial import Trial, long_holds, thrust_outliers
 from boat_twin.twin.replay import Prediction, Windows, cut_windows
 from boat_twin.units import KGF_N, KNOT_MPS
+from boat_twin.vessel.params import (
+    HELD_COMMAND_TIME_CONSTANTS,
+    VesselParams,
+    held_command_limit_s,
+    surge_response_time_s,
+)
 from boat_twin.vessel.resistance import TableResistance
 
 
@@ -58,12 +64,21 @@ class TrialDiagnosis:
         return [c for c in self.selection.named if all(c is not w for w in self.withheld)]
 
 
+def command_warnings(trial: Trial, vessel: VesselParams) -> list[str]:
+    """What in ``trial``'s commands the diagnosis should not take on trust: thrust beyond 5 times ``vessel``'s
+    bollard thrust, thrust held unchanged longer than its :func:`~boat_twin.vessel.params.held_command_limit_s`."""
+    held = long_holds(trial, held_command_limit_s(vessel), f"{HELD_COMMAND_TIME_CONSTANTS:g} x the model's surge "
+                      f"response time, {surge_response_time_s(vessel):.0f} s")
+    return [w for w in (thrust_outliers(trial, vessel.bollard_thrust_N), held) if w]
+
+
 def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
                    progress: Any = None, misfit: bool | None = None) -> TrialDiagnosis:
     """Diagnose ``trial`` against the model ``base``: the library entry point of ``diagnose TRIAL``. ``misfit``:
     evidence from outside the trial whether the model misfits (the live twin's innovations), which decides with
     the structure left whether the named causes are withheld (:func:`~boat_twin.diagnose.search.withheld`);
-    None: the trial's own residuals decide."""
+    None: the trial's own residuals decide. The result's ``warnings``: :func:`command_warnings` and what reading
+    the trial lost (:meth:`~boat_twin.io.trial.TrialMetadata.warnings`)."""
     if not np.any(np.isfinite(trial.speed_mps)):
         raise InputError(f"{trial.metadata.source}: the speed over ground is unknown throughout (a GNSS velocity "
                          "component NaN in every sample, or no velocity or fix): nothing to diagnose")
@@ -86,6 +101,8 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
     if wind is not None and unaware is not None:
         result["measured_wind"] = measured_wind_dict(wind, delta_bic(selection.baseline, unaware))
     result["evaluations"] = diagnosis.evaluations
+    result["warnings"] = ([f"{trial.metadata.source}: {w}" for w in command_warnings(trial, base.vessel)]
+                          + trial.metadata.warnings())
     return TrialDiagnosis(windows, selection, base, extended, baseline_prediction, extended_prediction, result,
                           held_back)
 

@@ -136,6 +136,9 @@ class DiagnosisResult(_DiagnosisResultBase, total=False):
     """Model replays the search ran."""
     measured_wind: MeasuredWind
     """The recording's measured wind, a known input of the replay (only where it has an anemometer)."""
+    warnings: list[str]
+    """What the diagnosis did not take from the trial as given (commands not to trust, what reading lost:
+    :func:`~boat_twin.diagnose.pipeline.diagnose_trial`); empty: nothing."""
 
 
 def signal_rmse(windows: Windows, prediction: Prediction) -> dict[str, float]:

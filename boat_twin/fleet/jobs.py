@@ -120,11 +120,12 @@ class DiagnoseJob:
     verb = "diagnose"
     outputs = DIAGNOSE_OUTPUTS
     curves: ClassVar[tuple[str, ...]] = ()
-    columns = ("verdict", "unexplained", "ambiguous", "withheld", "misfit_x_noise", "misfit_extended_x_noise")
+    columns = ("verdict", "unexplained", "ambiguous", "withheld", "misfit_x_noise", "misfit_extended_x_noise",
+               "warnings")
     """The headline: the named effects; whether a structured residual is left that no catalogue effect explains;
     the candidates the trial cannot tell apart; the causes withheld from the verdict (they leave real, structured
     misfit in what they explain: :func:`~boat_twin.diagnose.search.withheld`); the largest signal RMSE over its
-    noise before and after the named effects, -."""
+    noise before and after the named effects, -; warnings counted."""
 
     def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict[str, Any]:
         """Diagnose the trial at ``path``, write its report into ``out`` (``named``: the directory its texts
@@ -143,7 +144,8 @@ class DiagnoseJob:
                 "unexplained": result["unexplained"], "ambiguous": ambiguous["effects"] if ambiguous else [],
                 "withheld": [w["effect"] for w in result["withheld"]],
                 "misfit_x_noise": _misfit(result["baseline"]["rmse"], result["noise"]),
-                "misfit_extended_x_noise": _misfit(result["extended"]["rmse"], result["noise"])}
+                "misfit_extended_x_noise": _misfit(result["extended"]["rmse"], result["noise"]),
+                "warnings": len(result["warnings"])}
 
 
 @dataclass(frozen=True)
@@ -156,10 +158,10 @@ class FollowJob:
     outputs = FOLLOW_OUTPUTS
     curves: ClassVar[tuple[str, ...]] = ()
     columns = ("mass_kg", "resistance_factor", "causes", "unexplained", "misfit_speed_innovation_ratio",
-               "misfit_yaw_rate_innovation_ratio")
+               "misfit_yaw_rate_innovation_ratio", "warnings")
     """The headline at the trial's end: the adapted surge mass, kg, and resistance factor, -; the causes the
     rolling diagnosis names and whether something is unexplained; the speed and the yaw-rate innovations' RMS
-    over their noise in the last minute, -."""
+    over their noise in the last minute, -; warnings counted."""
 
     def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict[str, Any]:
         """Follow the trial at ``path``, write its report into ``out`` (its texts name no directory: ``named``
@@ -175,7 +177,8 @@ class FollowJob:
         return {"duration_s": duration_s(trial), "mass_kg": final["mass_kg"],
                 "resistance_factor": final["resistance_factor"], "causes": list(final["causes"]),
                 "unexplained": final["unexplained"], "misfit_speed_innovation_ratio": final["speed_innovation_ratio"],
-                "misfit_yaw_rate_innovation_ratio": final["yaw_rate_innovation_ratio"]}
+                "misfit_yaw_rate_innovation_ratio": final["yaw_rate_innovation_ratio"],
+                "warnings": len(done.warnings)}
 
 
 def _misfit(rmse: dict[str, float], noise: dict[str, float]) -> float | None:

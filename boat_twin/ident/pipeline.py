@@ -361,6 +361,11 @@ def identify_trials(trials: list[Trial], **options: Any) -> tuple[TrialIdentifyR
     return trials_identification_dict(found), found
 
 
+ASSUMED_BOAT = ("no boat facts given (--boat): the twin's length, beam, engines and bollard thrust are the default "
+                "boat's, carried to the identified mass, and the thrust checks use its bollard thrust")
+"""The warning of an identification without boat facts: what was assumed rather than given."""
+
+
 def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, max_order: int = 6,
                             monotone: bool = False, window_s: float | None = None,
                             thrust_tolerance_N: float | None = None, boat: dict[str, float] | None = None,
@@ -387,6 +392,8 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
         fallback_mass_kg=fallback, couplings=[rec.coupling_N for rec in records], thrust_name=DELIVERED_THRUST,
         sources=[str(trial.metadata.source) for trial in trials])
     found.warnings += [w for trial in trials for w in trial_warnings(trial, boat)]
+    if not boat:
+        found.warnings.append(ASSUMED_BOAT)
     with_fix = [trial for trial in trials if np.any(np.isfinite(trial.lat_deg))]
     result = TrialsIdentification(found, [], None, origin=with_fix[0].metadata.origin if with_fix else None)
     try:
@@ -421,7 +428,8 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
 
 
 def trial_warnings(trial: Trial, boat: dict[str, float] | None = None) -> list[str]:
-    """What a trial's reading did to its data, as identify warnings: clock faults, dropouts, derived streams;
+    """What a trial's reading did to its data, as identify warnings (:meth:`TrialMetadata.warnings`: signals
+    missing, spans without samples, clock faults, dropouts, derived streams);
     and what in its commands no fit should take on trust: thrust samples beyond 5 times the bollard thrust of
     ``boat`` (boat-file facts; default the default boat's) and thrust held unchanged longer than the default
     boat's :func:`~boat_twin.vessel.params.held_command_limit_s` (the boat being identified has no time constant
@@ -432,13 +440,7 @@ def trial_warnings(trial: Trial, boat: dict[str, float] | None = None) -> list[s
     commands = [thrust_outliers(trial, (boat or {}).get("bollard_thrust_N", prior.bollard_thrust_N)),
                 long_holds(trial, held_command_limit_s(prior), f"{HELD_COMMAND_TIME_CONSTANTS:g} x the default "
                            f"boat's surge response time, {surge_response_time_s(prior):.0f} s")]
-    return ([f"{source}: {w}" for w in commands if w]
-            + [f"{source}: {role}: {count} sample(s) whose stamp ran backwards (up to {back_s:.3g} s) were dropped: "
-             "the recording's clock is faulty there" for role, (count, back_s) in meta.backward_stamps.items()]
-            + [f"{source}: {role}: {count} sample(s) with NaN values dropped as dropouts (gaps)"
-               for role, count in meta.dropouts.items()]
-            + [f"{source}: {role} {how}" for role, how in meta.derived.items()]
-            + [f"{source}: {note}" for note in meta.stream_choices])
+    return [f"{source}: {w}" for w in commands if w] + meta.warnings()
 
 
 def identify_table(monotone: bool = False, order: int | None = None, max_order: int = 8,

@@ -65,6 +65,30 @@ class TrialMetadata:
     origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """Geodetic origin of the local ENU frame: latitude deg, longitude deg, ellipsoidal height m."""
 
+    def warnings(self) -> list[str]:
+        """What reading the trial lost or took on a guess, one line each naming the source: signals missing,
+        spans of a stream without samples (left as gaps: a dropout, a recorder that stopped, a damaged stretch
+        of the file — the reader cannot tell which), samples dropped (a clock running back, NaN values), streams
+        derived or found by something other than their names. Empty: read whole."""
+        source = self.source
+        spans: dict[str, list[tuple[float, float]]] = {}
+        for role, start_s, end_s in self.gaps:
+            spans.setdefault(role, []).append((start_s, end_s))
+        lines = [f"{source}: {role}: not in the trial (signal missing)" for role in self.missing]
+        for role, found in spans.items():
+            start_s, end_s = max(found, key=lambda span: span[1] - span[0])
+            lines.append(f"{source}: {role}: {len(found)} span(s) without samples, {sum(b - a for a, b in found):.1f} "
+                         f"s in all, the longest {end_s - start_s:.1f} s (t = {start_s:.1f} to {end_s:.1f} s): "
+                         "left as gaps")
+        return (lines
+                + [f"{source}: {role}: {count} sample(s) whose stamp ran backwards (up to {back_s:.3g} s) were "
+                   "dropped: the recording's clock is faulty there" for role, (count, back_s)
+                   in self.backward_stamps.items()]
+                + [f"{source}: {role}: {count} sample(s) with NaN values dropped as dropouts (gaps)"
+                   for role, count in self.dropouts.items()]
+                + [f"{source}: {role} {how}" for role, how in self.derived.items()]
+                + [f"{source}: {note}" for note in self.stream_choices])
+
     def summary_line(self) -> str:
         """One readable line: rates, counts, gaps, missing streams."""
         parts = [f"{role} {self.counts.get(role, 0)} msgs @ {self.rates_hz.get(role, 0.0):.1f} Hz"

@@ -12,6 +12,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -20,6 +22,9 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from boat_twin.errors import InputError
 from boat_twin.nodes import parameters
+
+if TYPE_CHECKING:
+    from boat_twin.view.stream import TwinView
 
 COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
 """Thruster command subscriptions: best effort, so that both reliable and best-effort publishers connect."""
@@ -66,3 +71,21 @@ def use_sim_time(node: Node) -> bool:
 
         timer = node.create_timer(CLOCK_WAIT_S, check, clock=steady_clock())
     return simulated
+
+
+def foxglove_view(node: Node, hull_m: tuple[float, float]) -> TwinView | None:
+    """The ``foxglove`` parameter (string, "": off; HOST:PORT, HOST or :PORT, loopback by default) and
+    ``foxglove_allow_remote`` (bool, false): a live Foxglove view of what the node shows (boat_twin.view), its
+    address logged; None when off. A bad address or a missing foxglove-sdk: one line, exit 2."""
+    text = parameters.string(node, "foxglove", "", "serve a live Foxglove view on HOST:PORT (empty: off)")
+    allow_remote = parameters.boolean(node, "foxglove_allow_remote", False, "allow a non-loopback foxglove host")
+    if not text:
+        return None
+    from boat_twin.view.address import parse_address, require_sdk
+    from boat_twin.view.stream import TwinView
+
+    address = parse_address(text, "foxglove", allow_remote, "foxglove_allow_remote:=true")
+    require_sdk("the foxglove parameter")
+    view = TwinView(address, hull_m=hull_m, name=node.get_name())
+    node.get_logger().info(f"foxglove: live view on {view.url}")
+    return view

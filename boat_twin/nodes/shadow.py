@@ -11,7 +11,9 @@ until a GNSS stream is found.
 Publishes: shadow/odom (nav_msgs/Odometry: the twin's predicted state, pose in ENU ``map`` about the first fix,
 twist through the water in ``base_link``), shadow/innovations (std_msgs/Float64MultiArray per velocity fix:
 layout label ``t_s,speed_innovation_mps,stdev_mps,ratio``), shadow/model (Float64MultiArray every wall second: label
-``mass_kg,mass_low_kg,mass_high_kg,resistance_factor,factor_low,factor_high``, 95 % intervals) and
+``mass_kg,mass_low_kg,mass_high_kg,resistance_factor,factor_low,factor_high``, 95 % intervals), the same
+quantities one std_msgs/Float64 topic each, readable and plottable by name (shadow/model/mass_kg, ...,
+shadow/model/<turning coefficient>_low; shadow/innovation/speed_innovation_mps, stdev_mps, ratio) and
 /diagnostics every wall second (the rolling diagnosis runs in a worker process meanwhile; OK: in step,
 innovations within 1.5× their noise and no cause; WARN: not synchronised,
 misfit, or the named causes with their sizes). Services: ~/save (the twin as it predicts, a twin.yaml, to
@@ -25,6 +27,8 @@ Parameters (read at start-up)
   twin_path (string, "")     YAML written by ~/save; default $ROS_HOME/boat_twin/twin.yaml
   reorder_s (double, 0.3)    samples wait this long for late siblings, s of the node clock (a recording played
                              at N x on a busy machine: N x the executor's delays)
+  foxglove (string, ""), foxglove_allow_remote (bool, false)   a live Foxglove view (boat_twin.view, the view
+                             extra): HOST:PORT, HOST or :PORT, loopback by default; empty: off (docs/live-twin.md)
   frame_prefix (string, ""), hardware_id (string, namespace)   as every node (boat_twin.nodes.conventions,
                              boat_twin.nodes.diagnostics)
 """
@@ -41,7 +45,7 @@ from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+from std_msgs.msg import Float64, Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
 from boat_twin.config import TwinConfig, load_config
@@ -57,6 +61,7 @@ from boat_twin.nodes.spin import run_node
 from boat_twin.shadow.session import Shadow, ShadowSettings
 from boat_twin.shadow.sync import COMMAND_KINDS, Innovation, SyncSettings
 from boat_twin.shadow.turning import LIVE_KEYS
+from boat_twin.view.observer import ShadowView
 
 SENSOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
 """SensorDataQoS with 100 s of a 10 Hz stream as history: a rolling diagnosis holds the executor for 2-3 s, which
@@ -66,6 +71,10 @@ MODEL_LABEL = ",".join(["mass_kg,mass_low_kg,mass_high_kg,resistance_factor,fact
 """The ``shadow/model`` array: the surge model, then each live turning coefficient (SI) with its 95 % interval
 (NaN while the twin turns with the configured ones)."""
 INNOVATION_LABEL = "t_s,speed_innovation_mps,stdev_mps,ratio"
+MODEL_TOPICS = tuple(f"shadow/model/{name}" for name in MODEL_LABEL.split(","))
+"""The same quantities as ``shadow/model``, one std_msgs/Float64 topic each, named by the label (SI)."""
+INNOVATION_TOPICS = tuple(f"shadow/innovation/{name}" for name in INNOVATION_LABEL.split(",")[1:])
+"""``shadow/innovations`` but its stamp, one std_msgs/Float64 topic each."""
 
 
 def _array(values: list[float], label: str) -> Float64MultiArray:
@@ -93,13 +102,19 @@ class ShadowNode(Node):
         self.remap = _remap(topics)
         self.twin_path = Path(twin_path).expanduser() if twin_path else default_model_path().with_name("twin.yaml")
         config = load_config(Path(config_file)) if config_file else TwinConfig()
+        self.view = conventions.foxglove_view(self, (config.vessel.length_m, config.vessel.beam_m))
+        self.watch = ShadowView(self.view) if self.view is not None else None
         self.shadow = Shadow(config, ShadowSettings(SyncSettings(reorder_s=reorder_s), adapt=adapt, diagnose=diagnose,
-                                                    diagnose_in_background=True), self.get_logger().info)
+                                                    diagnose_in_background=True), self.log_line)
         self.shadow.on_innovation = self.on_innovation
+        if self.watch is not None:
+            self.watch.attach(self.shadow)
         self.subscribed: dict[str, str] = {}
         self.odom_pub = self.create_publisher(Odometry, "shadow/odom", 10)
         self.innovation_pub = self.create_publisher(Float64MultiArray, "shadow/innovations", 10)
         self.model_pub = self.create_publisher(Float64MultiArray, "shadow/model", 10)
+        self.model_pubs = [self.create_publisher(Float64, topic, 10) for topic in MODEL_TOPICS]
+        self.innovation_pubs = [self.create_publisher(Float64, topic, 10) for topic in INNOVATION_TOPICS]
         self.diagnostics = Diagnostics(self)
         self.create_service(Trigger, "~/save", self.on_save)
         self.create_service(Trigger, "~/reset", self.on_reset)
@@ -112,7 +127,8 @@ class ShadowNode(Node):
 
     def discover(self) -> None:
         """Subscribe to the roles found on the graph (once a GNSS stream is there)."""
-        own = {self.resolve_topic_name(t) for t in ("shadow/odom", "shadow/innovations", "shadow/model")}
+        own = {self.resolve_topic_name(t) for t in ("shadow/odom", "shadow/innovations", "shadow/model",
+                                                     *MODEL_TOPICS, *INNOVATION_TOPICS)}
         available = {name: types[0] for name, types in self.get_topic_names_and_types() if types and name not in own}
         try:
             chosen, notes = resolve_topics(available, self.remap, self.namespace_, "ROS graph")
@@ -133,15 +149,25 @@ class ShadowNode(Node):
         if "gnss_vel" in self.subscribed and "imu" in self.subscribed and "thrust_left" in self.subscribed:
             self.discovery.cancel()
 
+    def log_line(self, line: str) -> None:
+        """A line of the Shadow's log: to the node's log and the Foxglove view."""
+        self.get_logger().info(line)
+        if self.watch is not None:
+            self.watch.log_line(line)
+
     def on_message(self, role: str, msg: Any) -> None:
         row = EXTRACTORS[role](msg, self.get_clock().now().nanoseconds * 1e-9)
         if row is not None:
             self.shadow.add(role, row[0], tuple(row[1:]))
+            if self.watch is not None:
+                self.watch.sample(role, row[0], tuple(row[1:]))
 
     def on_innovation(self, item: Innovation) -> None:
         if item.channel == "speed_mps":
-            ratio = self.shadow.speed_ratio()
-            self.innovation_pub.publish(_array([item.t_s, item.value, item.stdev, ratio], INNOVATION_LABEL))
+            values = [item.t_s, item.value, item.stdev, self.shadow.speed_ratio()]
+            self.innovation_pub.publish(_array(values, INNOVATION_LABEL))
+            for publisher, value in zip(self.innovation_pubs, values[1:], strict=True):
+                publisher.publish(Float64(data=float(value)))
 
     def on_publish(self) -> None:
         self.shadow.poll()
@@ -150,8 +176,10 @@ class ShadowNode(Node):
         turning = self.shadow.turning.to_dict(self.shadow.twin.config.vessel)
         coefficients = [x for k in LIVE_KEYS
                         for x in (turning["coefficients"][k], *turning["ci95"].get(k, (math.nan, math.nan)))]
-        self.model_pub.publish(_array([surge.mass_kg, *surge.mass_ci95_kg, surge.resistance_factor,
-                                       *surge.factor_ci95, *coefficients], MODEL_LABEL))
+        values = [surge.mass_kg, *surge.mass_ci95_kg, surge.resistance_factor, *surge.factor_ci95, *coefficients]
+        self.model_pub.publish(_array(values, MODEL_LABEL))
+        for publisher, value in zip(self.model_pubs, values, strict=True):
+            publisher.publish(Float64(data=float(value)))
         status = self.shadow.status()
         latest = self.shadow.rolling.latest
         causes = latest.causes if latest is not None else []
@@ -203,8 +231,10 @@ class ShadowNode(Node):
 
 
     def destroy_node(self) -> None:
-        """Stop the diagnosis worker process with the node."""
+        """Stop the diagnosis worker process and the Foxglove view with the node."""
         self.shadow.close()
+        if self.view is not None:
+            self.view.close()
         super().destroy_node()
 
 

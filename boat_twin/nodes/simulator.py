@@ -26,6 +26,9 @@ Parameters (read at start-up)
   frame_prefix (string, "")     prepended to every frame id (several boats: boat1/)
   publish_truth_tf (bool, true) publish the true map -> base_link on tf (false: a localization stack owns it)
   hardware_id (string, namespace)  of the /diagnostics statuses
+  foxglove (string, ""), foxglove_allow_remote (bool, false)   a live Foxglove view of the simulated boat
+                                (boat_twin.view, the view extra): HOST:PORT, HOST or :PORT, loopback by default;
+                                empty: off (docs/live-twin.md)
   mavlink_url (string, "")      also run the twin as a MAVLink boat (boat_twin.link.mavlink_boat), e.g.
                                 udpout:127.0.0.1:14550; mavlink_allow_remote (bool, false) for a non-loopback address
 """
@@ -56,6 +59,7 @@ from boat_twin.twin.live import LiveTwin
 from boat_twin.twin.pacing import DEFAULT_COMMAND_TIMEOUT_S, CommandWatchdog, RateMeter, TickSchedule
 from boat_twin.vessel.actuators import role_topics
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
+from boat_twin.view.simulation import SimulationView
 
 if TYPE_CHECKING:
     from boat_twin.link.mavlink_boat import MavlinkBoat
@@ -108,6 +112,8 @@ class SimulatorNode(Node):
             from boat_twin.link.mavlink_boat import MavlinkBoat
 
             self.link = MavlinkBoat(self.twin, mavlink_url, allow_remote=allow_remote)
+        self.view = conventions.foxglove_view(self, (config.vessel.length_m, config.vessel.beam_m))
+        self.view_sim = SimulationView(self.view, config) if self.view is not None else None
         self.watchdog = CommandWatchdog(timeout_s)
         self.publishers_by_topic = self._sensor_publishers(truth_tf)
         self.velocity_variances = [config.gnss.velocity_stdev_mps ** 2] * 3
@@ -230,6 +236,8 @@ class SimulatorNode(Node):
                 self.publishers_by_topic[topic].publish(messages.serialize(msg, messages.TOPICS[topic]))
             if topic == messages.TOPIC_GNSS_VEL and with_covariance:
                 self._publish_velocity_covariance(msg)
+        if self.view_sim is not None:
+            self._show(tick, stamp_ns)
         if self.clock_pub is not None:
             self.clock_pub.publish(ClockMsg(clock=_time(stamp_ns + TICK_NS)))
         if time.monotonic() - started > self.schedule.wall_period_s:
@@ -267,10 +275,19 @@ class SimulatorNode(Node):
                                held_commands=self.twin.commands.tolist())
         self.diagnostics.publish(timing, commands)
 
+    def _show(self, tick: list[messages.Message], stamp_ns: int) -> None:
+        """The tick's true pose (the state it started from, as its sensors sampled) and GNSS fix to the view."""
+        assert self.view_sim is not None
+        self.view_sim.messages(messages.restamped([i for i in tick if i[0] == messages.TOPIC_GNSS_FIX], stamp_ns))
+        east, north, yaw = (float(x) for x in self.twin.state[0, :3])
+        self.view_sim.truth(stamp_ns * 1e-9, east, north, yaw)
+
     def destroy_node(self) -> None:
-        """Close the MAVLink link (socket) with the node."""
+        """Close the MAVLink link (socket) and the Foxglove view with the node."""
         if self.link is not None:
             self.link.close()
+        if self.view is not None:
+            self.view.close()
         super().destroy_node()
 
 

@@ -9,20 +9,37 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from boat_twin.config import TwinConfig
+from boat_twin.diagnose.pipeline import command_warnings
 from boat_twin.frames import wrap_pi
 from boat_twin.io.trial import Trial
 from boat_twin.shadow.session import RATIO_CHANNELS, Shadow, ShadowSettings
-from boat_twin.shadow.sync import COMMAND_KINDS, SENSOR_KINDS
+from boat_twin.shadow.sync import COMMAND_KINDS, SENSOR_KINDS, Innovation
 
 TIMELINE_PERIOD_S = 60.0
 """One timeline entry per this much trial time, s."""
 COMMAND_HEARTBEAT_S = 1.0
 """A held command is fed again at least this often, s."""
+
+
+class FollowObserver(Protocol):
+    """Watches a followed trial from outside the core (the Foxglove view, ``boat_twin.view``)."""
+
+    def attach(self, shadow: Shadow) -> None:
+        """The Shadow before its first sample."""
+
+    def log_line(self, line: str) -> None:
+        """Each line the Shadow logs."""
+
+    def sample(self, kind: str, t_s: float, values: tuple[float, ...]) -> None:
+        """After the Shadow took each sample."""
+
+    def finish(self) -> None:
+        """After the last sample was processed."""
 
 
 @dataclass
@@ -44,20 +61,49 @@ class FollowResult:
     innovations: dict[str, np.ndarray] = field(default_factory=dict)
     """Channel (:data:`~boat_twin.shadow.session.RATIO_CHANNELS`: speed m/s, yaw rate rad/s) → (n, 3) t_s,
     innovation, its stated spread (the plots draw them)."""
+    track: np.ndarray = field(default_factory=lambda: np.zeros((0, 5)))
+    """(n, 5) t_s, measured east m, north m, and the twin's prediction of them, per GNSS fix (local ENU about the
+    twin's first fix)."""
+    warnings: list[str] = field(default_factory=list)
+    """What the follow did not take from the trial as given: commands not to trust, what reading lost (signals
+    missing, spans without samples, dropped samples: :meth:`~boat_twin.io.trial.TrialMetadata.warnings`), a
+    model held at the end."""
 
     def to_dict(self) -> dict[str, Any]:
-        """The contract: ``timeline``, ``final``, plus ``log`` and ``diagnoses``."""
-        return {"timeline": self.timeline, "final": self.final, "diagnoses": self.diagnoses, "log": self.log}
+        """The contract: ``timeline``, ``final``, ``warnings``, plus ``log`` and ``diagnoses``."""
+        return {"timeline": self.timeline, "final": self.final, "warnings": self.warnings,
+                "diagnoses": self.diagnoses, "log": self.log}
 
 
 def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | None = None,
-                 progress: Callable[[str], None] | None = None) -> FollowResult:
-    """Feed ``trial`` to a live twin of ``config`` (see the module docstring)."""
+                 progress: Callable[[str], None] | None = None, observer: FollowObserver | None = None
+                 ) -> FollowResult:
+    """Feed ``trial`` to a live twin of ``config`` (see the module docstring); ``observer`` sees it happen."""
     log: list[str] = []
-    shadow = Shadow(config, settings, log.append)
+
+    def log_line(line: str) -> None:
+        log.append(line)
+        if observer is not None:
+            observer.log_line(line)
+
+    shadow = Shadow(config, settings, log_line)
     traces: dict[str, list[tuple[float, float, float]]] = {channel: [] for channel in RATIO_CHANNELS}
-    shadow.on_innovation = lambda n: traces[n.channel].append((n.t_s, n.value, n.stdev)) \
-        if n.channel in traces else None
+    east: dict[float, tuple[float, float]] = {}
+    track: list[tuple[float, float, float, float, float]] = []
+
+    def trace(item: Innovation) -> None:
+        if item.channel in traces:
+            traces[item.channel].append((item.t_s, item.value, item.stdev))
+        elif item.channel == "east_m":
+            east.clear()
+            east[item.t_s] = (item.measured, item.predicted)
+        elif item.channel == "north_m" and item.t_s in east:
+            (e_measured, e_predicted) = east[item.t_s]
+            track.append((item.t_s, e_measured, item.measured, e_predicted, item.predicted))
+
+    shadow.on_innovation = trace
+    if observer is not None:
+        observer.attach(shadow)
     timeline: list[dict[str, Any]] = []
     models: list[dict[str, Any]] = []
     diagnoses: list[dict[str, Any]] = []
@@ -66,6 +112,8 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
     end_s = float(trial.t_s[-1]) if trial.t_s.size else 0.0
     for kind, t, values in trial_samples(trial):
         shadow.add(kind, t, values)
+        if observer is not None:
+            observer.sample(kind, t, values)
         if shadow.rolling.runs != seen_runs and shadow.rolling.latest is not None:
             seen_runs = shadow.rolling.runs
             diagnoses.append(shadow.rolling.latest.to_dict())
@@ -78,12 +126,26 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
             if progress is not None:
                 progress(f"follow: {t:.0f} of {end_s:.0f} s")
     shadow.flush()
+    if observer is not None:
+        observer.finish()
     final = {**_entry(shadow), "model": shadow.model(), "twin": _twin_summary(shadow)}
     if not timeline:
         timeline.append(_entry(shadow))
     innovations = {channel: np.array(rows).reshape(-1, 3) for channel, rows in traces.items()}
     return FollowResult(timeline, final, log, shadow.twin_config(), innovations["speed_mps"], models, diagnoses,
-                        innovations)
+                        innovations, np.array(track).reshape(-1, 5), follow_warnings(trial, config, shadow))
+
+
+def follow_warnings(trial: Trial, config: TwinConfig, shadow: Shadow) -> list[str]:
+    """:attr:`FollowResult.warnings` of ``trial`` followed by ``shadow`` from ``config``."""
+    source = trial.metadata.source
+    found = [f"{source}: {w}" for w in command_warnings(trial, config.vessel)] + trial.metadata.warnings()
+    if shadow.model_held():
+        found.append("the model was held at the end: the live diagnosis held `unexplained` or left structure "
+                     "while the twin misfit, so no fit was adopted then (a cause the model lacks)")
+    if not shadow.twin.synchronised:
+        found.append("the twin was not synchronised at the end: no fix, velocity and IMU heading together")
+    return found
 
 
 def trial_samples(trial: Trial) -> Iterator[tuple[str, float, tuple[float, ...]]]:
