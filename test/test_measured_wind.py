@@ -73,3 +73,17 @@ def test_a_wind_topic_read_back_from_a_bag_the_test_writes(tmp_path: Path) -> No
     assert trial.wind_east_mps is not None
     assert np.nanmean(trial.wind_east_mps) == pytest.approx(2.0) and np.nanmean(trial.wind_north_mps) == \
         pytest.approx(-1.0)
+
+
+def test_a_csv_anemometer_in_knots_from_a_bearing_is_the_wind_over_ground(tmp_path: Path) -> None:
+    """A logger's columns: wind speed in knots and the direction it comes from (meteorological, degrees)."""
+    from boat_twin.io.csv_trial import read_csv_trial
+
+    rows = ["t,lat,lon,thr,ws,wd"] + [f"{i * 0.1:.1f},59.9,10.7{i:03d},40,10,90" for i in range(60)]
+    (tmp_path / "log.csv").write_text("\n".join(rows) + "\n")
+    (tmp_path / "map.yaml").write_text("columns:\n  time: t\n  lat: lat\n  lon: lon\n  thrust_left: thr\n"
+                                       "  wind_speed: {column: ws, unit: kn}\n  wind_from: wd\n")
+    trial = read_csv_trial(tmp_path / "log.csv", tmp_path / "map.yaml")
+    assert trial.wind_east_mps is not None and trial.wind_north_mps is not None
+    assert np.nanmean(trial.wind_east_mps) == pytest.approx(-10 * 0.514444, rel=1e-4)  # from the east: blows west
+    assert np.nanmean(trial.wind_north_mps) == pytest.approx(0.0, abs=1e-9)

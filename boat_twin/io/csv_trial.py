@@ -46,6 +46,10 @@ CSV_QUANTITIES = {
     "thrust_right": "right thruster's thrust, N or kgf (or raw, calibrated)",
     "angle_left": "left thruster's steering angle, rad or deg (or raw, calibrated); default 0",
     "angle_right": "right thruster's steering angle, rad or deg (or raw, calibrated); default 0",
+    "wind_speed": "measured true wind speed over ground, m/s (or kn, km/h): an anemometer (optional)",
+    "wind_from": "direction the true wind comes from, deg clockwise from north (meteorological; or rad)",
+    "wind_east": "true wind over ground, east component of the air's velocity (where it blows to), m/s",
+    "wind_north": "true wind over ground, north component, m/s",
 }
 """Quantity a mapping may name → its default unit and meaning (docs/bags-and-trial.md)."""
 
@@ -54,16 +58,20 @@ ANGLE_UNITS_RAD = {"rad": 1.0, "deg": math.pi / 180.0}
 CSV_UNITS: dict[str, dict[str, float]] = {
     "time": TIME_UNITS_S, "length": {"m": 1.0}, "angle": ANGLE_UNITS_RAD,
     "rate": {"rad/s": 1.0, "deg/s": math.pi / 180.0},
-    "speed": {"m/s": 1.0, "kn": KNOT_MPS, "km/h": 1.0 / 3.6}, "force": {"N": 1.0, "kgf": KGF_N},
+    "speed": {"m/s": 1.0, "kn": KNOT_MPS, "km/h": 1.0 / 3.6},
+    "force": {"N": 1.0, "kgf": KGF_N, "command": 1.0, "rev/s": 1.0, "rpm": 1.0 / 60.0},
 }
-"""Unit family → unit name → its size in SI (s, m, rad, rad/s, m/s, N)."""
+"""Unit family → unit name → its size in SI (s, m, rad, rad/s, m/s, N). A thrust column may hold a boat file's
+thruster command instead (docs/model.md, "Propulsion and steering"): ``command`` (its table's unit, read as is),
+``rev/s`` or ``rpm`` (a propeller's shaft speed, read in rev/s)."""
 _KIND = {"time": "time", "lat": "angle", "lon": "angle", "alt": "length", "x": "length", "y": "length",
          "x_ned": "length", "y_ned": "length", "vel_east": "speed", "vel_north": "speed", "speed": "speed",
          "course": "angle", "heading": "angle", "yaw": "angle", "yaw_rate": "rate", "thrust_left": "force",
-         "thrust_right": "force", "angle_left": "angle", "angle_right": "angle"}
+         "thrust_right": "force", "angle_left": "angle", "angle_right": "angle", "wind_speed": "speed",
+         "wind_from": "angle", "wind_east": "speed", "wind_north": "speed"}
 _DEFAULT_UNIT = {"time": "s", "lat": "deg", "lon": "deg", "course": "deg", "heading": "deg", "yaw": "rad",
                  "yaw_rate": "rad/s", "thrust_left": "N", "thrust_right": "N", "angle_left": "rad",
-                 "angle_right": "rad"}
+                 "angle_right": "rad", "wind_from": "deg"}
 _DEFAULT_FRAME = {"course": "ned", "heading": "ned", "yaw": "enu"}
 """Angles measured from north clockwise (ned) or from east counter-clockwise (enu), by default."""
 TIME_STEP_BOUNDS_S = (5e-4, 10.0)
@@ -181,7 +189,8 @@ def _check_mapping(columns: dict[str, ColumnSpec], where: str) -> None:
     """What a trial needs: time, a position or velocity, a command; pairs mapped together."""
     if "time" not in columns:
         raise InputError(f"{where}: no 'time' column mapped")
-    for a, b in (("lat", "lon"), ("x", "y"), ("x_ned", "y_ned"), ("vel_east", "vel_north")):
+    for a, b in (("lat", "lon"), ("x", "y"), ("x_ned", "y_ned"), ("vel_east", "vel_north"),
+                 ("wind_speed", "wind_from"), ("wind_east", "wind_north")):
         if (a in columns) != (b in columns):
             raise InputError(f"{where}: '{a}' and '{b}' go together; map both")
     positions = [k for k in ("lat", "x", "x_ned") if k in columns]
@@ -294,6 +303,17 @@ def _si(data: dict[str, np.ndarray], mapping: dict[str, ColumnSpec]) -> dict[str
     return out
 
 
+def _wind(data: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray] | None:
+    """The measured true wind (east, north: where the air goes, m/s) from its speed and the direction it comes
+    from (clockwise from north), or from its components; None without either pair."""
+    if "wind_east" in data and "wind_north" in data:
+        return data["wind_east"], data["wind_north"]
+    if "wind_speed" in data and "wind_from" in data:
+        towards = data["wind_from"] + math.pi  # it blows towards the opposite bearing
+        return data["wind_speed"] * np.sin(towards), data["wind_speed"] * np.cos(towards)
+    return None
+
+
 def read_csv_trial(path: Path, columns: str | Path) -> Trial:
     """Read a CSV trial with the ``columns`` mapping (:func:`parse_columns`) into a :class:`Trial`."""
     path = Path(path)
@@ -331,6 +351,11 @@ def read_csv_trial(path: Path, columns: str | Path) -> Trial:
         known = np.isfinite(yaw) | np.isfinite(rate)
         streams["imu"] = Stream(t[known], np.column_stack([yaw, rate, nan, nan])[known])
         topics["imu"] = "columns " + ", ".join(name[k] for k in ("heading", "yaw", "yaw_rate") if k in name)
+    wind = _wind(data)
+    if wind is not None:
+        streams["wind"] = _stream(t, *wind)
+        topics["wind"] = "columns " + ", ".join(name[k] for k in ("wind_speed", "wind_from", "wind_east",
+                                                                   "wind_north") if k in name)
     for role in COMMAND_ROLES:
         if role in data:
             raw = data[role]
