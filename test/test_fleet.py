@@ -353,7 +353,7 @@ def test_a_scheduler_and_two_workers_started_by_hand_give_the_serial_results(ott
 class StartTimeJob:
     """A job that only notes when its trial started (the order a cluster runs the trials in)."""
 
-    verb, columns, outputs = "probe", ("started_ns",), ()
+    verb, columns, outputs, curves = "probe", ("started_ns",), (), ()
 
     def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict:
         return {"started_ns": time.monotonic_ns()}

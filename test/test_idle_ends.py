@@ -101,5 +101,6 @@ def test_a_mass_far_from_the_boat_files_is_remarked_and_twin_yaml_has_the_trials
     first = read_trial_file(idle_log, columns=COLUMNS)
     assert (twin.gnss.origin_lat_deg, twin.gnss.origin_lon_deg) == (first.lat_deg[0], first.lon_deg[0])
     assert twin.gnss.origin_lat_deg == pytest.approx(ORIGIN[0], abs=1e-5)  # not the default (Vladivostok)
+    assert twin.gnss.antenna_height_m == pytest.approx(1.5 * 1.5 / 6.0)  # carried to the 1.5 m boat, not 1.5 m
     assert json.loads((tmp_path / "o" / "identify.json").read_text())["twin"]["gnss_origin"][:2] == \
         [first.lat_deg[0], first.lon_deg[0]]

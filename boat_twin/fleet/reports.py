@@ -18,6 +18,13 @@ from boat_twin.ident.report import write_trial_report
 from boat_twin.ident.results import TrialsIdentification
 from boat_twin.sensors.gnss import GnssConfig
 from boat_twin.shadow.follow import FollowResult
+from boat_twin.vessel.params import VesselParams
+
+
+def antenna_height_m(vessel: VesselParams) -> float:
+    """The twin's GNSS antenna height above the waterline, m: the default boat's (1.5 m on its 6 m) carried to
+    the boat's length (a 1.2 m boat's antenna is not 1.5 m up)."""
+    return GnssConfig.antenna_height_m * vessel.length_m / VesselParams().length_m
 
 
 def write_identify_report(out: Path, result: TrialIdentifyResult, found: TrialsIdentification, sources: str,
@@ -32,7 +39,8 @@ def write_identify_report(out: Path, result: TrialIdentifyResult, found: TrialsI
     ensure_out_dir(out)
     if found.vessel is not None:
         lat, lon, alt = found.origin or (GnssConfig.origin_lat_deg, GnssConfig.origin_lon_deg, GnssConfig.origin_alt_m)
-        gnss = GnssConfig(origin_lat_deg=lat, origin_lon_deg=lon, origin_alt_m=alt)
+        gnss = GnssConfig(origin_lat_deg=lat, origin_lon_deg=lon, origin_alt_m=alt,
+                          antenna_height_m=antenna_height_m(found.vessel))
         save_config(TwinConfig(vessel=found.vessel, gnss=gnss), out / "twin.yaml",
                     f"boat_twin twin of the boat identified from {sources}\n"
                     f"geometry: {boat_file or 'the default boat carried to the identified mass'}; where each fact "

@@ -540,10 +540,11 @@ def vessel_with_facts(base: VesselParams, facts: dict[str, Any], where: str = "b
 
 
 def _states_another_size(data: dict[str, Any]) -> bool:
-    """Whether a vessel section states a mass or length other than the default boat's."""
+    """Whether a vessel section states a mass or length other than the default boat's (a value beyond its bounds is
+    left to the vessel's own check, which names it)."""
     default = VesselParams()
     return any(key in data and isinstance(data[key], (int, float)) and not isinstance(data[key], bool)
-               and 0.0 < float(data[key]) < math.inf and float(data[key]) != getattr(default, key)
+               and 0.0 < float(data[key]) <= UPPER_LIMITS[key][0] and float(data[key]) != getattr(default, key)
                for key in ("mass_kg", "length_m"))
 
 
