@@ -60,7 +60,7 @@ from typing import Any
 
 import numba
 import numpy as np
-from scipy import optimize, special, stats
+from scipy import fft, optimize, special, stats
 from scipy.interpolate import BSpline
 from threadpoolctl import threadpool_limits
 
@@ -515,13 +515,24 @@ def _initial_guess(problem: _Problem) -> np.ndarray:
     raise InputError("the surge model diverges for every trial mass: check the thrust and speed units")
 
 
+def autocorrelation(values: np.ndarray) -> np.ndarray:
+    """Sample autocorrelation of ``values`` at lags 0 … n − 1 (lag 0: 1; all zero for a constant series), -:
+    Σ_i c_i·c_(i+k) / Σ_i c_i² of the centred series c, through the FFT (zero-padded to at least 2n − 1: no wrap
+    around), O(n log n); the direct sum (``np.correlate``) is O(n²): minutes on a 6-hour record at 10 Hz."""
+    centred = np.asarray(values, dtype=float) - np.mean(values)
+    n = centred.size
+    size = fft.next_fast_len(2 * n - 1, real=True)
+    spectrum = fft.rfft(centred, size)
+    acf = fft.irfft(spectrum.real**2 + spectrum.imag**2, size)[:n]
+    return acf / max(float(centred @ centred), 1e-300)
+
+
 def _correlation_time_s(problem: _Problem, residual: np.ndarray) -> tuple[float, float]:
     """The residuals' sample interval and integrated correlation time dt·(1 + 2·Σ ρ_k) (the autocorrelation
     summed to its first non-positive lag), s."""
     times = problem.times()
     dt = float(np.median(np.diff(times))) if times.size > 1 else 1.0
-    centred = residual - residual.mean()
-    acf = np.correlate(centred, centred, "full")[residual.size - 1:] / max(float(centred @ centred), 1e-300)
+    acf = autocorrelation(residual)
     negative = np.flatnonzero(acf[1:] <= 0.0)
     lags = acf[1: 1 + (int(negative[0]) if negative.size else acf.size - 1)]
     return dt, dt * (1.0 + 2.0 * float(np.sum(lags)))
