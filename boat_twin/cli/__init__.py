@@ -18,6 +18,7 @@ import threading
 
 from boat_twin import __version__
 from boat_twin.errors import InputError, PrintedStops
+from boat_twin.threads import one_blas_thread, one_blas_thread_environment
 
 VERBS: dict[str, tuple[str, str]] = {
     "simulate": ("boat_twin.cli.simulate", "simulate a sea trial and write it as a ROS 2 bag"),
@@ -113,6 +114,8 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``boat-twin`` console script. Exit codes: 0 done, 2 bad input (one line on stderr),
     130 Ctrl-C, 143 SIGTERM (an output being written is dropped; an old one stays as it was)."""
     process = argv is None  # the console script: this process ends when main returns
+    if process:
+        one_blas_thread_environment()
     argv = sys.argv[1:] if argv is None else argv
     verb = next((a for a in argv if not a.startswith("-")), None)
     try:
@@ -125,7 +128,8 @@ def main(argv: list[str] | None = None) -> int:
     stopped = False
     try:
         args = build_parser(verb).parse_args(argv)
-        return int(args.handler(args))
+        with one_blas_thread():
+            return int(args.handler(args))
     except InputError as err:
         sys.stderr.write(f"boat-twin {verb}: error: {err}\n")
         return 2
