@@ -169,3 +169,38 @@ def test_identify_of_a_long_trial_stops_at_once_when_signalled(long_trial, tmp_p
     assert lines[-1].strip() == said and not any("Traceback" in line for line in lines), lines
     assert _snapshot(tmp_path) == before
     assert not [p.name for p in tmp_path.rglob("*") if p.name.startswith((".partial-", ".old-")) or ".lock" in p.name]
+
+
+def test_a_large_ensemble_runs_in_bounded_compiled_calls_with_the_same_numbers(monkeypatch) -> None:
+    """The diagnosis replays every window of a trial as one ensemble: one compiled call grew with the trial and
+    held Ctrl-C (``diagnose`` of a 1-hour trial stopped 6 s after SIGTERM). :meth:`Dynamics.run` takes at most
+    :data:`CALL_BOAT_STEPS` boats x RK4 steps per call, each boat's numbers those of one call."""
+    import numpy as np
+
+    from boat_twin.vessel import dynamics
+    from boat_twin.vessel.params import VesselParams
+
+    rng = np.random.default_rng(0)
+    boats, ticks, substeps = 1500, 200, 5
+    states = np.zeros((boats, 6))
+    states[:, 3] = rng.uniform(0.0, 5.0, boats)
+    commands = np.tile(np.array([500.0, 500.0, 0.0, 0.0]), (ticks, boats, 1))
+    commands[:, :, :2] *= rng.uniform(0.2, 1.5, (ticks, boats, 1))
+    commands[:, :, 2:] = rng.uniform(-0.3, 0.3, (ticks, boats, 2))
+    calls: list[int] = []
+    for name in ("_run_ticks", "_run_ticks_parallel"):
+        kernel = getattr(dynamics, name)
+
+        def counted(*arguments, kernel=kernel):
+            calls.append(arguments[0].shape[0] * arguments[3].shape[0] * arguments[12])
+            return kernel(*arguments)
+
+        monkeypatch.setattr(dynamics, name, counted)
+    runs = []
+    for budget in (dynamics.CALL_BOAT_STEPS, 10**12):
+        monkeypatch.setattr(dynamics, "CALL_BOAT_STEPS", budget)
+        advanced = states.copy()
+        runs.append((advanced, *dynamics.Dynamics(VesselParams()).run(advanced, commands, np.zeros((boats, 4)),
+                                                                      0.02, substeps)))
+    assert len(calls) >= 3 and max(calls[:-1]) <= dynamics.CALL_BOAT_STEPS  # the last: the unbounded reference
+    assert all(np.array_equal(a, b) for a, b in zip(*runs, strict=True))
