@@ -129,12 +129,14 @@ def _snapshot(base: Path) -> dict[str, bytes]:
 @pytest.mark.parametrize(("verb", "started", "signum", "code", "said", "after_s"), [
     ("identify", "identifying", signal.SIGTERM, 143, "boat-twin: terminated", 5.0),
     ("identify", "identifying", signal.SIGINT, 130, "boat-twin: interrupted", 9.0),
-    ("diagnose", "diagnose: round", signal.SIGTERM, 143, "boat-twin: terminated", 8.0)])
+    ("diagnose", "diagnose: round", signal.SIGTERM, 143, "boat-twin: terminated", 8.0),
+    ("follow", "follow:", signal.SIGINT, 130, "boat-twin: interrupted", 20.0)])
 def test_a_long_trial_s_analysis_stops_at_once_when_signalled(long_trial, tmp_path, verb, started, signum, code,
                                                               said, after_s) -> None:
     """Signalled ``after_s`` after the analysis said ``started`` (identify's cross-validation; the diagnosis'
     replays, whose whole-trial ensemble once held SIGTERM and whose process then spent 4-6 s collecting the
-    run's objects as it ended), the verb's process ends within :data:`STOP_WITHIN_S` with its stop's status and
+    run's objects as it ended; follow's timeline, whose diagnosis worker process the ending one waited for: 5.5
+    s), the verb's process ends within :data:`STOP_WITHIN_S` with its stop's status and
     line, the old report set byte-identical, nothing left."""
     reports = tmp_path / "rep"
     reports.mkdir()
