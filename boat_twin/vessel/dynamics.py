@@ -827,15 +827,16 @@ class Dynamics:
             return out_states, out_derivatives, out_steering
         for a in range(0, n_boats, group):  # each boat's arithmetic is its own: the same numbers as one call
             b = min(a + group, n_boats)
-            part = [np.ascontiguousarray(x[a:b]) for x in (states, steering_rad, thrust_N)]
-            outs = (np.empty((commands.shape[0], b - a, 6)), np.empty((commands.shape[0], b - a, 6)),
-                    np.empty((commands.shape[0], b - a, 2)))
+            state, steering, thrust = (np.ascontiguousarray(x[a:b]) for x in (states, steering_rad, thrust_N))
+            path, rates = np.empty((commands.shape[0], b - a, 6)), np.empty((commands.shape[0], b - a, 6))
+            angles = np.empty((commands.shape[0], b - a, 2))
             rows = self.coefficients if self.coefficients.shape[0] == 1 else self.coefficients[a:b]
-            self._run_group(*part, np.ascontiguousarray(commands[:, a:b]), np.ascontiguousarray(switch[:, a:b]),
-                            before[a:b], rows, np.ascontiguousarray(environments[a:b] if len(environments) == n_boats
-                                                                      else environments), dt_s, substeps, *outs)
-            states[a:b], steering_rad[a:b], thrust_N[a:b] = part
-            out_states[:, a:b], out_derivatives[:, a:b], out_steering[:, a:b] = outs
+            sea = environments[a:b] if len(environments) == n_boats else environments
+            self._run_group(state, steering, thrust, np.ascontiguousarray(commands[:, a:b]),
+                            np.ascontiguousarray(switch[:, a:b]), before[a:b], rows, np.ascontiguousarray(sea),
+                            dt_s, substeps, path, rates, angles)
+            states[a:b], steering_rad[a:b], thrust_N[a:b] = state, steering, thrust
+            out_states[:, a:b], out_derivatives[:, a:b], out_steering[:, a:b] = path, rates, angles
         return out_states, out_derivatives, out_steering
 
     def _run_group(self, states: np.ndarray, steering_rad: np.ndarray, thrust_N: np.ndarray, commands: np.ndarray,
