@@ -6,14 +6,22 @@ while before they sleep: with other processes on the cores, every parallel regio
 were descheduled while spinning, and closed-loop ensembles (one parallel region per 0.02 s integration step) ran
 6-13x slower on threads than on one thread at a load of 4-7 on 2 cores (issue 27). Passive waiting gives the
 cores back at once; benchmarks/bench_fleet.py measures the ensemble beside a busy loop (docs/fleet.md).
+
+A command-line run keeps BLAS on one thread unless the user sets a thread count: its matrices are small
+(parameters × samples), and two OpenBLAS threads on a busy machine only spin (``diagnose`` 1.6× the CPU of one
+thread; one NNLS of ``identify``'s initial guess 0.8 s against 0.07 s, a C call that holds Ctrl-C; issue 37).
 """
 
 from __future__ import annotations
 
 import os
+import sys
+from contextlib import AbstractContextManager, nullcontext
 
 WAIT_POLICY = "PASSIVE"
 """``OMP_WAIT_POLICY`` set for the OpenMP runtime unless the user chose one: idle threads sleep at once."""
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "OMP_NUM_THREADS")
+"""Environment variables through which a user sets the BLAS libraries' thread count (then it is theirs)."""
 
 
 def configure_openmp() -> None:
@@ -35,3 +43,26 @@ def use_one_numba_thread() -> None:
     import numba
 
     numba.set_num_threads(1)
+
+
+def _blas_threads_chosen() -> bool:
+    """Whether the environment sets a BLAS thread count (:data:`BLAS_THREAD_VARIABLES`)."""
+    return any(os.environ.get(name) for name in BLAS_THREAD_VARIABLES)
+
+
+def one_blas_thread_environment() -> None:
+    """For a command-line process, before numpy is imported: OpenBLAS, MKL and BLIS on one thread (they read it
+    when they are loaded; child processes inherit it), unless the user set a BLAS thread count."""
+    if not _blas_threads_chosen():
+        for name in BLAS_THREAD_VARIABLES[:3]:
+            os.environ[name] = "1"
+
+
+def one_blas_thread() -> AbstractContextManager[object]:
+    """For a command-line run: the BLAS libraries already loaded held on one thread for the ``with`` block
+    (threadpoolctl; a run inside a process that had imported numpy), unless the user set a BLAS thread count."""
+    if _blas_threads_chosen() or "numpy" not in sys.modules:
+        return nullcontext()
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")

@@ -5,6 +5,7 @@ benchmarks/bench_ident_coverage.py)."""
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ from boat_twin.ident import pipeline
 from boat_twin.ident.output_error import (
     ResistanceBasis,
     SurgeRecord,
+    autocorrelation,
     fit_surge,
     identify_surge,
     predict,
@@ -289,3 +291,55 @@ def test_a_prior_on_the_coupling_scale_gives_constant_thrust_zigzags_their_mass(
     assert low <= 840.0 <= high and (high - low) / 2 < 0.08 * fit.mass_kg, (fit.mass_kg, low, high)
     assert fit.coupling_prior_sd == 0.03 and fit.coupling_scale_sd == pytest.approx(0.03, rel=0.1)
     assert fit.to_dict()["coupling_prior_sd"] == 0.03
+
+
+def test_the_autocorrelation_is_the_direct_sum_to_rounding() -> None:
+    """The FFT autocorrelation (zero-padded: no wrap-around) equals Σ c_i·c_(i+k) / Σ c_i² summed directly."""
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 7, 1000, 4099):
+        values = np.cumsum(rng.normal(size=n)) * 0.01 + rng.normal(size=n) + 5.0
+        centred = values - values.mean()
+        direct = np.correlate(centred, centred, "full")[n - 1:] / max(float(centred @ centred), 1e-300)
+        np.testing.assert_allclose(autocorrelation(values), direct, rtol=0.0, atol=1e-12)
+    assert np.all(autocorrelation(np.full(50, 2.0)) == 0.0)
+
+
+def test_the_autocorrelation_of_a_six_hour_record_takes_a_moment() -> None:
+    """O(n log n): 6 h at 10 Hz, five times over, in well under the ~2 min one direct O(n²) sum takes (issue 37:
+    ``identify`` of a 6-hour trial spent its cross-validation there)."""
+    residual = np.random.default_rng(4).normal(size=6 * 3600 * 10)
+    start = time.process_time()
+    for _ in range(5):
+        autocorrelation(residual)
+    assert time.process_time() - start < 10.0
+
+
+def test_richer_bases_start_from_the_simpler_fit_and_select_as_a_scan_does(small_boat, monkeypatch) -> None:
+    """Only the baseline's fits scan 13 trial masses; every richer basis starts its mass from the previous basis'
+    fit to the same training data (issue 37: the scans were a third of identify's CPU). The candidates' held-out
+    errors, the selection and the selected fit are those of fits that each start from their own scan."""
+    from boat_twin.ident import output_error
+
+    record, _, warm = small_boat
+    scans = []
+    own_guess = output_error._initial_guess
+
+    def counted(problem, mass_start_kg=None):
+        scans.append(mass_start_kg is None)
+        return own_guess(problem, mass_start_kg)
+
+    monkeypatch.setattr(output_error, "_initial_guess", counted)
+    result = identify_surge([record])
+    folds = len(output_error._folds([record], split_segments([record]))[0])
+    assert sum(scans) == folds + 1  # the baseline's folds and its fit to everything
+    assert len(scans) - sum(scans) >= 4 * folds + 2
+    scans.clear()
+    monkeypatch.setattr(output_error, "_initial_guess", lambda problem, mass_start_kg=None: own_guess(problem))
+    scanned = identify_surge([record])
+    assert result.reason == warm.reason == scanned.reason
+    for a, b in zip(result.candidates, scanned.candidates, strict=True):
+        assert a["cv_mse_mps2"] == pytest.approx(b["cv_mse_mps2"], rel=1e-3)
+    assert result.selected.mass_kg == pytest.approx(scanned.selected.mass_kg, rel=1e-4)
+    speeds = np.linspace(0.0, result.selected.top_speed_mps, 20)
+    np.testing.assert_allclose(result.selected.resistance_N(speeds), scanned.selected.resistance_N(speeds),
+                               rtol=1e-4, atol=1e-3)

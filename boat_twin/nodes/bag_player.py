@@ -1,6 +1,6 @@
 """ROS 2 node ``bag_player``: plays a recorded trial onto the package's topics at a rate factor, publishing /clock
 (``ros2 bag play`` is not installable from wheels). Thin wiring only: the messages come from
-boat_twin.shadow.playback.
+boat_twin.io.playback.
 
 Plays any trial the readers accept: a rosbag2 directory (MCAP or sqlite3), a bare .mcap, a ROS 1 .bag, a MAVLink
 log (.tlog, .BIN) with a calibration, a CSV table with a column mapping. Topics (relative, so a namespace
@@ -34,11 +34,11 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.io import messages
+from boat_twin.io.playback import playback_messages
 from boat_twin.io.sources import read_trial_file
 from boat_twin.nodes import conventions, parameters
 from boat_twin.nodes.simulator import _time, message_class
 from boat_twin.nodes.spin import run_node
-from boat_twin.shadow.playback import playback_messages
 
 TICK_S = 0.002
 """Wall time between two publishing rounds, s: at 10x, messages go out within 0.02 s of trial time of their stamp

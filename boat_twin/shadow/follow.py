@@ -6,8 +6,7 @@ simulated minute."""
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -15,15 +14,13 @@ import numpy as np
 
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.pipeline import command_warnings
-from boat_twin.frames import wrap_pi
+from boat_twin.io.samples import trial_samples
 from boat_twin.io.trial import Trial
 from boat_twin.shadow.session import RATIO_CHANNELS, Shadow, ShadowSettings
-from boat_twin.shadow.sync import COMMAND_KINDS, SENSOR_KINDS, Innovation
+from boat_twin.shadow.sync import Innovation
 
 TIMELINE_PERIOD_S = 60.0
 """One timeline entry per this much trial time, s."""
-COMMAND_HEARTBEAT_S = 1.0
-"""A held command is fed again at least this often, s."""
 
 
 class FollowObserver(Protocol):
@@ -146,35 +143,6 @@ def follow_warnings(trial: Trial, config: TwinConfig, shadow: Shadow) -> list[st
     if not shadow.twin.synchronised:
         found.append("the twin was not synchronised at the end: no fix, velocity and IMU heading together")
     return found
-
-
-def trial_samples(trial: Trial) -> Iterator[tuple[str, float, tuple[float, ...]]]:
-    """The samples of ``trial`` as a live boat sends them, in time order: (kind, stamp s, values) for
-    :meth:`Shadow.add` (see the module docstring); a command that changed between samples at the instant it was
-    issued (:attr:`~boat_twin.io.trial.Trial.command_switch_s`), as its own message was stamped."""
-    sensors = {
-        "gnss_fix": np.column_stack([trial.lat_deg, trial.lon_deg, np.zeros_like(trial.lat_deg)]),
-        "gnss_vel": np.column_stack([trial.vel_east_mps, trial.vel_north_mps]),
-        "imu": np.column_stack([wrap_pi(trial.heading_rad), trial.yaw_rate_radps, trial.accel_x_mps2,
-                                trial.accel_y_mps2]),
-    }
-    rows = {kind: values.tolist() for kind, values in sensors.items()}
-    finite = {kind: np.all(np.isfinite(values[:, :2]), axis=1).tolist() for kind, values in sensors.items()}
-    held = [math.nan] * 4
-    sent = [-math.inf] * 4
-    switch = np.zeros(trial.t_s.size) if trial.command_switch_s is None else trial.command_switch_s
-    for i, (t, command_row) in enumerate(zip(trial.t_s.tolist(), trial.commands.tolist(), strict=True)):
-        commands = []
-        for k, value in enumerate(command_row):
-            if math.isfinite(value) and (value != held[k] or t - sent[k] >= COMMAND_HEARTBEAT_S):
-                commands.append((COMMAND_KINDS[k], t + float(switch[i]) if value != held[k] else t, (value,)))
-                held[k], sent[k] = value, t
-        commands.sort(key=lambda command: command[1])
-        yield from (c for c in commands if c[1] <= t)
-        for kind in SENSOR_KINDS:
-            if finite[kind][i]:
-                yield kind, t, tuple(rows[kind][i])
-        yield from (c for c in commands if c[1] > t)  # issued after this sample's time: after its sensors
 
 
 def _entry(shadow: Shadow) -> dict[str, Any]:

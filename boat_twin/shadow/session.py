@@ -44,6 +44,48 @@ ENVIRONMENT_CAUSES = ("water_current", "wind")
 """Causes the twin takes into its predictions when named (the sea around the boat, not the boat)."""
 
 
+class WindowSquares:
+    """One channel's innovations over a sliding window, as (time s, squared innovation, its stated variance), with
+    the two sums the innovation ratio divides kept running: O(1) per sample however many the window holds (summed
+    again on every sample, a 60 s window cost ``follow`` 6 % of an hour's CPU). The sums are recomputed exactly once
+    as many samples have left the window as it holds, so rounding never accumulates beyond one window's worth."""
+
+    def __init__(self) -> None:
+        self._items: deque[tuple[float, float, float]] = deque()
+        self.square_sum = 0.0
+        """Σ squared innovations in the window."""
+        self.variance_sum = 0.0
+        """Σ their stated variances."""
+        self._left = 0
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def append(self, item: tuple[float, float, float]) -> None:
+        """Add (time s, squared innovation, its variance) at the window's end."""
+        self._items.append(item)
+        self.square_sum += item[1]
+        self.variance_sum += item[2]
+
+    def drop_before(self, t_s: float) -> None:
+        """Drop the samples older than ``t_s`` (s) from the window's start."""
+        while self._items and self._items[0][0] < t_s:
+            _, square, variance = self._items.popleft()
+            self.square_sum -= square
+            self.variance_sum -= variance
+            self._left += 1
+        if self._left >= len(self._items):
+            self.square_sum = sum(s[1] for s in self._items)
+            self.variance_sum = sum(s[2] for s in self._items)
+            self._left = 0
+
+    def clear(self) -> None:
+        """Empty the window."""
+        self._items.clear()
+        self.square_sum = self.variance_sum = 0.0
+        self._left = 0
+
+
 @dataclass(frozen=True)
 class ShadowSettings:
     """Everything a live twin is set up with besides its model (SI)."""
@@ -100,7 +142,7 @@ class Shadow:
                                         idle_period_s=s.diagnosis_idle_period_s, misfit_ratio=s.misfit_ratio,
                                         log=self.log)
         self.twin = ShadowTwin(config, s.sync, self.log, self._accepted)
-        self._squares: dict[str, deque[tuple[float, float, float]]] = {c: deque() for c in RATIO_CHANNELS}
+        self._squares = {c: WindowSquares() for c in RATIO_CHANNELS}
         self._restarts = 0
         self._last_impulse: tuple[int, float, float] | None = None
         self._held = False
@@ -312,8 +354,7 @@ class Shadow:
             if item.channel in self._squares:
                 self._squares[item.channel].append((item.t_s, item.value**2, item.stdev**2))
         for squares in self._squares.values():
-            while squares and squares[0][0] < self.twin.t_s - RATIO_WINDOW_S:
-                squares.popleft()
+            squares.drop_before(self.twin.t_s - RATIO_WINDOW_S)
 
     # --- what the front ends publish -----------------------------------------------------------------------
     def innovation_ratio(self, channel: str) -> float:
@@ -322,7 +363,7 @@ class Shadow:
         squares = self._squares[channel]
         if not squares:
             return math.nan
-        return math.sqrt(sum(s[1] for s in squares) / sum(s[2] for s in squares))
+        return math.sqrt(max(squares.square_sum, 0.0) / squares.variance_sum)
 
     def speed_ratio(self) -> float:
         """:meth:`innovation_ratio` of the speed over ground."""

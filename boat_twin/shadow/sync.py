@@ -41,6 +41,7 @@ import pymap3d
 
 from boat_twin.config import TwinConfig
 from boat_twin.frames import wrap_pi
+from boat_twin.io.samples import COMMAND_KINDS, SENSOR_KINDS
 from boat_twin.io.trial import VALUE_LIMITS
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.params import derive_coefficients
@@ -48,11 +49,6 @@ from boat_twin.vessel.propulsion import surge_thrust_N
 from boat_twin.vessel.tow import tow_drag_table
 from boat_twin.vessel.truth import ground_velocity_enu
 
-COMMAND_KINDS = ("thrust_left", "thrust_right", "angle_left", "angle_right")
-"""Command streams, in the column order of the dynamics' commands (N, N, rad, rad)."""
-SENSOR_KINDS = ("gnss_fix", "gnss_vel", "imu")
-"""Sensor streams: fix (lat deg, lon deg, alt m), velocity over ground (east, north m/s), IMU (yaw rad, yaw
-rate rad/s, accel x, y m/s²): the roles and columns of :mod:`boat_twin.io.trial`."""
 KIND_ORDER = {kind: i for i, kind in enumerate(COMMAND_KINDS + SENSOR_KINDS)}
 """Samples with one stamp are processed in this order (commands first), whatever order they arrived in."""
 INTEGRATION_STEP_S = 0.05

@@ -867,6 +867,10 @@ def _threads_for(n_boats: int) -> Iterator[None]:
         numba.set_num_threads(threads)
 
 
+CALL_BOAT_STEPS = 1_000_000
+"""Most boats × RK4 steps one compiled call of :meth:`Dynamics.run` takes (about 0.5 s of one core; a larger
+ensemble is run in groups of boats): Python acts on Ctrl-C and SIGTERM only between calls, and the diagnosis
+replays every window of a trial as one ensemble (a 2-hour trial: 6 s in one call that held the signal)."""
 CLOSED_LOOP_CHUNK_BOATS = 16
 """Boats a thread takes at a time from a closed-loop ensemble (numba's dynamic chunks): a thread descheduled by
 other work on the cores leaves the rest of its boats to the others, instead of a fixed share that the whole run
@@ -1008,7 +1012,6 @@ class Dynamics:
         Returns the states at the start of every tick and their time derivatives, both (ticks, N, 6), and
         the real steering angles then, (ticks, N, 2).
         """
-        m = self.model
         self._check_boats(states.shape[0])
         if steering_rad is None:
             steering_rad = self.steering_targets(commands[0]) if len(commands) else np.zeros((len(states), 2))
@@ -1020,12 +1023,38 @@ class Dynamics:
         out_states = np.empty((commands.shape[0],) + states.shape)
         out_derivatives = np.empty_like(out_states)
         out_steering = np.empty((commands.shape[0], states.shape[0], 2))
-        arguments = (states, steering_rad, thrust_N, commands, switch, np.ascontiguousarray(before, dtype=float),
-                     self.coefficients, m.resistance_N, m.resistance_max_speed_mps, m.extra_drag_N, environments,
-                     dt_s, substeps, out_states, out_derivatives, out_steering)
+        before = np.ascontiguousarray(before, dtype=float)
+        n_boats = states.shape[0]
+        group = max(1, CALL_BOAT_STEPS // max(commands.shape[0] * substeps, 1))
+        if group >= n_boats:
+            self._run_group(states, steering_rad, thrust_N, commands, switch, before, self.coefficients,
+                            environments, dt_s, substeps, out_states, out_derivatives, out_steering)
+            return out_states, out_derivatives, out_steering
+        for a in range(0, n_boats, group):  # each boat's arithmetic is its own: the same numbers as one call
+            b = min(a + group, n_boats)
+            state, steering, thrust = (np.ascontiguousarray(x[a:b]) for x in (states, steering_rad, thrust_N))
+            path, rates = np.empty((commands.shape[0], b - a, 6)), np.empty((commands.shape[0], b - a, 6))
+            angles = np.empty((commands.shape[0], b - a, 2))
+            rows = self.coefficients if self.coefficients.shape[0] == 1 else self.coefficients[a:b]
+            sea = environments[a:b] if len(environments) == n_boats else environments
+            self._run_group(state, steering, thrust, np.ascontiguousarray(commands[:, a:b]),
+                            np.ascontiguousarray(switch[:, a:b]), before[a:b], rows, np.ascontiguousarray(sea),
+                            dt_s, substeps, path, rates, angles)
+            states[a:b], steering_rad[a:b], thrust_N[a:b] = state, steering, thrust
+            out_states[:, a:b], out_derivatives[:, a:b], out_steering[:, a:b] = path, rates, angles
+        return out_states, out_derivatives, out_steering
+
+    def _run_group(self, states: np.ndarray, steering_rad: np.ndarray, thrust_N: np.ndarray, commands: np.ndarray,
+                   switch: np.ndarray, before: np.ndarray, coefficients: np.ndarray, environments: np.ndarray,
+                   dt_s: float, substeps: int, out_states: np.ndarray, out_derivatives: np.ndarray,
+                   out_steering: np.ndarray) -> None:
+        """One compiled call of :meth:`run` over the boats of the arrays given (their own coefficient rows)."""
+        m = self.model
+        arguments = (states, steering_rad, thrust_N, commands, switch, before, coefficients, m.resistance_N,
+                     m.resistance_max_speed_mps, m.extra_drag_N, environments, dt_s, substeps, out_states,
+                     out_derivatives, out_steering)
         if states.shape[0] < PARALLEL_MIN_BOATS and commands.shape[0] * states.shape[0] < PRANGE_MIN_BOAT_TICKS:
             _run_ticks(*arguments)
         else:  # the prange form, also on one thread: 1.5x faster than the plain loop (_closed_loop_parallel)
             with _threads_for(states.shape[0]):
                 _run_ticks_parallel(*arguments)
-        return out_states, out_derivatives, out_steering

@@ -1,6 +1,6 @@
 """A recorded trial as the time-ordered ROS 2 messages a live boat would publish: what the ``bag_player`` node
 plays. Any trial the readers accept (rosbag2, MCAP, ROS 1 bag, MAVLink log with calibration, CSV with mapping)
-goes through :func:`~boat_twin.shadow.follow.trial_samples` (commands on change and every second, sensors
+goes through :func:`~boat_twin.io.samples.trial_samples` (commands on change and every second, sensors
 where the trial has them) and the package's message builders (:mod:`boat_twin.io.messages`), on the topics of
 the design's table, stamped ``epoch_s`` + trial time."""
 
@@ -14,8 +14,8 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.frames import quaternion_xyzw
 from boat_twin.io import messages
+from boat_twin.io.samples import trial_samples
 from boat_twin.io.trial import Trial
-from boat_twin.shadow.follow import trial_samples
 from boat_twin.units import STANDARD_GRAVITY_MPS2
 
 COMMAND_TOPIC = dict(zip(("thrust_left", "thrust_right", "angle_left", "angle_right"), messages.COMMAND_TOPICS,
