@@ -114,6 +114,9 @@ error; the 5 % they missed is added in quadrature."""
 COUPLING_SCALE_SD = math.hypot(CONFIGURED_TURNING_SD, COUPLING_STATE_SD)
 """Standard deviation of the Gaussian prior on the coupling's scale c while the twin turns with its configured
 coefficients (no turning fit yet), -: 0.184 (:data:`CONFIGURED_TURNING_SD` and :data:`COUPLING_STATE_SD`)."""
+COUPLING_PRIOR_LEVEL = 0.99
+"""A fit whose coupling scale c lies outside its prior's central interval of this probability is not adopted
+(:func:`coupling_conflict`), -."""
 FACTOR_RANGE = (0.3, 3.0)
 """Physical range of the mass and resistance factors relative to the configured boat, -: a fit outside is a
 stand-in for something else (a current, a fault) and is not adopted."""
@@ -278,6 +281,27 @@ def _model(fit: SurgeFit, record: SurgeRecord, base: VesselParams, current: Surg
                       (var_mass, cov_mass, var_factor), fit.clusters, fit, record)
 
 
+def coupling_conflict(model: SurgeModel, level: float = COUPLING_PRIOR_LEVEL) -> bool:
+    """Whether ``model``'s fitted coupling scale c lies outside the central ``level`` interval of its prior
+    N(1, σ_c²): the data pull c where the twin's sway model cannot be, so what they fitted is not the boat's
+    coupling. On a horizon where the boat holds one speed and turn (a helm's last command held: ``boat-twin
+    simulate random --duration 3600`` circles from minute 10 on) the coupling m₂₂·v·r of the boat is constant,
+    and all the twin's coupling varies by is its own sway state's error (the IMU heading's 3° noise through the
+    velocity filter: ±7 N, 3 % of its −229 N, correlated over ~20 s, on seed 2), which moves nothing on the boat:
+    the fit drove c to 0.07 ± 0.02 against its prior 1 ± 0.05 (errors in the regressor: attenuation) and the
+    resistance took up the 93 % of the coupling it lost, ×1.098 [1.093, 1.102] for the true 1 (its intervals
+    do not carry the regressor's error); such a fit ×1.035 was adopted at minute 37 of that hour and the twin's
+    speed innovations rose from 1.0 to 1.85 times their noise for the rest of it, the rolling diagnosis naming
+    a thrust asymmetry and a mass error against that model every minute (docs/live-twin.md). The prior's own
+    interval, not the posterior's: under the prior the fitted c spreads less than it does. False when the scale
+    was not fitted."""
+    fit = model.fit
+    if fit is None or not fit.coupling_fitted or not fit.coupling_prior_sd > 0.0:
+        return False
+    bound = float(stats.norm.ppf(0.5 + level / 2.0)) * fit.coupling_prior_sd
+    return not abs(fit.coupling_scale - 1.0) <= bound
+
+
 def rejects(candidate: SurgeModel, current: SurgeModel, base: VesselParams, level: float = REJECT_LEVEL) -> bool:
     """Whether ``candidate``'s covariance rejects ``current`` at ``level``: Hotelling's T² of the difference in
     (m₁₁, resistance factor over the candidate's speeds) against its F bound on the fit's clusters (one
@@ -330,6 +354,7 @@ class SurgeAdapter:
         self.candidate: SurgeModel | None = None
         """The latest fit, adopted or not (its intervals are what the fit says now)."""
         self.swaps = 0
+        self._conflict = False
         self._samples: deque[tuple[float, float, float, float]] = deque()
         self._next_s = math.nan
         self.wait_s = period_s
@@ -383,12 +408,22 @@ class SurgeAdapter:
         now = score(self.current)
         if not math.isfinite(now):
             return False
-        candidate = fit_surge(record, self.base, self.current, coupling_sd=coupling_sd)
+        fitted = fit_surge(record, self.base, self.current, coupling_sd=coupling_sd)
+        conflict = fitted is not None and coupling_conflict(fitted)
+        if conflict != self._conflict:
+            self._conflict = conflict
+            if conflict and fitted is not None and fitted.fit is not None:
+                self.log(f"surge fits set aside: their coupling scale c = {fitted.fit.coupling_scale:.2f} lies "
+                         f"outside its prior 1 ± {fitted.fit.coupling_prior_sd:.3f} (the horizon's coupling varies "
+                         "by the twin's own sway error, not the boat's; the resistance would take up the rest)")
+            else:
+                self.log("surge fits taken again: their coupling scale is within its prior")
+        candidate = None if conflict else fitted  # a fit of something the boat does not do is no candidate
         if candidate is not None and rejects(candidate, self.current, self.base):
             # only then the richer curve's spread (a second fit): a candidate that does not reject the current
             # model with its sampling covariance alone does not with wider intervals either
             candidate = with_basis_spread(candidate, self.base, self.current)
-        self.candidate = candidate
+        self.candidate = fitted if conflict else candidate
         standing = candidate is None or not rejects(candidate, self.current, self.base)
         self.wait_s = min(2.0 * self.wait_s, MAX_WAIT_PERIODS * self.period_s) if standing else self.period_s
         if self.previous and (candidate is None or not rejects(candidate, self.previous[-1], self.base)):
