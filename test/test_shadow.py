@@ -423,10 +423,10 @@ def test_a_fit_within_its_noise_of_the_current_model_is_not_adopted_even_if_it_s
 def test_a_fit_whose_coupling_scale_its_prior_rules_out_is_not_adopted(monkeypatch: pytest.MonkeyPatch) -> None:
     """Issue 38's clean hour: a boat at 12.6 m/s in a steady turn (surge only, the tests' RK4: m₁₁·du/dt =
     T + C − Fc(u), the thrust stepped ±150 N, the coupling C = m₂₂·v·r a constant −230 N), while the twin's coupling
-    varies by its own sway error only (an AR(1) wander of 7 N over 10 s, as the IMU heading's noise gives it
-    through the velocity filter). The fit takes the wander for a force the boat would answer and does not: its
-    coupling scale c falls to 0.5-0.7 against its prior N(1, 0.05²) and the resistance takes up the coupling it
-    lost (×1.03-1.05, its interval rejecting the true ×1). Such a fit is no candidate, whatever the held-out score
+    varies by its own sway error only (an AR(1) wander of 7 N over 2 s, what the twin's coupling did on the clean
+    hour's steady turn). The fit takes the wander for a force the boat would answer and does not: its coupling
+    scale c falls to 0.66-0.80 against its prior N(1, 0.05²) and the resistance takes up the coupling it lost
+    (×1.02-1.04, its interval rejecting the true ×1). Such a fit is no candidate, whatever the held-out score
     says (here one that always prefers it); without the rule it is adopted (seeds 0-3)."""
     base = TwinConfig().vessel
     m11 = base.mass_kg * (1 + base.surge_added_mass_ratio)
@@ -440,7 +440,7 @@ def test_a_fit_whose_coupling_scale_its_prior_rules_out_is_not_adopted(monkeypat
         n = 6000
         thrust = float(base.resistance.force_N(12.6)) - coupling + np.repeat(rng.choice([-150.0, 0.0, 150.0], 20), 300)
         surge = rk4_held(deriv, np.array([12.6]), thrust, 0.02, 5)[:, 0]
-        decay = math.exp(-0.1 / 10.0)
+        decay = math.exp(-0.1 / 2.0)
         wander = np.zeros(n)
         for i in range(1, n):
             wander[i] = decay * wander[i - 1] + math.sqrt(1 - decay**2) * 7.0 * rng.standard_normal()
@@ -457,13 +457,13 @@ def test_a_fit_whose_coupling_scale_its_prior_rules_out_is_not_adopted(monkeypat
         assert adapter.current == SurgeModel(base.mass_kg, 1.0) and adapter.swaps == 0
         fit = adapter.candidate  # kept as the latest fit, for the record
         assert fit is not None and fit.fit is not None and coupling_conflict(fit)
-        assert fit.fit.coupling_scale < 0.8 and fit.factor_ci95[0] > 1.0  # the cause, reproduced
+        assert fit.fit.coupling_scale < 0.85 and fit.factor_ci95[0] > 1.0  # the cause, reproduced
         assert any("coupling scale" in line for line in lines)
     monkeypatch.setattr("boat_twin.shadow.adapt.coupling_conflict", lambda _model: False)
     for seed in range(2):
         lines = []
         adapter = follow(seed)
-        assert adapter.swaps == 1 and adapter.current.resistance_factor > 1.03  # without the rule: adopted
+        assert adapter.swaps == 1 and adapter.current.resistance_factor > 1.02  # without the rule: adopted
 
 
 def test_live_unexplained_needs_the_twin_to_misfit_on_consecutive_runs() -> None:

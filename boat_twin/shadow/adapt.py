@@ -287,7 +287,7 @@ def coupling_conflict(model: SurgeModel, level: float = COUPLING_PRIOR_LEVEL) ->
     coupling. On a horizon where the boat holds one speed and turn (a helm's last command held: ``boat-twin
     simulate random --duration 3600`` circles from minute 10 on) the coupling m₂₂·v·r of the boat is constant,
     and all the twin's coupling varies by is its own sway state's error (the IMU heading's 3° noise through the
-    velocity filter: ±7 N, 3 % of its −229 N, correlated over ~20 s, on seed 2), which moves nothing on the boat:
+    velocity filter: ±7 N, 3 % of its −229 N, correlated over ~2 s, on seed 2), which moves nothing on the boat:
     the fit drove c to 0.07 ± 0.02 against its prior 1 ± 0.05 (errors in the regressor: attenuation) and the
     resistance took up the 93 % of the coupling it lost, ×1.098 [1.093, 1.102] for the true 1 (its intervals
     do not carry the regressor's error); such a fit ×1.035 was adopted at minute 37 of that hour and the twin's
