@@ -18,8 +18,16 @@ from independent import rk4_held
 from boat_twin.cli import main
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.diagnose.hidden import scenario
+from boat_twin.ident.output_error import spline_basis
 from boat_twin.io.trial import Trial
-from boat_twin.shadow.adapt import SurgeAdapter, SurgeModel, coupling_conflict, fit_surge, horizon_record
+from boat_twin.shadow.adapt import (
+    SurgeAdapter,
+    SurgeModel,
+    basis_for,
+    coupling_conflict,
+    fit_surge,
+    horizon_record,
+)
 from boat_twin.shadow.follow import follow_trial, trial_samples
 from boat_twin.shadow.rolling import (
     UNEXPLAINED_RUNS,
@@ -464,6 +472,20 @@ def test_a_fit_whose_coupling_scale_its_prior_rules_out_is_not_adopted(monkeypat
         lines = []
         adapter = follow(seed)
         assert adapter.swaps == 1 and adapter.current.resistance_factor > 1.02  # without the rule: adopted
+
+
+def test_knots_on_the_speed_noise_of_a_horizon_held_at_one_speed_are_dropped() -> None:
+    """Issue 38: a horizon at one speed (12.6 m/s and the GNSS's 0.05 m/s noise) put the 5-spline knots on the noise
+    (12.51-12.63 m/s, the top at the largest noisy sample) and the fit shaped its curve there (×1.65 at 12.71 m/s,
+    adopted). Those knots go; a horizon whose speeds vary (the tests' surge boat, thrust held 10-40 s) keeps all."""
+    base = TwinConfig().vessel
+    rng = np.random.default_rng(5)
+    t = np.arange(1, 4700) * 0.1
+    steady = horizon_record(t, np.full(t.size, 2400.0), 12.6 + rng.normal(0.0, 0.05, t.size), 0.1)
+    assert spline_basis(steady.speed_mps, 5).knots_mps[3:-3]  # an interior knot on the noise (12.51 m/s)
+    assert basis_for(steady, 5).knots_mps[3:-3] == ()
+    varied = horizon_record(*_surge_samples(base.mass_kg, 1.0, 4), 0.1)
+    assert basis_for(varied, 5) == spline_basis(varied.speed_mps, 5)
 
 
 def test_live_unexplained_needs_the_twin_to_misfit_on_consecutive_runs() -> None:
