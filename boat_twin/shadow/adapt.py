@@ -236,29 +236,52 @@ def resolvable(basis: ResistanceBasis, record: SurgeRecord) -> ResistanceBasis:
     knots = np.asarray(basis.knots_mps)
     if knots.size <= 6:
         return basis
+    held, margin = _held_speeds(record)
+    inner = knots[3:-3]
+    kept = inner[(inner >= float(np.min(held)) + margin) & (inner <= float(np.max(held)) - margin)]
+    return ResistanceBasis(tuple(float(k) for k in np.concatenate([knots[:3], kept, knots[-3:]])))
+
+
+def _held_speeds(record: SurgeRecord) -> tuple[np.ndarray, float]:
+    """The speeds the boat held (|speed| averaged over :data:`HELD_SPEED_S`) and :data:`KNOT_NOISE_SPREADS` white-
+    noise deviations of the measured speed, m/s."""
     speeds = np.abs(np.asarray(record.speed_mps, dtype=float))
     step = float(np.median(np.diff(record.t_s))) if record.t_s.size > 1 else HELD_SPEED_S
     width = 2 * max(1, int(round(HELD_SPEED_S / 2.0 / step))) + 1
     held = np.convolve(speeds, np.ones(width) / width, mode="valid") if speeds.size >= width else speeds
-    margin = KNOT_NOISE_SPREADS * white_noise_stdev(speeds)
-    inner = knots[3:-3]
-    kept = inner[(inner >= float(np.min(held)) + margin) & (inner <= float(np.max(held)) - margin)]
-    return ResistanceBasis(tuple(float(k) for k in np.concatenate([knots[:3], kept, knots[-3:]])))
+    return held, KNOT_NOISE_SPREADS * white_noise_stdev(speeds)
+
+
+def one_speed(record: SurgeRecord) -> bool:
+    """Whether the horizon holds one speed: the speeds the boat held span no more than twice
+    :data:`KNOT_NOISE_SPREADS` white-noise deviations of the measured speed (a helm's command held: the boat circles
+    or runs straight at one speed). Such a horizon shows neither the mass (no acceleration) nor the coupling's
+    scale (the boat's coupling is as steady as its speed and turn: all the twin's coupling varies by is its own sway
+    error, which the boat does not answer); :func:`fit_surge` holds the one and the other's variation."""
+    held, margin = _held_speeds(record)
+    return bool(held.size) and float(np.max(held) - np.min(held)) <= 2.0 * margin
 
 
 def fit_surge(record: SurgeRecord, base: VesselParams, current: SurgeModel, splines: int = SPLINES,
               coupling_sd: float | None = None) -> SurgeModel | None:
     """The output-error fit of (mass, resistance) on one horizon (:func:`horizon_record`) as a surge model of
     ``base``: ``splines`` I-spline terms or the baseline; the mass held at ``current``'s when the horizon does not
-    fix it; the coupling's scale under a prior N(1, ``coupling_sd``²) (None: :data:`COUPLING_SCALE_SD`). None when
-    the fit cannot be made (too few samples, no motion, divergence)."""
+    fix it (or holds :func:`one_speed`, where the coupling enters at its mean); the coupling's scale under a prior
+    N(1, ``coupling_sd``²) (None: :data:`COUPLING_SCALE_SD`). None when the fit cannot be made (too few samples, no
+    motion, divergence)."""
     if record.t_s.size < MIN_SAMPLES:
         return None
     added = 1.0 + base.surge_added_mass_ratio
+    steady = one_speed(record)
+    if steady and record.coupling_N is not None:  # its mean only: the prior alone then sets its scale
+        record = replace(record, coupling_N=np.full_like(record.coupling_N, float(np.mean(record.coupling_N))))
     basis = basis_for(record, splines)
     try:
         sd = COUPLING_SCALE_SD if coupling_sd is None else coupling_sd
-        fit = output_error.fit_surge([record], basis, coupling_sd=sd)
+        fit = output_error.fit_surge([record], basis, mass_kg=current.mass_kg * added if steady else None,
+                                     coupling_sd=sd)
+        if steady:
+            return _model(fit, record, base, current, True)
         low, high = fit.mass_ci95_kg
         # a mass beyond the physical range is not fixed either: on a horizon at one speed the fit can run the
         # mass to 10⁵-10⁸ kg (a boat that never accelerates) with an interval of a few per cent (issue 38)
