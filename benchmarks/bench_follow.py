@@ -14,7 +14,7 @@ H. many clean hours (issue 38): ``--seeds`` seeds × :data:`CLEAN_KINDS` × :dat
    from its own configuration; an hour *alarms* when any rolling diagnosis names a cause or says ``unexplained``.
    Printed: alarming hours and runs with their exact one-sided 95 % upper bounds (Clopper-Pearson), surge and
    turning models adopted, the speed ratio's largest minute after the first ten, CPU per hour. Not in the default
-   ``--only``: ~2-6 min of CPU an hour (``--workers`` processes, one thread each; ``--json`` keeps each hour's
+   ``--only``: ~1 min of CPU an hour (``--workers`` processes, one thread each; ``--json`` keeps each hour's
    outcome and ``--resume`` skips them).
 
 Run: .venv/bin/python benchmarks/bench_follow.py [--hour-s 3600] [--only ABDEC]
