@@ -9,36 +9,52 @@ D. an independent integrator's boat (straight line, m·du/dt = T − a·u − b�
    package): the adapted twin's speed prediction (innovation RMS on a fresh trial) against the offline
    identification's (``identify`` on the same recording, its twin);
 E. an actuator fault outside the catalogue: the live diagnosis says ``unexplained`` and names nothing (the causes
-   the catalogue named in windows that left structure while the twin misfit, withheld, printed beside).
+   the catalogue named in windows that left structure while the twin misfit, withheld, printed beside);
+H. many clean hours (issue 38): ``--seeds`` seeds × :data:`CLEAN_KINDS` × :data:`CLEAN_BOATS`, each boat followed
+   from its own configuration; an hour *alarms* when any rolling diagnosis names a cause or says ``unexplained``.
+   Printed: alarming hours and runs with their exact one-sided 95 % upper bounds (Clopper-Pearson), surge and
+   turning models adopted, the speed ratio's largest minute after the first ten, CPU per hour. Not in the default
+   ``--only``: ~1 min of CPU an hour (``--workers`` processes, one thread each; ``--json`` keeps each hour's
+   outcome and ``--resume`` skips them).
 
 Run: .venv/bin/python benchmarks/bench_follow.py [--hour-s 3600] [--only ABDEC]
+     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_follow.py --only H [--seeds 10] [--workers 2]
+     [--json OUT.json [--resume]]
 """
 
 from __future__ import annotations
 
 import argparse
+import concurrent.futures
+import json
 import math
+import multiprocessing
+import os
 import tempfile
 import time
 from dataclasses import fields, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pymap3d
+from scipy import stats
 
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose import hidden
 from boat_twin.diagnose.hidden import scenario
+from boat_twin.files import atomic_write_text
 from boat_twin.ident.pipeline import identify_trial
 from boat_twin.io.bags import read_trial
 from boat_twin.io.trial import Stream, Trial, build_trial
 from boat_twin.shadow.follow import follow_trial
 from boat_twin.shadow.session import ShadowSettings
+from boat_twin.threads import single_thread_environment
 from boat_twin.twin.sea_trial import measured_trial, run_sea_trial
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import params_from_dict
 from boat_twin.vessel.resistance import CorrectedResistance
-from boat_twin.vessel.scenarios import CommandProfile
+from boat_twin.vessel.scenarios import CommandProfile, make_scenario
 from boat_twin.vessel.simulate import simulate
 
 CURRENT_MPS = (0.3, 0.0)
@@ -150,6 +166,85 @@ def study_clean_hour(duration_s: float) -> None:
           f"per simulated second = {cpu / duration_s:.1%} of one core live at 10 Hz (target ≤ 25 %)")
 
 
+CLEAN_KINDS = ("random-held", "random", "zigzag")
+"""Command kinds of study H: ``random-held`` as ``boat-twin simulate random --duration 3600`` runs it (the
+registry's 600 s of random commands, the last one held: a steady turn for 50 minutes, issue 38's hour);
+``random`` drawn over the whole hour and ``zigzag`` (20°/20°) as the hidden studies run them
+(:func:`boat_twin.diagnose.hidden.scenario`)."""
+CLEAN_BOATS = {"default": {}, "heavy-slow-steering": {"mass_kg": 1_700.0, "radius_of_gyration_yaw_m": 1.9,
+                                                      "steering_rate_radps": 0.1}}
+"""Boats of study H (changes of the default VesselParams; bench_false_alarms.py's third boat), each the truth
+and the twin's configuration."""
+
+
+def clean_hour(kind: str, boat_name: str, seed: int, duration_s: float) -> dict[str, Any]:
+    """Follow one clean trial of study H; its outcome (JSON-ready)."""
+    base = TwinConfig()
+    config = replace(base, vessel=replace(base.vessel, **CLEAN_BOATS[boat_name]))
+    rng = np.random.default_rng(seed)
+    commands = (make_scenario("random", config.vessel, rng, duration_s) if kind == "random-held"
+                else scenario(kind, config.vessel, rng, duration_s))
+    run = run_sea_trial(config, commands, seed)
+    data = measured_trial(run.record, 0, config, np.random.default_rng(seed + 100))
+    cpu = time.process_time()
+    result = follow_trial(data, config)
+    cpu = time.process_time() - cpu
+    alarms = [d for d in result.diagnoses if d["causes"] or d["unexplained"]]
+    ratios = [e["speed_innovation_ratio"] for e in result.timeline if e["t_s"] > 600.0]
+    model = result.final["model"]
+    return {"kind": kind, "boat": boat_name, "seed": seed, "runs": len(result.diagnoses), "alarm_runs": len(alarms),
+            "named": sorted({c["name"] for d in alarms for c in d["causes"]}),
+            "unexplained": any(d["unexplained"] for d in alarms), "surge_swaps": model["swaps"],
+            "turning_swaps": model["turning"]["swaps"],
+            "max_speed_ratio": max((r for r in ratios if r is not None), default=math.nan), "cpu_s": cpu}
+
+
+def _clean_hour_task(item: tuple[str, str, int, float]) -> dict[str, Any]:
+    os.environ.update(single_thread_environment())
+    return clean_hour(*item)
+
+
+def study_clean_hours(seeds: int, duration_s: float, workers: int, json_path: Path | None, resume: bool) -> None:
+    plan = [(kind, name, seed, duration_s) for name in CLEAN_BOATS for kind in CLEAN_KINDS
+            for seed in range(1, seeds + 1)]
+    outcomes: list[dict[str, Any]] = []
+    if resume and json_path is not None and json_path.exists():
+        keys = {item[:3] for item in plan}
+        outcomes = [o for o in json.loads(json_path.read_text()) if (o["kind"], o["boat"], o["seed"]) in keys]
+    done = {(o["kind"], o["boat"], o["seed"]) for o in outcomes}
+    todo = [item for item in plan if item[:3] not in done]
+    print(f"H  {len(todo)} clean trials of {duration_s / 60:.0f} min to follow ({len(outcomes)} saved), "
+          f"{workers} worker(s)", flush=True)
+    with concurrent.futures.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        for future in concurrent.futures.as_completed([pool.submit(_clean_hour_task, item) for item in todo]):
+            o = future.result()
+            outcomes.append(o)
+            print(f"   {o['kind']:12s} {o['boat']:20s} seed {o['seed']:2d}: {o['alarm_runs']} of {o['runs']} runs "
+                  f"alarm {o['named'] or ''}{' unexplained' if o['unexplained'] else ''}; swaps surge "
+                  f"{o['surge_swaps']} turning {o['turning_swaps']}; speed ratio ≤ {o['max_speed_ratio']:.2f} "
+                  f"after minute 10; {o['cpu_s']:.0f} s CPU", flush=True)
+            if json_path is not None:
+                atomic_write_text(json_path, json.dumps(outcomes, indent=1))
+    hours = len(outcomes)
+    alarmed = sum(1 for o in outcomes if o["alarm_runs"])
+    runs = sum(o["runs"] for o in outcomes)
+    alarm_runs = sum(o["alarm_runs"] for o in outcomes)
+    surge = sum(1 for o in outcomes if o["surge_swaps"])
+    turning = sum(1 for o in outcomes if o["turning_swaps"])
+    cpu = [o["cpu_s"] for o in outcomes]
+    print(f"H  clean trials of {duration_s / 60:.0f} min: {alarmed} of {hours} alarm "
+          f"(rate {alarmed / max(hours, 1):.1%}, exact 95 % upper bound {exact_upper(alarmed, hours):.1%}); "
+          f"{alarm_runs} of {runs} diagnosis runs (upper bound {exact_upper(alarm_runs, runs):.2%}); surge models "
+          f"adopted in {surge}, turning in {turning}; largest speed ratio after minute 10: "
+          f"{max(o['max_speed_ratio'] for o in outcomes):.2f}; CPU per trial {np.median(cpu):.0f} s (median), "
+          f"{max(cpu):.0f} s (max)")
+
+
+def exact_upper(k: int, n: int) -> float:
+    """One-sided 95 % upper bound of a rate k/n (Clopper-Pearson): with k = 0, 1 − 0.05^(1/n) ≈ 3/n."""
+    return 1.0 if k >= n else float(stats.beta.ppf(0.95, k + 1, n - k))
+
+
 def independent_recording(seed: int, duration_s: float) -> Trial:
     """The independent boat (1,800 kg, a = 150 N·s/m, b = 15 N·s²/m²) under thrust held 15-35 s at random levels,
     classic RK4 at 50 Hz written here; the default sensors' noise; read as a recording (build_trial)."""
@@ -235,10 +330,15 @@ def study_probe(duration_s: float = 600.0) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--hour-s", type=float, default=3600.0, help="length of the clean trial of C, s")
-    parser.add_argument("--only", default="ABDEC", help="studies to run, by letter (default: all)")
+    parser.add_argument("--only", default="ABDEC", help="studies to run, by letter (default: all but H)")
+    parser.add_argument("--seeds", type=int, default=10, help="H: seeds per command kind and boat (default 10)")
+    parser.add_argument("--workers", type=int, default=1, help="H: worker processes, one thread each (default 1)")
+    parser.add_argument("--json", type=Path, help="H: save every trial's outcome here (rewritten after each)")
+    parser.add_argument("--resume", action="store_true", help="H: skip the trials already saved in --json")
     args = parser.parse_args()
     studies = {"A": study_adaptation, "B": study_current, "D": study_independent, "E": study_probe,
-               "C": lambda: study_clean_hour(args.hour_s)}
+               "C": lambda: study_clean_hour(args.hour_s),
+               "H": lambda: study_clean_hours(args.seeds, args.hour_s, args.workers, args.json, args.resume)}
     for letter in args.only.upper():
         studies[letter]()
 

@@ -66,6 +66,7 @@ from scipy import stats
 from boat_twin.errors import InputError
 from boat_twin.ident import output_error
 from boat_twin.ident.output_error import ResistanceBasis, SurgeFit, SurgeRecord, horizon_record, spline_basis
+from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.vessel.params import VesselParams, derive_coefficients
 from boat_twin.vessel.resistance import CorrectedResistance, ResistanceModel
 
@@ -114,6 +115,15 @@ error; the 5 % they missed is added in quadrature."""
 COUPLING_SCALE_SD = math.hypot(CONFIGURED_TURNING_SD, COUPLING_STATE_SD)
 """Standard deviation of the Gaussian prior on the coupling's scale c while the twin turns with its configured
 coefficients (no turning fit yet), -: 0.184 (:data:`CONFIGURED_TURNING_SD` and :data:`COUPLING_STATE_SD`)."""
+HELD_SPEED_S = 5.0
+"""The speeds a boat held are its measured ones averaged over this long, s (:func:`resolvable`): the GNSS's white
+noise drops √50-fold at 10 Hz, a surge transient (time constant 4-35 s) is kept."""
+KNOT_NOISE_SPREADS = 2.0
+"""An interior knot must lie this many white-noise deviations of the measured speed inside the held speeds'
+range (:func:`resolvable`), -."""
+COUPLING_PRIOR_LEVEL = 0.99
+"""A fit whose coupling scale c lies outside its prior's central interval of this probability is not adopted
+(:func:`coupling_conflict`), -."""
 FACTOR_RANGE = (0.3, 3.0)
 """Physical range of the mass and resistance factors relative to the configured boat, -: a fit outside is a
 stand-in for something else (a current, a fault) and is not adopted."""
@@ -205,26 +215,79 @@ def over_configured(fitted: ResistanceModel, speeds_mps: np.ndarray, base: Vesse
 
 
 def basis_for(record: SurgeRecord, splines: int) -> ResistanceBasis:
-    """The baseline (``splines`` 0) or ``splines`` I-splines with knots at the record's speed quantiles."""
-    return ResistanceBasis() if splines == 0 else spline_basis(record.speed_mps, splines)
+    """The baseline (``splines`` 0) or up to ``splines`` I-splines with knots at the record's speed quantiles
+    (:func:`~boat_twin.ident.output_error.spline_basis`), less the interior knots the speeds the boat held do not
+    reach past by their noise (:func:`resolvable`)."""
+    if splines == 0:
+        return ResistanceBasis()
+    return resolvable(spline_basis(record.speed_mps, splines), record)
+
+
+def resolvable(basis: ResistanceBasis, record: SurgeRecord) -> ResistanceBasis:
+    """``basis`` without the interior knots that lie within :data:`KNOT_NOISE_SPREADS` white-noise deviations of
+    the speeds' ends, the speeds taken as the boat held them (a moving mean over :data:`HELD_SPEED_S`): knots
+    there sit on the measurement noise, and an I-spline between them and the top is a curve's shape fitted to the
+    noise. Issue 38's clean hour: a boat circling at one speed (12.60 m/s, the GNSS's ±0.05 m/s) had its 5-spline
+    knots at 12.57-12.63 m/s and the top at 12.78; its fits rose 65 % within those 0.2 m/s (×1.004 of the
+    configured below 12.6 m/s, ×1.65 at 12.71 and beyond), summarised as ×1.035 [1.024, 1.046] (the factor's
+    interval, not the shape's) where the force balance said ×1.000, and adopted at minute 37, the twin's speed
+    innovations rose to 1.8-1.9 times their noise. Where the speeds vary (random commands, thrust steps) every knot
+    lies well inside them and the basis is unchanged."""
+    knots = np.asarray(basis.knots_mps)
+    if knots.size <= 6:
+        return basis
+    held, margin = _held_speeds(record)
+    inner = knots[3:-3]
+    kept = inner[(inner >= float(np.min(held)) + margin) & (inner <= float(np.max(held)) - margin)]
+    return ResistanceBasis(tuple(float(k) for k in np.concatenate([knots[:3], kept, knots[-3:]])))
+
+
+def _held_speeds(record: SurgeRecord) -> tuple[np.ndarray, float]:
+    """The speeds the boat held (|speed| averaged over :data:`HELD_SPEED_S`) and :data:`KNOT_NOISE_SPREADS` white-
+    noise deviations of the measured speed, m/s."""
+    speeds = np.abs(np.asarray(record.speed_mps, dtype=float))
+    step = float(np.median(np.diff(record.t_s))) if record.t_s.size > 1 else HELD_SPEED_S
+    width = 2 * max(1, int(round(HELD_SPEED_S / 2.0 / step))) + 1
+    held = np.convolve(speeds, np.ones(width) / width, mode="valid") if speeds.size >= width else speeds
+    return held, KNOT_NOISE_SPREADS * white_noise_stdev(speeds)
+
+
+def one_speed(record: SurgeRecord) -> bool:
+    """Whether the horizon holds one speed: the speeds the boat held span no more than twice
+    :data:`KNOT_NOISE_SPREADS` white-noise deviations of the measured speed (a helm's command held: the boat circles
+    or runs straight at one speed). Such a horizon shows neither the mass (no acceleration) nor the coupling's
+    scale (the boat's coupling is as steady as its speed and turn: all the twin's coupling varies by is its own sway
+    error, which the boat does not answer); :func:`fit_surge` holds the one and the other's variation."""
+    held, margin = _held_speeds(record)
+    return bool(held.size) and float(np.max(held) - np.min(held)) <= 2.0 * margin
 
 
 def fit_surge(record: SurgeRecord, base: VesselParams, current: SurgeModel, splines: int = SPLINES,
               coupling_sd: float | None = None) -> SurgeModel | None:
     """The output-error fit of (mass, resistance) on one horizon (:func:`horizon_record`) as a surge model of
     ``base``: ``splines`` I-spline terms or the baseline; the mass held at ``current``'s when the horizon does not
-    fix it; the coupling's scale under a prior N(1, ``coupling_sd``²) (None: :data:`COUPLING_SCALE_SD`). None when
-    the fit cannot be made (too few samples, no motion, divergence)."""
+    fix it (or holds :func:`one_speed`, where the coupling enters at its mean); the coupling's scale under a prior
+    N(1, ``coupling_sd``²) (None: :data:`COUPLING_SCALE_SD`). None when the fit cannot be made (too few samples, no
+    motion, divergence)."""
     if record.t_s.size < MIN_SAMPLES:
         return None
     added = 1.0 + base.surge_added_mass_ratio
+    steady = one_speed(record)
+    if steady and record.coupling_N is not None:  # its mean only: the prior alone then sets its scale
+        record = replace(record, coupling_N=np.full_like(record.coupling_N, float(np.mean(record.coupling_N))))
     basis = basis_for(record, splines)
     try:
         sd = COUPLING_SCALE_SD if coupling_sd is None else coupling_sd
-        fit = output_error.fit_surge([record], basis, coupling_sd=sd)
+        fit = output_error.fit_surge([record], basis, mass_kg=current.mass_kg * added if steady else None,
+                                     coupling_sd=sd)
+        if steady:
+            return _model(fit, record, base, current, True)
         low, high = fit.mass_ci95_kg
+        # a mass beyond the physical range is not fixed either: on a horizon at one speed the fit can run the
+        # mass to 10⁵-10⁸ kg (a boat that never accelerates) with an interval of a few per cent (issue 38)
         held = not (fit.mass_kg > 0.0 and math.isfinite(low) and math.isfinite(high)
-                    and high - low <= 2.0 * MASS_RELATIVE_LIMIT * fit.mass_kg)
+                    and high - low <= 2.0 * MASS_RELATIVE_LIMIT * fit.mass_kg
+                    and FACTOR_RANGE[0] <= fit.mass_kg / added / base.mass_kg <= FACTOR_RANGE[1])
         if held:
             fit = output_error.fit_surge([record], basis, mass_kg=current.mass_kg * added, coupling_sd=sd)
     except (InputError, ValueError, np.linalg.LinAlgError):  # ValueError: the simulation diverged mid-fit
@@ -241,7 +304,7 @@ def with_basis_spread(model: SurgeModel, base: VesselParams, current: SurgeModel
     if fit is None or record is None or fit.reference is not None:
         return model
     try:
-        fit.reference = output_error.fit_surge([record], spline_basis(record.speed_mps, RICHER_SPLINES),
+        fit.reference = output_error.fit_surge([record], basis_for(record, RICHER_SPLINES),
                                                mass_kg=fit.mass_kg if fit.mass_fixed else None,
                                                coupling_sd=fit.coupling_prior_sd or None)
     except (InputError, ValueError, np.linalg.LinAlgError):
@@ -276,6 +339,27 @@ def _model(fit: SurgeFit, record: SurgeRecord, base: VesselParams, current: Surg
     return SurgeModel(mass, factor, mass_ci, (factor - half, factor + half), int(record.t_s.size),
                       resistance, fit.basis.name, held, tuple(float(s) for s in speeds),
                       (var_mass, cov_mass, var_factor), fit.clusters, fit, record)
+
+
+def coupling_conflict(model: SurgeModel, level: float = COUPLING_PRIOR_LEVEL) -> bool:
+    """Whether ``model``'s fitted coupling scale c lies outside the central ``level`` interval of its prior
+    N(1, σ_c²): the data pull c where the twin's sway model cannot be, so what they fitted is not the boat's
+    coupling. On a horizon where the boat holds one speed and turn (a helm's last command held: ``boat-twin
+    simulate random --duration 3600`` circles from minute 10 on) the coupling m₂₂·v·r of the boat is constant,
+    and all the twin's coupling varies by is its own sway state's error (the IMU heading's 3° noise through the
+    velocity filter: ±7 N, 3 % of its −229 N, correlated over ~2 s, on seed 2), which moves nothing on the boat:
+    the fit drove c to 0.07 ± 0.02 against its prior 1 ± 0.05 (errors in the regressor: attenuation) and the
+    resistance took up the 93 % of the coupling it lost, ×1.098 [1.093, 1.102] for the true 1 (its intervals
+    do not carry the regressor's error); such a fit ×1.035 was adopted at minute 37 of that hour and the twin's
+    speed innovations rose from 1.0 to 1.85 times their noise for the rest of it, the rolling diagnosis naming
+    a thrust asymmetry and a mass error against that model every minute (docs/live-twin.md). The prior's own
+    interval, not the posterior's: under the prior the fitted c spreads less than it does. False when the scale
+    was not fitted."""
+    fit = model.fit
+    if fit is None or not fit.coupling_fitted or not fit.coupling_prior_sd > 0.0:
+        return False
+    bound = float(stats.norm.ppf(0.5 + level / 2.0)) * fit.coupling_prior_sd
+    return not abs(fit.coupling_scale - 1.0) <= bound
 
 
 def rejects(candidate: SurgeModel, current: SurgeModel, base: VesselParams, level: float = REJECT_LEVEL) -> bool:
@@ -330,6 +414,7 @@ class SurgeAdapter:
         self.candidate: SurgeModel | None = None
         """The latest fit, adopted or not (its intervals are what the fit says now)."""
         self.swaps = 0
+        self._conflict = False
         self._samples: deque[tuple[float, float, float, float]] = deque()
         self._next_s = math.nan
         self.wait_s = period_s
@@ -383,12 +468,22 @@ class SurgeAdapter:
         now = score(self.current)
         if not math.isfinite(now):
             return False
-        candidate = fit_surge(record, self.base, self.current, coupling_sd=coupling_sd)
+        fitted = fit_surge(record, self.base, self.current, coupling_sd=coupling_sd)
+        conflict = fitted is not None and coupling_conflict(fitted)
+        if conflict != self._conflict:
+            self._conflict = conflict
+            if conflict and fitted is not None and fitted.fit is not None:
+                self.log(f"surge fits set aside: their coupling scale c = {fitted.fit.coupling_scale:.2f} lies "
+                         f"outside its prior 1 ± {fitted.fit.coupling_prior_sd:.3f} (the horizon's coupling varies "
+                         "by the twin's own sway error, not the boat's; the resistance would take up the rest)")
+            else:
+                self.log("surge fits taken again: their coupling scale is within its prior")
+        candidate = None if conflict else fitted  # a fit of something the boat does not do is no candidate
         if candidate is not None and rejects(candidate, self.current, self.base):
             # only then the richer curve's spread (a second fit): a candidate that does not reject the current
             # model with its sampling covariance alone does not with wider intervals either
             candidate = with_basis_spread(candidate, self.base, self.current)
-        self.candidate = candidate
+        self.candidate = fitted if conflict else candidate
         standing = candidate is None or not rejects(candidate, self.current, self.base)
         self.wait_s = min(2.0 * self.wait_s, MAX_WAIT_PERIODS * self.period_s) if standing else self.period_s
         if self.previous and (candidate is None or not rejects(candidate, self.previous[-1], self.base)):
