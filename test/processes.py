@@ -8,9 +8,11 @@ same pid)."""
 
 from __future__ import annotations
 
+import shutil
 import signal
 import subprocess
 import sys
+from pathlib import Path
 from typing import Any
 
 _WITH_FILE_SIZE_LIMIT = ("import os, resource, sys; n = int(sys.argv[1]); "
@@ -42,3 +44,21 @@ def run_as_from_a_shell(argv: list[str], timeout_s: float, **kwargs: Any) -> sub
 def run_with_file_size_limit(argv: list[str], limit_bytes: int, **kwargs: Any) -> subprocess.CompletedProcess:
     """``subprocess.run(argv)`` under RLIMIT_FSIZE = ``limit_bytes`` (writing past it fails as on a full disk)."""
     return subprocess.run([sys.executable, "-c", _WITH_FILE_SIZE_LIMIT, str(limit_bytes), *argv], **kwargs)
+
+
+BOAT_TWIN = str(Path(sys.executable).parent / "boat-twin") if (Path(sys.executable).parent / "boat-twin").exists() \
+    else (shutil.which("boat-twin") or "boat-twin")
+"""The console script, as a user runs it."""
+
+
+def file_tree(path: Path) -> dict[str, bytes]:
+    """Every file under ``path`` (relative name → bytes): what a run must leave as it was."""
+    return {str(p.relative_to(path)): p.read_bytes() for p in sorted(path.rglob("*")) if p.is_file()}
+
+
+def one_error_line(err: str) -> str:
+    """The one ``error:`` line a refused run printed (no traceback, nothing else said to be an error)."""
+    lines = err.strip().splitlines()
+    assert "Traceback" not in err and lines, err
+    assert sum("error:" in line for line in lines) == 1 and "error:" in lines[-1], err
+    return lines[-1]

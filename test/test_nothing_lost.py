@@ -5,35 +5,19 @@ from __future__ import annotations
 
 import errno
 import os
-import shutil
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
-from processes import popen_as_from_a_shell, run_with_file_size_limit
+from processes import BOAT_TWIN, file_tree, one_error_line, popen_as_from_a_shell, run_with_file_size_limit
 
 from boat_twin.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "bags" / "thrust_steps_sample"
 CABLE_CASE = ROOT / "config" / "cable" / "default.yaml"
-BOAT_TWIN = str(Path(sys.executable).parent / "boat-twin") if (Path(sys.executable).parent / "boat-twin").exists() \
-    else (shutil.which("boat-twin") or "boat-twin")
-"""The console script, as a user runs it."""
-
-
-def _tree(path: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(path)): p.read_bytes() for p in sorted(path.rglob("*")) if p.is_file()}
-
-
-def _one_error_line(err: str) -> str:
-    lines = err.strip().splitlines()
-    assert "Traceback" not in err and lines, err
-    assert sum("error:" in line for line in lines) == 1 and "error:" in lines[-1], err
-    return lines[-1]
 
 
 # --------------------------------------------------------------------------- a directory where a file goes
@@ -55,9 +39,9 @@ def test_force_never_replaces_a_directory_where_a_report_goes(tmp_path, capsys, 
     (rep / mine).mkdir(parents=True)
     (rep / mine / "notes.txt").write_text("the user's own")
     assert main([*argv, "--out", str(rep), "--force"]) == 2
-    line = _one_error_line(capsys.readouterr().err)
+    line = one_error_line(capsys.readouterr().err)
     assert f"{rep / mine}: is a directory" in line and "same kind" in line, line
-    assert _tree(rep) == {f"{mine}/notes.txt": b"the user's own"}
+    assert file_tree(rep) == {f"{mine}/notes.txt": b"the user's own"}
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]  # no scratch, no lock left
 
 
@@ -91,7 +75,7 @@ def test_force_still_replaces_the_verbs_own_report_directory(tmp_path) -> None:
     with ReportSet(rep, ("thrust_steps", "sample_trial.png", "identify"), True, OUTPUT_KINDS) as reports:
         (reports.staging / "sample_trial.png").write_bytes(b"new")
         reports.commit()
-    assert _tree(rep) == {"notes.txt": b"kept", "sample_trial.png": b"new"}
+    assert file_tree(rep) == {"notes.txt": b"kept", "sample_trial.png": b"new"}
 
 
 # --------------------------------------------------------------------------- a long command file
@@ -178,7 +162,7 @@ def _old_outputs(tmp_path: Path) -> dict[str, bytes]:
         (tmp_path / "rep" / name).write_text(f"yesterday's {name}")
     (tmp_path / "plots").mkdir()
     (tmp_path / "plots" / "cable_depth.png").write_bytes(b"yesterday's plot")
-    return _tree(tmp_path)
+    return file_tree(tmp_path)
 
 
 WRITERS = [
@@ -208,9 +192,9 @@ def test_a_full_disk_reported_only_when_the_data_reach_the_disk_is_one_line(tmp_
 
     monkeypatch.setattr(os, "fsync", full)
     assert main([a.replace("{tlog}", str(own_tlog)) for a in argv]) == 2
-    line = _one_error_line(capsys.readouterr().err)
+    line = one_error_line(capsys.readouterr().err)
     assert f"error: {named}" in line and "No space left on device" in line and "partial" not in line, line
-    assert _tree(tmp_path) == old  # no scratch, no lock, nothing replaced
+    assert file_tree(tmp_path) == old  # no scratch, no lock, nothing replaced
 
 
 @pytest.mark.parametrize(("argv", "named", "limit"), [
@@ -229,13 +213,13 @@ def test_a_file_size_limit_names_the_output_and_keeps_the_old_one(tmp_path, argv
     (tmp_path / "rep").mkdir()
     for name in ("identify.json", "diagnosis.json", "follow.json", "fits.png", "notes.txt"):
         (tmp_path / "rep" / name).write_text(f"yesterday's {name}")
-    old = _tree(tmp_path)
+    old = file_tree(tmp_path)
     run = run_with_file_size_limit([BOAT_TWIN, *argv], limit, cwd=tmp_path, capture_output=True, text=True,
                                    timeout=600)
     assert run.returncode == 2, (run.returncode, run.stderr)
-    line = _one_error_line(run.stderr)
+    line = one_error_line(run.stderr)
     assert f"error: {named}" in line and "cannot write it (File too large)" in line and "partial" not in line, line
-    assert _tree(tmp_path) == old
+    assert file_tree(tmp_path) == old
 
 
 def test_a_users_unreadable_file_beside_the_reports_does_not_stop_the_flush(tmp_path, monkeypatch) -> None:
@@ -258,4 +242,4 @@ def test_a_users_unreadable_file_beside_the_reports_does_not_stop_the_flush(tmp_
     with ReportSet(rep, ("identify.json",), False) as reports:
         (reports.staging / "identify.json").write_text("{}")
         reports.commit()
-    assert _tree(rep) == {"identify.json": b"{}", "secret": b"write-only"}
+    assert file_tree(rep) == {"identify.json": b"{}", "secret": b"write-only"}

@@ -6,32 +6,17 @@ from __future__ import annotations
 import shutil
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
-from processes import popen_as_from_a_shell, run_with_file_size_limit
+from processes import BOAT_TWIN, file_tree, one_error_line, popen_as_from_a_shell, run_with_file_size_limit
 
 from boat_twin.cli import main
 from boat_twin.cli.identify import TABLE_OUTPUTS, TRIAL_OUTPUTS
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "bags" / "thrust_steps_sample"
-BOAT_TWIN = str(Path(sys.executable).parent / "boat-twin") if (Path(sys.executable).parent / "boat-twin").exists() \
-    else (shutil.which("boat-twin") or "boat-twin")
-"""The console script, as a user runs it."""
-
-
-def _tree(path: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(path)): p.read_bytes() for p in sorted(path.rglob("*")) if p.is_file()}
-
-
-def _one_error_line(err: str) -> str:
-    lines = err.strip().splitlines()
-    assert "Traceback" not in err and lines, err
-    assert sum("error:" in line for line in lines) == 1 and "error:" in lines[-1], err
-    return lines[-1]
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +45,7 @@ def test_a_signal_while_identify_writes_its_reports_keeps_the_old_set_whole(tmp_
     """Signalled once the new set is being written (its first files exist): the old set stays whole, never a
     mix; after SIGKILL the next run removes the scratch and names it."""
     rep = _copy(old_reports, tmp_path)
-    old = _tree(rep)
+    old = file_tree(rep)
     inodes = {p.name: p.stat().st_ino for p in rep.iterdir()}
     run = popen_as_from_a_shell([BOAT_TWIN, "identify", str(SAMPLE), "--out", str(rep), "--force"],
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
@@ -77,7 +62,7 @@ def test_a_signal_while_identify_writes_its_reports_keeps_the_old_set_whole(tmp_
     status = run.wait(timeout=60)
     err = run.stderr.read() if run.stderr else ""
     assert status == code and "Traceback" not in err, err
-    assert _tree(rep) == old
+    assert file_tree(rep) == old
     if signum == signal.SIGKILL:
         assert main(["identify", "--table", "dyda2021", "--out", str(rep), "--force"]) == 0
         assert f"removed {tmp_path / f'.rep.partial-{run.pid}'}" in capsys.readouterr().err
@@ -89,13 +74,13 @@ def test_a_signal_while_identify_writes_its_reports_keeps_the_old_set_whole(tmp_
 def test_a_report_set_moved_aside_by_a_killed_run_is_restored_whole(tmp_path, old_reports, capsys) -> None:
     """Killed between its two renames: the old set is aside as .rep.old-PID and rep is missing; the next run
     restores it (and refuses to overwrite it without --force)."""
-    old = _tree(old_reports)
+    old = file_tree(old_reports)
     shutil.copytree(old_reports, tmp_path / ".rep.old-999999")
     (tmp_path / ".rep.partial-999999").mkdir()
     assert main(["identify", "--table", "dyda2021", "--out", str(tmp_path / "rep")]) == 2
     err = capsys.readouterr().err
     assert "restored" in err and "removed" in err and "exists; use --force" in err.splitlines()[-1], err
-    assert _tree(tmp_path / "rep") == old
+    assert file_tree(tmp_path / "rep") == old
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
 
 
@@ -141,12 +126,12 @@ def test_an_input_inside_out_is_refused_before_any_work(tmp_path, old_reports, o
     rep = _copy(old_reports, tmp_path)
     shutil.copytree(SAMPLE, rep / "thrust_steps")
     (rep / "trial.mcap").write_bytes(b"")
-    before = _tree(rep)
+    before = file_tree(rep)
     names = {"trial": str(SAMPLE), "rep": str(rep), "tlog": str(own_tlog)}
     assert main([a.format(**names) for a in argv] + ["--out", str(rep), "--force"]) == 2
-    line = _one_error_line(capsys.readouterr().err)
+    line = one_error_line(capsys.readouterr().err)
     assert "is also an input of this command" in line and inside in line, line
-    assert _tree(rep) == before
+    assert file_tree(rep) == before
 
 
 @pytest.mark.parametrize("mine", ["sample_trial.png", "identify/identify.json", "thrust_steps"])
@@ -155,7 +140,7 @@ def test_demo_without_force_never_replaces_a_users_file(tmp_path, capsys, mine) 
     (rep / mine).parent.mkdir(parents=True, exist_ok=True)
     (rep / mine).write_text("the user's own")
     assert main(["demo", "--sample", str(SAMPLE), "--out", str(rep)]) == 2
-    assert "use --force" in _one_error_line(capsys.readouterr().err)
+    assert "use --force" in one_error_line(capsys.readouterr().err)
     assert (rep / mine).read_text() == "the user's own"
 
 
@@ -175,12 +160,12 @@ def test_a_file_size_limit_is_one_line_and_leaves_nothing(tmp_path, old_reports,
     """RLIMIT_FSIZE (as a full disk): exit 2, one line naming what could not be written, the old reports kept,
     no scratch or lock left behind."""
     rep = _copy(old_reports, tmp_path)
-    old = _tree(rep)
+    old = file_tree(rep)
     argv = [a.replace("{tlog}", str(own_tlog)) for a in argv]
     run = run_with_file_size_limit([BOAT_TWIN, *argv], limit, cwd=tmp_path, capture_output=True, text=True,
                                    timeout=120)
     assert run.returncode == 2, (run.returncode, run.stderr)
-    line = _one_error_line(run.stderr)
+    line = one_error_line(run.stderr)
     assert "cannot write" in line and ("File too large" in line or "disk" in line), line
-    assert _tree(rep) == old
-    assert _tree(tmp_path) == {f"rep/{name}": data for name, data in old.items()}  # no scratch, lock or partial
+    assert file_tree(rep) == old
+    assert file_tree(tmp_path) == {f"rep/{name}": data for name, data in old.items()}  # no scratch, lock or partial
