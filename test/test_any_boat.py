@@ -217,6 +217,10 @@ def test_a_boat_file_of_another_size_is_carried_not_copied(tmp_path: Path) -> No
                                                                            "area_m2": 0.1}]}, "must be fixed"),
     ({"thrusters": [{"name": "a b", "x_m": -1}]}, "topic-safe name"),
     ({"thrusters": [{"name": "a", "x_m": -1, "diameter": 0.2}]}, "unknown key 'diameter'"),
+    ({"thrusters": [{"name": "a", "x_m": -1, "command": "propeller",
+                     "propeller": {"diameter_m": 0.2, "kt": [0.0, 0.1, 0.1]}}]}, "k0 > 0"),
+    ({"thrusters": [{"name": "a", "x_m": -1}], "rudders": [{"name": "r", "x_m": -1.2, "area_m2": 0.1,
+                                                          "washed_by": "a"}]}, "has no diameter_m"),
 ])
 def test_a_wrong_propulsion_section_is_refused_in_one_line(change: dict, message: str) -> None:
     with pytest.raises(InputError, match=message) as caught:
@@ -287,3 +291,8 @@ def test_a_boat_files_commands_go_on_its_actuators_topics_and_read_back(tmp_path
     assert trial.metadata.topics["angle_left"] == "/rudders/rudder/angle"
     assert np.all(trial.thrust_right_N == 0.0) and np.nanmax(trial.thrust_left_N) > 5.0  # rev/s, not N
     assert np.nanmax(np.abs(trial.angle_left_rad)) == pytest.approx(math.radians(10.0))
+
+
+def test_a_turning_source_that_does_not_exist_is_refused_in_one_line() -> None:
+    with pytest.raises(InputError, match="'turning' must be one of reference_turn, hull"):
+        params_from_dict({"turning": "clarke"}, "boat.yaml")

@@ -87,3 +87,13 @@ def test_a_csv_anemometer_in_knots_from_a_bearing_is_the_wind_over_ground(tmp_pa
     assert trial.wind_east_mps is not None and trial.wind_north_mps is not None
     assert np.nanmean(trial.wind_east_mps) == pytest.approx(-10 * 0.514444, rel=1e-4)  # from the east: blows west
     assert np.nanmean(trial.wind_north_mps) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_wind_speed_without_its_bearing_is_refused_in_one_line(tmp_path: Path) -> None:
+    from boat_twin.errors import InputError
+    from boat_twin.io.csv_trial import read_csv_trial
+
+    (tmp_path / "log.csv").write_text("t,lat,lon,thr,ws\n0,59.9,10.7,40,10\n0.1,59.9,10.7,40,10\n")
+    (tmp_path / "map.yaml").write_text("columns: {time: t, lat: lat, lon: lon, thrust_left: thr, wind_speed: ws}\n")
+    with pytest.raises(InputError, match="'wind_speed' and 'wind_from' go together"):
+        read_csv_trial(tmp_path / "log.csv", tmp_path / "map.yaml")

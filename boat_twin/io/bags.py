@@ -24,7 +24,7 @@ from boat_twin.errors import InputError
 from boat_twin.files import OutputClaim
 from boat_twin.frames import quaternion_yaw_rad
 from boat_twin.io.mcap_crc import check_chunk_crcs, fill_chunk_crcs
-from boat_twin.io.messages import ACTUATOR_TOPIC, TOPIC_ODOM_TRUTH, TOPICS, TS, topic_type
+from boat_twin.io.messages import ACTUATOR_TOPIC, TOPIC_ODOM_TRUTH, TOPIC_WIND, TOPICS, TS, topic_type
 from boat_twin.io.sources import check_trial_path
 from boat_twin.io.trial import Stream, Trial, build_trial
 
@@ -36,7 +36,7 @@ ROLE_TOPICS = {
     "gnss_fix": "gnss/fix",
     "gnss_vel": "gnss/vel",
     "imu": "imu/data",
-    "wind": "wind",
+    "wind": TOPIC_WIND,
 }
 """Trial role → the package's relative topic name (its type is in :data:`boat_twin.io.messages.TOPICS`)."""
 
@@ -275,7 +275,7 @@ def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: 
 
 def _actuator_topics(available: dict[str, str], chosen: dict[str, str], namespace: str) -> list[str]:
     """Command roles taken from a boat file's per-actuator topics (``thrusters/<name>/thrust|cmd|pos``,
-    ``rudders/<name>/angle``; :func:`~boat_twin.vessel.actuators.role_topics`) where the slot topics are absent:
+    ``rudders/<name>/angle``; :func:`~boat_twin.io.messages.command_topics`) where the slot topics are absent:
     thrusters in the order of their names (the boat file's slots: list them alphabetically, or remap), rudders
     before steered thrusters. Adds them to ``chosen``; returns a note per role so read."""
     if any(role in chosen for role in ("thrust_left", "thrust_right", "angle_left", "angle_right")):

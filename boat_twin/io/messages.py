@@ -23,8 +23,10 @@ import numpy as np
 from rosbags.typesys import Stores, get_typestore
 
 from boat_twin.frames import quaternion_xyzw
+from boat_twin.io.roles import COMMAND_ROLES
 from boat_twin.sensors.gnss import GnssMeasurements
 from boat_twin.sensors.um7 import ImuMeasurements
+from boat_twin.vessel.actuators import Propulsion
 from boat_twin.vessel.truth import TruthSeries
 
 TOPIC_THRUST_LEFT = "thrusters/left/thrust"
@@ -65,10 +67,27 @@ LIVE_TOPICS: dict[str, str] = {
 """Topics only the simulator node publishes (never in a bag the twin writes)."""
 
 COMMAND_TOPICS = (TOPIC_THRUST_LEFT, TOPIC_THRUST_RIGHT, TOPIC_ANGLE_LEFT, TOPIC_ANGLE_RIGHT)
-COMMAND_ROLE_ORDER = ("thrust_left", "thrust_right", "angle_left", "angle_right")
-"""The command roles in the order of :data:`COMMAND_TOPICS` and of a command row."""
 ACTUATOR_TOPIC = re.compile(r"^(thrusters/\w+/(thrust|cmd|pos)|rudders/\w+/angle)$")
-"""A boat file's per-actuator command topics (:func:`~boat_twin.vessel.actuators.role_topics`): std_msgs/Float64."""
+"""A boat file's per-actuator command topics (:func:`command_topics`): std_msgs/Float64."""
+
+
+def command_topics(propulsion: Propulsion | None) -> dict[str, str]:
+    """Command role → its topic, for the roles the boat has: the package's :data:`COMMAND_TOPICS` for the default
+    layout (None); for a boat file's propulsion section its actuators' own (the VRX convention), a thruster's
+    ``thrusters/<name>/thrust`` (N) or ``.../cmd`` (its table's unit, rev/s), a steering input's
+    ``rudders/<name>/angle`` or, for a steered thruster, ``thrusters/<name>/pos`` (rad)."""
+    if propulsion is None:
+        return dict(zip(COMMAND_ROLES, COMMAND_TOPICS, strict=True))
+    topics = {}
+    for j, (thrust_role, angle_role) in enumerate((COMMAND_ROLES[0::2], COMMAND_ROLES[1::2])):
+        if j < len(propulsion.thrusters):
+            topics[thrust_role] = propulsion.thrusters[j].command_topic
+        steering = propulsion.steering_input(j)
+        if steering == "rudder":
+            topics[angle_role] = f"rudders/{propulsion.rudders[j].name}/angle"
+        elif steering == "thruster":
+            topics[angle_role] = f"thrusters/{propulsion.thrusters[j].name}/pos"
+    return topics
 
 
 TOPIC_WIND = "wind"
@@ -406,9 +425,9 @@ def command_messages(t_s: np.ndarray, commands: np.ndarray, topics: Mapping[str,
                      ) -> Iterator[tuple[str, int, Message]]:
     """The thruster topics per command sample; ``commands`` (n, 4) columns: thrust left/right (N, or the
     thruster's own unit), steering angle left/right (rad), in the order of :data:`COMMAND_TOPICS`. ``topics``:
-    command role → topic of the roles a boat has (:func:`~boat_twin.vessel.actuators.role_topics`; a role it
+    command role → topic of the roles a boat has (:func:`command_topics`; a role it
     lacks is not written); None: the four :data:`COMMAND_TOPICS`."""
-    names = COMMAND_TOPICS if topics is None else tuple(topics.get(role, "") for role in COMMAND_ROLE_ORDER)
+    names = COMMAND_TOPICS if topics is None else tuple(topics.get(role, "") for role in COMMAND_ROLES)
     values = np.asarray(commands, dtype=float)
     if values.ndim != 2 or values.shape[1] != 4 or values.shape[0] != np.size(t_s):
         raise ValueError(f"commands must have shape ({np.size(t_s)}, 4), got {values.shape}")

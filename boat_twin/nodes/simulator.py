@@ -52,12 +52,12 @@ from std_srvs.srv import SetBool, Trigger
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.errors import InputError
 from boat_twin.io import messages
+from boat_twin.io.roles import COMMAND_ROLES
 from boat_twin.nodes import conventions, parameters
 from boat_twin.nodes.diagnostics import OK, WARN, Diagnostics, Status
 from boat_twin.nodes.spin import run_node
 from boat_twin.twin.live import LiveTwin
 from boat_twin.twin.pacing import DEFAULT_COMMAND_TIMEOUT_S, CommandWatchdog, RateMeter, TickSchedule
-from boat_twin.vessel.actuators import role_topics
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 from boat_twin.view.simulation import SimulationView
 
@@ -117,8 +117,8 @@ class SimulatorNode(Node):
         self.watchdog = CommandWatchdog(timeout_s)
         self.publishers_by_topic = self._sensor_publishers(truth_tf)
         self.velocity_variances = [config.gnss.velocity_stdev_mps ** 2] * 3
-        command_topics = role_topics(config.vessel.propulsion)  # a boat file's own actuators' topics
-        for index, role in enumerate(messages.COMMAND_ROLE_ORDER):
+        command_topics = messages.command_topics(config.vessel.propulsion)  # a boat file's own actuators' topics
+        for index, role in enumerate(COMMAND_ROLES):
             if role in command_topics:
                 self.create_subscription(Float64, command_topics[role], partial(self.on_command, index),
                                          conventions.COMMAND_QOS)

@@ -23,7 +23,6 @@ from boat_twin.io import messages
 from boat_twin.sensors import decimation_step
 from boat_twin.sensors.gnss import GnssMeasurements, GnssNoise, expected_fix, fixes
 from boat_twin.sensors.um7 import ImuMeasurements, Um7Noise, expected_imu, imu_samples
-from boat_twin.vessel.actuators import role_topics
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.simulate import INTEGRATION_RATE_HZ, OUTPUT_RATE_HZ, SimulationRecord
 from boat_twin.vessel.tow import tow_drag_table
@@ -40,7 +39,7 @@ class LiveTwin:
     def __init__(self, config: TwinConfig, seed: int = 0, noise: bool = True, epoch_s: float = 0.0) -> None:
         self.config = config
         self.dynamics = Dynamics(config.vessel, tow_drag_table(config.tow, config.vessel))
-        self._command_topics = role_topics(config.vessel.propulsion)
+        self._command_topics = messages.command_topics(config.vessel.propulsion)
         self.state = np.zeros((1, 6))
         self.steering_rad: np.ndarray | None = None
         """(1, 2) the outboards' real angles; None until the first tick starts them where it drives them."""

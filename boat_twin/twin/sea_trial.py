@@ -21,7 +21,6 @@ from boat_twin.io import messages
 from boat_twin.io.trial import Stream, Trial, build_trial
 from boat_twin.sensors.gnss import GnssMeasurements, GnssModel
 from boat_twin.sensors.um7 import ImuMeasurements, Um7Model
-from boat_twin.vessel.actuators import role_topics
 from boat_twin.vessel.scenarios import Scenario
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ, SimulationRecord, output_ticks, simulate, simulate_chunks
 from boat_twin.vessel.tow import tow_drag_table
@@ -210,5 +209,5 @@ def compact_trial_messages(trial: CompactTrial, truth: bool = True,
         rows = slice(*np.searchsorted(trial.command_t_s, (lo, hi)))  # the times increase: no scan of all rows
         piece = TruthSeries(**{f.name: getattr(trial.truth, f.name)[start:stop] for f in fields(TruthSeries)})
         yield from _merged(trial.command_t_s[rows], trial.commands[rows], gnss_block, imu_block,
-                           piece if truth else None, role_topics(trial.config.vessel.propulsion),
+                           piece if truth else None, messages.command_topics(trial.config.vessel.propulsion),
                            _anemometer(trial.config, t_s[start:stop]))

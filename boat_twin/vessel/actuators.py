@@ -41,7 +41,7 @@ from boat_twin.validation import THRUST_LIMIT_N, number, number_list
 
 __all__ = ["COMMAND_MAPS", "MAX_RUDDERS", "MAX_THRUSTERS", "TABLE_MAX_POINTS", "PropellerMap", "Propulsion",
            "Rudder", "ThrustTable", "Thruster", "fujii_lift_slope_per_rad", "propulsion_from_dict",
-           "propulsion_to_dict", "role_topics"]
+           "propulsion_to_dict"]
 
 COMMAND_MAPS = ("newtons", "table", "propeller")
 """How a thruster's command becomes thrust (module docstring)."""
@@ -66,11 +66,6 @@ class ThrustTable:
     def thrust(self, command: np.ndarray | float) -> np.ndarray:
         """Thrust at ``command``, N: linear between the points, held at the ends; NaN stays NaN."""
         return np.asarray(np.interp(command, self.command, self.thrust_N))
-
-    def command_for(self, thrust_N: np.ndarray | float) -> np.ndarray:
-        """The command that asks for ``thrust_N`` (the table read backwards, on its monotone stretch), clipped to
-        the table's range."""
-        return np.asarray(np.interp(thrust_N, self.thrust_N, self.command))
 
 
 @dataclass(frozen=True)
@@ -124,13 +119,6 @@ class Thruster:
     """The slipstream's diameter, m (a propeller's own; for another thruster only if a rudder sits in its wash)."""
 
     @property
-    def command_unit(self) -> str:
-        """The unit of its command: N, rev/s or the table's."""
-        if self.command == "table" and self.table is not None:
-            return self.table.unit
-        return "rev/s" if self.command == "propeller" else "N"
-
-    @property
     def command_topic(self) -> str:
         """Its command topic (the VRX convention): ``thrusters/<name>/thrust`` in N, else ``.../cmd``."""
         return f"thrusters/{self.name}/{'thrust' if self.command == 'newtons' else 'cmd'}"
@@ -174,11 +162,6 @@ class Propulsion:
         if j < len(self.thrusters) and self.thrusters[j].steered:
             return "thruster"
         return "none"
-
-    @property
-    def steers(self) -> bool:
-        """Whether the boat has any steering input (else it turns by differential thrust alone)."""
-        return any(self.steering_input(j) != "none" for j in range(MAX_THRUSTERS))
 
     def thruster_index(self, name: str) -> int:
         """The slot of the thruster named ``name``."""
@@ -328,26 +311,3 @@ def propulsion_to_dict(propulsion: Propulsion) -> dict[str, Any]:
                 **({"washed_by": r.washed_by} if r.washed_by else {})} for r in propulsion.rudders]
     return {"thrusters": thrusters, **({"rudders": rudders} if rudders else {})}
 
-
-SLOT_ROLES = (("thrust_left", "angle_left"), ("thrust_right", "angle_right"))
-"""The command roles of the kernel's two slots: (thrust, steering input)."""
-
-
-def role_topics(propulsion: Propulsion | None) -> dict[str, str]:
-    """Command role → its topic for the roles the boat has (the VRX convention): a thruster's
-    ``thrusters/<name>/thrust`` (N) or ``.../cmd`` (its table's unit, rev/s); a steering input's
-    ``rudders/<name>/angle`` or, for a steered thruster, ``thrusters/<name>/pos`` (rad). None (the default layout):
-    the package's own ``thrusters/{left,right}/thrust|pos``."""
-    if propulsion is None:
-        return {"thrust_left": "thrusters/left/thrust", "thrust_right": "thrusters/right/thrust",
-                "angle_left": "thrusters/left/pos", "angle_right": "thrusters/right/pos"}
-    topics = {}
-    for j, (thrust_role, angle_role) in enumerate(SLOT_ROLES):
-        if j < len(propulsion.thrusters):
-            topics[thrust_role] = propulsion.thrusters[j].command_topic
-        steering = propulsion.steering_input(j)
-        if steering == "rudder":
-            topics[angle_role] = f"rudders/{propulsion.rudders[j].name}/angle"
-        elif steering == "thruster":
-            topics[angle_role] = f"thrusters/{propulsion.thrusters[j].name}/pos"
-    return topics

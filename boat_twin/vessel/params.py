@@ -310,10 +310,10 @@ def hull_coefficients(params: VesselParams) -> ModelCoefficients:
     munk = inertia["m22"] - inertia["m11"]
     x_c = min((-n_v * half_rho * length**3 - munk) / a_v,
               (HULL_STABILITY_SHARE * a_v * a_r / inertia["m11"] - munk) / a_v)
+    y_vv, n_rr = _crossflow(params)
     return ModelCoefficients(
         m11_kg=inertia["m11"], m22_kg=inertia["m22"], m33_kgm2=inertia["m33"], sway_damping_Nspm2=a_v,
-        lateral_centre_x_m=x_c, yaw_damping_Nms=a_r, sway_quadratic_Ns2pm2=_crossflow(params)[0],
-        yaw_quadratic_Nms2=_crossflow(params)[1])
+        lateral_centre_x_m=x_c, yaw_damping_Nms=a_r, sway_quadratic_Ns2pm2=y_vv, yaw_quadratic_Nms2=n_rr)
 
 
 def _crossflow(params: VesselParams) -> tuple[float, float]:
@@ -327,10 +327,7 @@ def _crossflow(params: VesselParams) -> tuple[float, float]:
 def _derived_coefficients(params: VesselParams) -> ModelCoefficients:
     """The coefficients from the physical facts and the reference turn alone (see :func:`derive_coefficients`)."""
     inertia = _inertia(params)
-    rho = SEAWATER_DENSITY_KGPM3
-    area = 2.0 * params.draft_m * params.length_m
-    y_vv = 0.5 * rho * params.crossflow_drag_coefficient * area
-    n_rr = 0.5 * rho * params.crossflow_drag_coefficient * 2.0 * params.draft_m * params.length_m**4 / 32.0
+    y_vv, n_rr = _crossflow(params)
     u, v, r = _reference_turn_velocities(params)
     thrust = reference_turn_thrust_N(params)
     delta = -params.turn_steering_rad
@@ -492,9 +489,7 @@ def params_from_dict(data: Any, where: str, base: VesselParams | None = None) ->
         elif key == "propulsion":
             changes[key] = propulsion_from_dict(value, f"{where}: propulsion")
         elif key == "turning":
-            if value not in TURNING_SOURCES:
-                raise InputError(f"{where}: 'turning' must be one of {', '.join(TURNING_SOURCES)}, got {value!r}")
-            changes[key] = value
+            changes[key] = value  # checked by the vessel (one of TURNING_SOURCES)
         elif key == "effective_mass_kg":
             changes["mass_kg"] = _number(value, where, key) / (1.0 + base.surge_added_mass_ratio)
         else:
@@ -523,11 +518,8 @@ def vessel_with_facts(base: VesselParams, facts: dict[str, Any], where: str = "b
     if not (base == VesselParams() and _states_another_size(facts)):
         return _replaced(base, facts, where)
     default = VesselParams()
-    mass = _number(facts.get("mass_kg", default.mass_kg), where, "mass_kg")
-    length = _number(facts.get("length_m", default.length_m * (abs(mass) / default.mass_kg) ** (1.0 / 3.0)),
-                     where, "length_m")
-    if mass <= 0.0 or length <= 0.0:
-        raise InputError(f"{where}: 'mass_kg' and 'length_m' must be positive, got {mass!r} and {length!r}")
+    mass = float(facts.get("mass_kg", default.mass_kg))  # positive and bounded: _states_another_size
+    length = float(facts.get("length_m", default.length_m * (mass / default.mass_kg) ** (1.0 / 3.0)))
     resistance = facts.get("resistance") or froude_scaled_resistance(default, mass, length)
     try:
         params = similar_boat(resistance, mass, facts)
