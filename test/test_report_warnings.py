@@ -167,3 +167,20 @@ def test_the_follow_summary_page_shows_track_ratios_model_and_warnings(followed:
     assert final_model_text(done.final)[:40] in page
     assert f"{len(done.timeline)} entries" in page
     assert done.warnings and all(w[:60] in page for w in done.warnings[:6]), page
+
+
+def test_a_mass_held_at_the_end_of_a_follow_is_a_warning(followed: tuple[Trial, FollowResult]) -> None:
+    """A live fit that could not fix the mass (one speed in the horizon) holds it: the report says so."""
+    from dataclasses import replace
+
+    from boat_twin.shadow.follow import follow_warnings
+    from boat_twin.shadow.session import Shadow
+
+    trial, _ = followed
+    config = TwinConfig()
+    shadow = Shadow(config)
+    assert not any("the mass was held" in w for w in follow_warnings(trial, config, shadow))
+    shadow.adapter.current = replace(shadow.adapter.current, mass_held=True)
+    held = [w for w in follow_warnings(trial, config, shadow) if "the mass was held" in w]
+    assert held == [f"the mass was held at {config.vessel.mass_kg:.0f} kg at the end: the data since the last "
+                    "adopted fit did not fix it (the resistance was fitted with it held; no interval on the mass)"]

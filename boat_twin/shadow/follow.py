@@ -157,6 +157,10 @@ def follow_warnings(trial: Trial, config: TwinConfig, shadow: Shadow) -> list[st
     if shadow.model_held():
         found.append("the model was held at the end: the live diagnosis held `unexplained` or left structure "
                      "while the twin misfit, so no fit was adopted then (a cause the model lacks)")
+    surge = shadow.adapter.current
+    if surge.mass_held:
+        found.append(f"the mass was held at {surge.mass_kg:.0f} kg at the end: the data since the last adopted fit "
+                     "did not fix it (the resistance was fitted with it held; no interval on the mass)")
     if not shadow.twin.synchronised:
         found.append("the twin was not synchronised at the end: no fix, velocity and IMU heading together")
     return found
