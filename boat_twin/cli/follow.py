@@ -31,7 +31,6 @@ from boat_twin.cli.options import (
 from boat_twin.errors import InputError
 from boat_twin.files import to_json
 from boat_twin.fleet.outputs import FOLLOW_OUTPUTS
-from boat_twin.shadow.follow import final_model_text
 from boat_twin.view.address import VIEW_MCAP
 
 OUTPUTS = FOLLOW_OUTPUTS
@@ -61,6 +60,8 @@ def _ratios(result: dict[str, Any]) -> list[str]:
 
 
 def _text(result: dict[str, Any]) -> str:
+    from boat_twin.shadow.follow import final_model_text
+
     ratios = _ratios(result)
     names = [k[: -len(RATIO_SUFFIX)].replace("_", " ") + " innov./noise" for k in ratios]
     lines = ["t_s    " + "".join(f"{n:>22s}" for n in names) + "   mass_kg   resistance ×   causes"]
