@@ -10,7 +10,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import to_rgba
 
-from boat_twin.diagnose.report import SIGNALS, _concatenated, residual_figure, signal_figure
+from boat_twin.diagnose.report import SIGNALS, residual_figure, signal_figure, window_series
 from boat_twin.ident.report import trial_figure
 
 
@@ -26,11 +26,11 @@ def _windows(k: int = 3, n: int = 50) -> tuple[SimpleNamespace, SimpleNamespace]
 def test_a_heading_is_broken_where_it_wraps_not_drawn_across() -> None:
     windows, prediction = _windows()
     residual = np.angle(np.exp(1j * windows.measured["heading_rad"]))  # wrapped as the residual is
-    t, v = _concatenated(windows, residual, angle=True)
+    t, v = window_series(windows, residual, angle=True)
     steps = np.abs(np.diff(v))
     assert np.nanmax(steps) < 0.1  # no segment spans the wrap
     assert np.count_nonzero(np.isnan(v)) == 3 + 1  # a break after each window, and one at the wrap
-    _, plain = _concatenated(windows, residual)
+    _, plain = window_series(windows, residual)
     assert np.nanmax(np.abs(np.diff(plain))) > 6.0  # without the break: a line across ±π
     figure = residual_figure(windows, prediction, prediction)
     heading = figure.axes[SIGNALS.index("heading_rad")]

@@ -5,10 +5,12 @@ what it assumed; the track map draws the measured fixes against the twin's predi
 
 from __future__ import annotations
 
+import argparse
 import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
@@ -18,6 +20,12 @@ from boat_twin.diagnose.hidden import scenario
 from boat_twin.io import messages
 from boat_twin.io.bags import read_trial, write_bag
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from boat_twin.io.trial import Trial
+    from boat_twin.shadow.follow import FollowResult
 
 LOST_S = (100.0, 133.0)
 """The span every topic loses, s of trial time."""
@@ -59,10 +67,13 @@ def test_follow_and_its_each_row_report_the_loss_and_the_assumed_boat(damaged: P
     assert any("imu: not in the trial" in w for w in warnings), warnings
     assert any("gnss_fix: 1 span(s) without samples" in w for w in warnings), warnings
     assert any(w.startswith("no --config or --model: the built-in boat") for w in warnings), warnings
+    from boat_twin.cli.options import assumed_config
     from boat_twin.fleet.jobs import FollowJob
 
-    row = FollowJob()(damaged, tmp_path / "each")
-    assert row["warnings"] == len(json.loads((tmp_path / "each" / "follow.json").read_text())["warnings"]) >= 4
+    assumed = tuple(assumed_config(argparse.Namespace(config=None, model=None)))
+    row = FollowJob(assumed=assumed)(damaged, tmp_path / "each")  # as follow --each without --config runs it
+    written = json.loads((tmp_path / "each" / "follow.json").read_text())["warnings"]
+    assert row["warnings"] == len(written) >= 4 and written == warnings  # the row as the single run
     assert (tmp_path / "each" / "follow_track.png").stat().st_size > 10_000
 
 
@@ -81,20 +92,51 @@ def test_diagnose_and_its_each_row_report_the_loss(tmp_path: Path) -> None:
     from boat_twin.fleet.jobs import DiagnoseJob
 
     gapped = _recording(tmp_path / "gapped.mcap", imu=True)  # the diagnosis needs the IMU
-    warnings = diagnose_trial(read_trial(gapped), TwinConfig()).result["warnings"]
+    done = diagnose_trial(read_trial(gapped), TwinConfig())
+    warnings = done.result["warnings"]
     assert any("gnss_fix: 1 span(s) without samples" in w for w in warnings), warnings
     assert any("imu: 1 span(s) without samples" in w for w in warnings), warnings
-    row = DiagnoseJob()(gapped, tmp_path / "each")
-    assert row["warnings"] == len(warnings) >= 3
+    row = DiagnoseJob(assumed=("assumed: the test's boat",))(gapped, tmp_path / "each")
+    assert row["warnings"] == len(warnings) + 1 >= 4
+    assert json.loads((tmp_path / "each" / "diagnosis.json").read_text())["warnings"][-1] == "assumed: the test's boat"
     assert (tmp_path / "each" / "diagnosis_track.png").stat().st_size > 10_000
+    assert (tmp_path / "each" / "diagnosis_summary.png").stat().st_size > 10_000
+    from boat_twin.diagnose.report import text_report
+    from boat_twin.view.summary import diagnosis_summary_figure
+
+    fig = diagnosis_summary_figure(done, "summary")
+    track_ax, speed_ax = fig.axes[0], fig.axes[1]
+    assert track_ax.get_aspect() == 1.0
+    measured = {line.get_label(): line for line in speed_ax.get_lines()}["measured"].get_xydata()
+    shown = measured[np.isfinite(measured[:, 1])]
+    windows = done.windows
+    speed = np.hypot(windows.measured["vel_east_mps"], windows.measured["vel_north_mps"])
+    np.testing.assert_allclose(np.sort(shown[:, 1]), np.sort(speed[np.isfinite(speed)]))
+    page = _page_text(fig)
+    verdicts = [line for line in text_report(done.result).splitlines() if line.startswith("verdict")]
+    assert all(line in page for line in verdicts) and verdicts
+    assert all(w[:60] in page.replace("\n", " ") for w in warnings[:6]), page
 
 
-def test_the_track_map_is_measured_against_predicted_on_equal_axes_with_start_and_end(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def followed(tmp_path_factory: pytest.TempPathFactory) -> tuple[Trial, FollowResult]:
+    """The gapped recording with its IMU (the twin needs the IMU to start), followed."""
     from boat_twin.shadow.follow import follow_trial
+
+    trial = read_trial(_recording(tmp_path_factory.mktemp("gapped") / "gapped.mcap", imu=True))
+    return trial, follow_trial(trial, TwinConfig())
+
+
+def _page_text(fig: Figure) -> str:
+    """Every text a figure's axes hold."""
+    return "\n".join(t.get_text() for ax in fig.axes for t in ax.texts)
+
+
+def test_the_track_map_is_measured_against_predicted_on_equal_axes_with_start_and_end(
+        followed: tuple[Trial, FollowResult]) -> None:
     from boat_twin.view.track_map import follow_track_figure
 
-    trial = read_trial(_recording(tmp_path / "gapped.mcap", imu=True))  # the twin needs the IMU to start
-    done = follow_trial(trial, TwinConfig())
+    trial, done = followed
     t, measured, predicted = done.track[:, 0], done.track[:, 1:3], done.track[:, 3:5]
     fixes = np.isfinite(trial.east_m)
     assert t.size > 0.8 * np.count_nonzero(fixes)  # one row per fix once synchronised
@@ -107,3 +149,38 @@ def test_the_track_map_is_measured_against_predicted_on_equal_axes_with_start_an
     np.testing.assert_allclose(lines["start"].get_xydata()[0], measured[0])
     np.testing.assert_allclose(lines["end"].get_xydata()[0], measured[-1])
     np.testing.assert_allclose(lines["measured (GNSS)"].get_xydata(), measured)
+
+
+def test_the_follow_summary_page_shows_track_ratios_model_and_warnings(followed: tuple[Trial, FollowResult]) -> None:
+    from boat_twin.shadow.follow import final_model_text
+    from boat_twin.view.summary import follow_summary_figure
+
+    _, done = followed
+    fig = follow_summary_figure(done, "summary")
+    track_ax, _, ratio_ax = fig.axes[:3]
+    assert track_ax.get_aspect() == 1.0
+    speed = {line.get_label(): line for line in ratio_ax.get_lines()}["speed"].get_xydata()
+    np.testing.assert_allclose(speed[:, 0], [e["t_s"] for e in done.timeline])
+    np.testing.assert_allclose(speed[:, 1], [np.nan if e["speed_innovation_ratio"] is None
+                                             else e["speed_innovation_ratio"] for e in done.timeline])
+    page = _page_text(fig).replace("\n", " ")
+    assert final_model_text(done.final)[:40] in page
+    assert f"{len(done.timeline)} entries" in page
+    assert done.warnings and all(w[:60] in page for w in done.warnings[:6]), page
+
+
+def test_a_mass_held_at_the_end_of_a_follow_is_a_warning(followed: tuple[Trial, FollowResult]) -> None:
+    """A live fit that could not fix the mass (one speed in the horizon) holds it: the report says so."""
+    from dataclasses import replace
+
+    from boat_twin.shadow.follow import follow_warnings
+    from boat_twin.shadow.session import Shadow
+
+    trial, _ = followed
+    config = TwinConfig()
+    shadow = Shadow(config)
+    assert not any("the mass was held" in w for w in follow_warnings(trial, config, shadow))
+    shadow.adapter.current = replace(shadow.adapter.current, mass_held=True)
+    held = [w for w in follow_warnings(trial, config, shadow) if "the mass was held" in w]
+    assert held == [f"the mass was held at {config.vessel.mass_kg:.0f} kg at the end: the data since the last "
+                    "adopted fit did not fix it (the resistance was fitted with it held; no interval on the mass)"]

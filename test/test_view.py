@@ -165,3 +165,27 @@ def test_simulate_records_its_view_beside_the_bag_and_keeps_it_without_force(tmp
     refused = subprocess.run(argv, capture_output=True, text=True, timeout=300)
     assert refused.returncode == 2 and "run.view.mcap" in refused.stderr and view.read_bytes() == before
     assert not bag.exists(), "the simulation was run though its view could not be written"
+
+
+def test_a_mavlink_run_shows_the_live_boat_and_records_its_view(tmp_path: Path) -> None:
+    """``simulate --tlog --foxglove``: the MAVLink boat's ticks go to the view as they run (the simulator node's
+    per-tick path, :meth:`~boat_twin.view.simulation.SimulationView.tick`)."""
+    bag, tlog = tmp_path / "live.mcap", tmp_path / "live.tlog"
+    argv = [str(BOAT_TWIN), "simulate", "zigzag-20-20", "--duration", "20", "--tlog", str(tlog), "--out", str(bag),
+            "--foxglove", "127.0.0.1:0", "--json"]
+    done = subprocess.run(argv, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    view = tmp_path / "live.view.mcap"
+    assert json.loads(done.stdout)["view"] == str(view) and tlog.stat().st_size > 0
+    from mcap.reader import make_reader
+
+    with view.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    counts = {summary.channels[i].topic: n for i, n in summary.statistics.channel_message_counts.items()}
+    assert counts["/twin/fix"] == 201 and counts["/boat/fix"] >= 150  # one truth a tick; the fixes less dropouts
+    with bag.open("rb") as f:
+        recorded = make_reader(f).get_summary()
+    assert recorded is not None
+    bag_counts = {recorded.channels[i].topic: n for i, n in recorded.statistics.channel_message_counts.items()}
+    assert counts["/boat/fix"] <= bag_counts["/gnss/fix"] <= 201  # every fix the view shows is one the bag holds

@@ -97,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
         read = ReadOptions(parse_remap(args.topic), args.namespace or "",
                            str(args.calibration) if args.calibration is not None else None, args.columns,
                            start_s=args.start, end_s=args.end)
-        return run_each(args, DiagnoseJob(twin_config_from_args(args), read, args.window))
+        return run_each(args, DiagnoseJob(twin_config_from_args(args), read, args.window,
+                                           tuple(assumed_config(args))))
     if len(args.trial) > 1:
         raise InputError(f"{len(args.trial)} trials given: diagnose reads one trial, or each of several with "
                          "--each --out DIR")

@@ -59,15 +59,9 @@ def _ratios(result: dict[str, Any]) -> list[str]:
     return sorted(keys, key=lambda k: (k != "speed" + RATIO_SUFFIX, k))
 
 
-def _interval(value: float, ci: list[float], held: bool, digits: int, unit: str = "") -> str:
-    """``value unit [low, high]``; in words where the interval is NaN (a value not fitted, or held)."""
-    if all(x is not None and math.isfinite(x) for x in ci):
-        return f"{value:.{digits}f}{unit} [{ci[0]:.{digits}f}, {ci[1]:.{digits}f}]"
-    why = "held: the data did not fix it, the value before is kept" if held else "configured, not fitted yet"
-    return f"{value:.{digits}f}{unit} ({why}; no interval)"
-
-
 def _text(result: dict[str, Any]) -> str:
+    from boat_twin.shadow.follow import final_model_text
+
     ratios = _ratios(result)
     names = [k[: -len(RATIO_SUFFIX)].replace("_", " ") + " innov./noise" for k in ratios]
     lines = ["t_s    " + "".join(f"{n:>22s}" for n in names) + "   mass_kg   resistance ×   causes"]
@@ -79,10 +73,7 @@ def _text(result: dict[str, Any]) -> str:
         unexplained |= bool(e["unexplained"])
         lines.append(f"{e['t_s']:7.0f}{cells}  {e['mass_kg']:8.0f}  {e['resistance_factor']:12.3f}   "
                      f"{', '.join(e['causes']) or '-'}{' (unexplained)' if e['unexplained'] else ''}")
-    surge = result["final"]["model"]["surge"]
-    held = bool(surge.get("mass_held"))
-    lines.append(f"final model: mass {_interval(surge['mass_kg'], surge['mass_ci95_kg'], held, 0, ' kg')}, "
-                 f"resistance ×{_interval(surge['resistance_factor'], surge['resistance_factor_ci95'], False, 3)}")
+    lines.append(final_model_text(result["final"]))
     lines.append(EXPLAINED)
     if unexplained or result["final"].get("unexplained"):
         lines.append(UNEXPLAINED)
@@ -102,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
         read = ReadOptions(parse_remap(args.topic), args.namespace or "",
                            str(args.calibration) if args.calibration is not None else None, args.columns,
                            start_s=args.start, end_s=args.end)
-        return run_each(args, FollowJob(twin_config_from_args(args), read))
+        return run_each(args, FollowJob(twin_config_from_args(args), read, tuple(assumed_config(args))))
     if len(args.trial) > 1:
         raise InputError(f"{len(args.trial)} trials given: follow reads one trial, or each of several with "
                          "--each --out DIR")

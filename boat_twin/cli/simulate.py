@@ -9,6 +9,7 @@ import math
 import sys
 import time
 from collections.abc import Iterable, Iterator
+from contextlib import ExitStack, contextmanager, nullcontext
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -21,9 +22,13 @@ from boat_twin.vessel.scenario_names import SCENARIO_NAMES
 
 if TYPE_CHECKING:
     from boat_twin.config import TwinConfig
+    from boat_twin.io.messages import Message
+    from boat_twin.twin.live import LiveTwin
     from boat_twin.twin.sea_trial import CompactTrial
     from boat_twin.vessel.scenarios import CommandProfile, Scenario
     from boat_twin.vessel.truth import TruthSeries
+    from boat_twin.view.simulation import SimulationView
+    from boat_twin.view.stream import TwinView
 
 SEED_MAX = 2**63 - 1
 """Largest --seed: the int64 range of a ROS 2 integer parameter (the simulator node's ``seed``)."""
@@ -213,9 +218,6 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None and (args.mavlink is not None or args.tlog is not None):
         raise InputError("--plot applies to a batch simulation, not to --mavlink / --tlog")
     address = foxglove_address(args)
-    if address is not None and (args.mavlink is not None or args.tlog is not None):
-        raise InputError("--foxglove shows a batch simulation: not with --mavlink / --tlog (the simulator node's "
-                         "foxglove parameter shows a live one)")
     view_mcap = view_mcap_path(args.out) if address is not None and args.out is not None else None
     refuse_input_as_output(view_mcap, args.commands, args.config, args.model)
     for output, kind in ((args.out, "bag"), (args.tlog, "tlog"), (args.plot, "file"), (view_mcap, "file")):
@@ -223,7 +225,7 @@ def run(args: argparse.Namespace) -> int:
             prepare_output(output, args.force, kind)  # refused before the simulation, checked again when written
     config = twin_config_from_args(args)
     if args.mavlink is not None or args.tlog is not None:
-        return _run_mavlink(args, config)
+        return _run_mavlink(args, config, address, view_mcap)
     progress = Progress()
     scenario = _scenario(args, config, progress)
     if args.out is None and args.plot is None and not args.json and address is None:
@@ -279,31 +281,37 @@ def view_mcap_path(out: Path) -> Path:
     return out.with_name(f"{stem}.view.mcap")
 
 
-def _show(args: argparse.Namespace, address: tuple[str, int], view_mcap: Path | None, trial: CompactTrial) -> None:
-    """--foxglove: the run replayed into the live view at --foxglove-speed (recorded to ``view_mcap``)."""
+@contextmanager
+def _view(args: argparse.Namespace, address: tuple[str, int], view_mcap: Path | None, config: TwinConfig
+          ) -> Iterator[TwinView]:
+    """--foxglove's server on ``address`` for the boat of ``config``, recording to ``view_mcap`` (None: not
+    recorded; the file swapped in whole when the run ends)."""
     from boat_twin.files import OutputClaim
-    from boat_twin.view.observer import Pacer
-    from boat_twin.view.simulation import show_trial
     from boat_twin.view.stream import TwinView
 
-    config = trial.config
     hull = (config.vessel.length_m, config.vessel.beam_m)
-    if view_mcap is None:
-        view = TwinView(address, None, hull_m=hull)
+    with ExitStack() as stack:
+        recorded = None
+        if view_mcap is not None:
+            claim = stack.enter_context(OutputClaim(view_mcap, force=args.force, kind="file"))
+            recorded = claim.scratch / view_mcap.name
+        view = TwinView(address, recorded, hull_m=hull)
         try:
             announce_view(view.url)
-            show_trial(view, trial, Pacer(args.foxglove_speed))
+            yield view
         finally:
             view.close()
-        return
-    with OutputClaim(view_mcap, force=args.force, kind="file") as claim:
-        view = TwinView(address, claim.scratch / view_mcap.name, hull_m=hull)
-        try:
-            announce_view(view.url)
-            show_trial(view, trial, Pacer(args.foxglove_speed))
-        finally:
-            view.close()
-        claim.commit(claim.scratch / view_mcap.name)
+        if recorded is not None:
+            claim.commit(recorded)
+
+
+def _show(args: argparse.Namespace, address: tuple[str, int], view_mcap: Path | None, trial: CompactTrial) -> None:
+    """--foxglove: the run replayed into the live view at --foxglove-speed (recorded to ``view_mcap``)."""
+    from boat_twin.view.observer import Pacer
+    from boat_twin.view.simulation import show_trial
+
+    with _view(args, address, view_mcap, trial.config) as view:
+        show_trial(view, trial, Pacer(args.foxglove_speed))
 
 
 def _run_ensemble(args: argparse.Namespace) -> int:
@@ -339,8 +347,10 @@ def _run_ensemble(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
-    """``--mavlink`` / ``--tlog``: the live twin as a MAVLink boat, paced by ``--mavlink-speed``; Ctrl-C ends it."""
+def _run_mavlink(args: argparse.Namespace, config: TwinConfig, address: tuple[str, int] | None,
+                 view_mcap: Path | None) -> int:
+    """``--mavlink`` / ``--tlog``: the live twin as a MAVLink boat, paced by ``--mavlink-speed``; Ctrl-C ends it.
+    ``address``: --foxglove, the boat shown live as it runs (recorded to ``view_mcap``)."""
     import math
     import signal
     import time
@@ -348,6 +358,7 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
     from boat_twin.link.mavlink_boat import MavlinkBoat, parse_stream_rates, progress_to_stderr
     from boat_twin.twin.live import LiveTwin
     from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
+    from boat_twin.view.simulation import SimulationView
 
     if math.isnan(args.mavlink_speed) or args.mavlink_speed < 0.0:
         raise InputError(f"--mavlink-speed must be a non-negative factor, got {args.mavlink_speed!r}")
@@ -357,8 +368,10 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
         raise InputError(f"--duration must be a positive number of seconds, got {duration!r}")
     twin = LiveTwin(config, seed=args.seed, noise=not args.no_noise, epoch_s=round(time.time(), 3))
     stopping: list[bool] = []
-    with MavlinkBoat(twin, args.mavlink, allow_remote=args.allow_remote, tlog=args.tlog, overwrite=args.force,
-                     scenario=scenario, rates_hz=parse_stream_rates(args.mavlink_rate)) as link:
+    shown = _view(args, address, view_mcap, config) if address is not None else nullcontext()
+    with shown as view, MavlinkBoat(twin, args.mavlink, allow_remote=args.allow_remote, tlog=args.tlog,
+                                    overwrite=args.force, scenario=scenario,
+                                    rates_hz=parse_stream_rates(args.mavlink_rate)) as link:
         speed = args.mavlink_speed if args.mavlink is not None else 0.0
         where = args.mavlink or "no network"
         sys.stderr.write(f"MAVLink boat (system {link.system_id}) -> {where}, "
@@ -372,6 +385,8 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
             pass
         try:
             ticks = link.ticks(duration, speed, stop=lambda: bool(stopping), progress=progress_to_stderr)
+            if view is not None:
+                ticks = _shown(ticks, SimulationView(view, config), twin)
             if args.out is not None:
                 from boat_twin.io.bags import write_bag
 
@@ -390,10 +405,23 @@ def _run_mavlink(args: argparse.Namespace, config: TwinConfig) -> int:
                   "tlog": str(args.tlog) if args.tlog else None, "link": link.stats.as_dict()}
     if count is not None:
         result.update(bag=str(args.out), messages=count)
+    if view_mcap is not None:
+        result["view"] = str(view_mcap)
     if args.json:
         print(to_json(result))
     else:
         name = scenario.name if scenario is not None else "ground-station control"
         print(f"streamed {name}: {result['duration_s']:.1f} s simulated, {link.stats.packets_sent} packets sent, "
               f"{link.stats.packets_logged} logged" + (f", {count} messages to {args.out}" if count else ""))
+        if view_mcap is not None:
+            print(f"wrote {view_mcap}")
     return 0
+
+
+def _shown(ticks: Iterator[list[Message]], sim: SimulationView, twin: LiveTwin) -> Iterator[list[Message]]:
+    """``ticks`` passed on, each shown in the view as it is run (its GNSS fixes, the boat's true pose)."""
+    from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
+
+    for tick in ticks:
+        sim.tick(tick, twin.time_s - 1.0 / OUTPUT_RATE_HZ, twin.state[0])
+        yield tick

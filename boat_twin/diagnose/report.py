@@ -323,7 +323,7 @@ def text_report(result: DiagnosisResult) -> str:
     return "\n".join(lines)
 
 
-def _concatenated(windows: Windows, values: np.ndarray, angle: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def window_series(windows: Windows, values: np.ndarray, angle: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Windows joined along trial time, NaN between them so lines break; an ``angle`` (rad) also breaks where it
     jumps by more than π (wrapped across ±π: not a change of the signal, and no line is drawn across it)."""
     t = np.vstack([windows.t_s, np.full((1, windows.t_s.shape[1]), np.nan)]).T.ravel()
@@ -347,14 +347,14 @@ def signal_figure(windows: Windows, baseline: Prediction, extended: Prediction, 
     fig = Figure(figsize=(10, 2.6 * len(signals)), layout="constrained")
     for ax, s in zip(fig.subplots(len(signals), 1, squeeze=False, sharex=True)[:, 0], signals, strict=True):
         angle = UNITS[s] == "rad"
-        ax.plot(*_concatenated(windows, windows.measured[s]), ".", ms=1.5, color="0.6", label="measured")
+        ax.plot(*window_series(windows, windows.measured[s]), ".", ms=1.5, color="0.6", label="measured")
         if same:
-            ax.plot(*_concatenated(windows, baseline.signals[s], angle), lw=1.2, color="C0",
+            ax.plot(*window_series(windows, baseline.signals[s], angle), lw=1.2, color="C0",
                     label="model (no effect named: extended = baseline)")
         else:
-            ax.plot(*_concatenated(windows, baseline.signals[s], angle), lw=3.0, color="C0", alpha=0.45,
+            ax.plot(*window_series(windows, baseline.signals[s], angle), lw=3.0, color="C0", alpha=0.45,
                     label="baseline model")
-            ax.plot(*_concatenated(windows, extended.signals[s], angle), lw=1.0, color="C3", label="extended model")
+            ax.plot(*window_series(windows, extended.signals[s], angle), lw=1.0, color="C3", label="extended model")
         ax.set_ylabel(f"{NAMES[s]}, {UNITS[s]}")
     ax.set_xlabel("trial time, s")
     # below the plots: above them it would cover the figure's title (the trial, set when saved)
@@ -369,12 +369,12 @@ def residual_figure(windows: Windows, baseline: Prediction, extended: Prediction
     for ax, s in zip(fig.subplots(len(SIGNALS), 1, sharex=True)[:], SIGNALS, strict=True):
         angle = UNITS[s] == "rad"  # a heading residual, wrapped to ±π: broken where it wraps
         if same:
-            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], baseline.signals[s]), angle), lw=0.6,
+            ax.plot(*window_series(windows, residual(s, windows.measured[s], baseline.signals[s]), angle), lw=0.6,
                     color="C0", label="model (no effect named: extended = baseline)")
         else:
-            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], baseline.signals[s]), angle), lw=1.6,
+            ax.plot(*window_series(windows, residual(s, windows.measured[s], baseline.signals[s]), angle), lw=1.6,
                     color="C0", alpha=0.45, label="baseline")
-            ax.plot(*_concatenated(windows, residual(s, windows.measured[s], extended.signals[s]), angle), lw=0.6,
+            ax.plot(*window_series(windows, residual(s, windows.measured[s], extended.signals[s]), angle), lw=0.6,
                     color="C3", label="extended")
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_ylabel(f"{NAMES[s]}\nresidual, {UNITS[s]}", fontsize=8)

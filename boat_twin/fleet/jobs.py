@@ -117,6 +117,8 @@ class DiagnoseJob:
     config: TwinConfig = field(default_factory=TwinConfig)
     read: ReadOptions = field(default_factory=ReadOptions)
     window_s: float | None = None
+    assumed: tuple[str, ...] = ()
+    """Warnings of what the run assumed rather than was given (no --config: the built-in boat), in each report."""
     verb = "diagnose"
     outputs = DIAGNOSE_OUTPUTS
     curves: ClassVar[tuple[str, ...]] = ()
@@ -136,6 +138,7 @@ class DiagnoseJob:
 
         trial = self.read.read(path)
         done = diagnose_trial(trial, self.config, self.window_s or WINDOW_S)
+        done.result["warnings"] += self.assumed
         out.mkdir(parents=True, exist_ok=True)
         write_diagnosis_report(out, done, str(path), named)
         result = done.result
@@ -154,6 +157,8 @@ class FollowJob:
 
     config: TwinConfig = field(default_factory=TwinConfig)
     read: ReadOptions = field(default_factory=ReadOptions)
+    assumed: tuple[str, ...] = ()
+    """Warnings of what the run assumed rather than was given (no --config: the built-in boat), in each report."""
     verb = "follow"
     outputs = FOLLOW_OUTPUTS
     curves: ClassVar[tuple[str, ...]] = ()
@@ -171,6 +176,7 @@ class FollowJob:
 
         trial = self.read.read(path)
         done = follow_trial(trial, self.config)
+        done.warnings += self.assumed
         out.mkdir(parents=True, exist_ok=True)
         write_follow_report(out, done, self.config, str(path))
         final = done.final

@@ -53,9 +53,10 @@ def write_identify_report(out: Path, result: TrialIdentifyResult, found: TrialsI
 
 def write_diagnosis_report(out: Path, done: TrialDiagnosis, source: str, named: Path | None = None) -> None:
     """The report of a :func:`~boat_twin.diagnose.pipeline.diagnose_trial` of ``source`` into ``out``: the
-    extended model (its path set in ``done.result["extended_model"]``), four figures (the track map:
-    :mod:`boat_twin.view.track_map`) and diagnosis.json.
+    extended model (its path set in ``done.result["extended_model"]``), five figures (the track map:
+    :mod:`boat_twin.view.track_map`; the one-page summary: :mod:`boat_twin.view.summary`) and diagnosis.json.
     ``named``: the directory the texts name (default ``out``; a report set's final name)."""
+    from boat_twin.view.summary import diagnosis_summary_figure
     from boat_twin.view.track_map import diagnosis_track_figure
 
     result = done.result
@@ -71,14 +72,16 @@ def write_diagnosis_report(out: Path, done: TrialDiagnosis, source: str, named: 
     atomic_save_figure(out / "diagnosis_residuals.png", residual_figure(done.windows, before, after), title)
     atomic_save_figure(out / "diagnosis_evidence.png", evidence_figure(result), title)
     atomic_save_figure(out / "diagnosis_track.png", diagnosis_track_figure(done, f"track: {title}"))
+    atomic_save_figure(out / "diagnosis_summary.png", diagnosis_summary_figure(done, title))
     atomic_write_text(out / "diagnosis.json", to_json(result) + "\n")
 
 
 def write_follow_report(out: Path, done: FollowResult, config: TwinConfig, source: str) -> None:
     """The report of a :func:`~boat_twin.shadow.follow.follow_trial` of ``source`` (started from ``config``) into
-    ``out``: follow.json, the four figures (the track map: :mod:`boat_twin.view.track_map`) and the adapted
-    twin.yaml."""
+    ``out``: follow.json, the five figures (the track map: :mod:`boat_twin.view.track_map`; the one-page
+    summary: :mod:`boat_twin.view.summary`) and the adapted twin.yaml."""
     from boat_twin.shadow.plots import cause_figure, innovation_figure, model_figure
+    from boat_twin.view.summary import follow_summary_figure
     from boat_twin.view.track_map import follow_track_figure
 
     atomic_write_text(out / "follow.json", to_json(done.to_dict()) + "\n")
@@ -86,4 +89,5 @@ def write_follow_report(out: Path, done: FollowResult, config: TwinConfig, sourc
     atomic_save_figure(out / "follow_model.png", model_figure(done, config.vessel.mass_kg))
     atomic_save_figure(out / "follow_causes.png", cause_figure(done))
     atomic_save_figure(out / "follow_track.png", follow_track_figure(done, f"track: follow {source}"))
+    atomic_save_figure(out / "follow_summary.png", follow_summary_figure(done, f"follow {source}"))
     save_config(done.twin, out / "twin.yaml", f"boat_twin live twin adapted by: boat-twin follow {source}")

@@ -305,6 +305,8 @@ def _output_error(records: list[SurgeRecord], fallback_mass_kg: float | None, wa
     identify one (without one, a warning: no mass in the model)."""
     oe = identify_surge(records)
     if not oe.mass_identified and fallback_mass_kg is not None:
+        warnings.append(f"{oe.mass_note}; the boat file's mass (with its added mass) {fallback_mass_kg:.0f} kg is "
+                        "held in the model (not identified: no interval on it)")
         oe = identify_surge(records, mass_kg=fallback_mass_kg)
     elif not oe.mass_identified:
         warnings.append(f"{oe.mass_note}; no mass in the model (give a boat file with mass_kg)")

@@ -278,9 +278,8 @@ class SimulatorNode(Node):
     def _show(self, tick: list[messages.Message], stamp_ns: int) -> None:
         """The tick's true pose (the state it started from, as its sensors sampled) and GNSS fix to the view."""
         assert self.view_sim is not None
-        self.view_sim.messages(messages.restamped([i for i in tick if i[0] == messages.TOPIC_GNSS_FIX], stamp_ns))
-        east, north, yaw = (float(x) for x in self.twin.state[0, :3])
-        self.view_sim.truth(stamp_ns * 1e-9, east, north, yaw)
+        fixes = messages.restamped([i for i in tick if i[0] == messages.TOPIC_GNSS_FIX], stamp_ns)
+        self.view_sim.tick(fixes, stamp_ns * 1e-9, self.twin.state[0])
 
     def destroy_node(self) -> None:
         """Close the MAVLink link (socket) and the Foxglove view with the node."""

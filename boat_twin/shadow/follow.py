@@ -6,6 +6,7 @@ simulated minute."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -70,6 +71,22 @@ class FollowResult:
         """The contract: ``timeline``, ``final``, ``warnings``, plus ``log`` and ``diagnoses``."""
         return {"timeline": self.timeline, "final": self.final, "warnings": self.warnings,
                 "diagnoses": self.diagnoses, "log": self.log}
+
+
+def final_model_text(final: dict[str, Any]) -> str:
+    """The surge model the follow ended with (``FollowResult.final``), with its 95 % intervals, in words."""
+    surge = final["model"]["surge"]
+    held = bool(surge.get("mass_held"))
+    return (f"final model: mass {_interval_text(surge['mass_kg'], surge['mass_ci95_kg'], held, 0, ' kg')}, "
+            f"resistance ×{_interval_text(surge['resistance_factor'], surge['resistance_factor_ci95'], False, 3)}")
+
+
+def _interval_text(value: float, ci: list[float], held: bool, digits: int, unit: str = "") -> str:
+    """``value unit [low, high]``; in words where the interval is NaN (a value not fitted, or held)."""
+    if all(x is not None and math.isfinite(x) for x in ci):
+        return f"{value:.{digits}f}{unit} [{ci[0]:.{digits}f}, {ci[1]:.{digits}f}]"
+    why = "held: the data did not fix it, the value before is kept" if held else "configured, not fitted yet"
+    return f"{value:.{digits}f}{unit} ({why}; no interval)"
 
 
 def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | None = None,
@@ -140,6 +157,10 @@ def follow_warnings(trial: Trial, config: TwinConfig, shadow: Shadow) -> list[st
     if shadow.model_held():
         found.append("the model was held at the end: the live diagnosis held `unexplained` or left structure "
                      "while the twin misfit, so no fit was adopted then (a cause the model lacks)")
+    surge = shadow.adapter.current
+    if surge.mass_held:
+        found.append(f"the mass was held at {surge.mass_kg:.0f} kg at the end: the data since the last adopted fit "
+                     "did not fix it (the resistance was fitted with it held; no interval on the mass)")
     if not shadow.twin.synchronised:
         found.append("the twin was not synchronised at the end: no fix, velocity and IMU heading together")
     return found

@@ -1,6 +1,7 @@
 """A simulated boat in the view: the simulation is the twin, so its true track goes to ``/twin/fix`` and its hull
 to the ``twin`` frame, and what its GNSS receiver measured to ``/boat/fix``. ``simulate --foxglove`` replays a
-batch run (:func:`show_trial`); the ``simulator`` node calls :class:`SimulationView` each tick."""
+batch run (:func:`show_trial`); the ``simulator`` node and ``simulate --mavlink --foxglove`` call
+:meth:`SimulationView.tick` each tick."""
 
 from __future__ import annotations
 
@@ -34,6 +35,13 @@ class SimulationView:
         lat, lon, alt = pymap3d.enu2geodetic(east_m, north_m, 0.0, *self.origin)
         self.view.fix("twin", t_s, float(lat), float(lon), float(alt), yaw_rad)
         self.view.poses(t_s, {"twin": (east_m, north_m, float(wrap_pi(np.array(yaw_rad))))})
+
+    def tick(self, items: list[messages.Message], t_s: float, state: np.ndarray) -> None:
+        """One live tick (the simulator node, ``simulate --mavlink``): its GNSS fixes among ``items`` and the
+        boat's true pose at ``t_s`` from ``state`` (the twin's state row: east m, north m, yaw rad first)."""
+        self.messages(items)
+        east, north, yaw = (float(x) for x in state[:3])
+        self.truth(t_s, east, north, yaw)
 
     def messages(self, items: list[messages.Message]) -> None:
         """The GNSS fixes among one tick's messages (topic, stamp ns, message)."""

@@ -6,6 +6,7 @@ placed where the window's measured track is)."""
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from boat_twin.diagnose.pipeline import TrialDiagnosis
@@ -18,7 +19,15 @@ def track_figure(measured_m: np.ndarray, predicted_m: list[np.ndarray], title: s
                  baseline_m: list[np.ndarray] | None = None, baseline_label: str = "") -> Figure:
     """``measured_m`` (n, 2) east, north; ``predicted_m`` segments (k, 2) each (``baseline_m`` likewise, dashed)."""
     fig = Figure(figsize=(8, 8))
-    ax = fig.subplots()
+    draw_track(fig.subplots(), measured_m, predicted_m, predicted_label, baseline_m, baseline_label)
+    fig.axes[0].set_title(title)
+    fig.tight_layout()
+    return fig
+
+
+def draw_track(ax: Axes, measured_m: np.ndarray, predicted_m: list[np.ndarray], predicted_label: str,
+               baseline_m: list[np.ndarray] | None = None, baseline_label: str = "") -> None:
+    """The track map on ``ax`` (arguments as :func:`track_figure`'s)."""
     known = measured_m[np.all(np.isfinite(measured_m), axis=1)]
     ax.plot(measured_m[:, 0], measured_m[:, 1], "-", color=MEASURED_COLOR, lw=1.5, label="measured (GNSS)")
     for segments, color, style, label in ((baseline_m or [], BASELINE_COLOR, "--", baseline_label),
@@ -31,28 +40,34 @@ def track_figure(measured_m: np.ndarray, predicted_m: list[np.ndarray], title: s
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("east, m (local ENU)")
     ax.set_ylabel("north, m (local ENU)")
-    ax.set_title(title)
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize="small")
-    fig.tight_layout()
-    return fig
+
+
+FOLLOW_PREDICTED = "predicted by the twin (each fix from the one before)"
+DIAGNOSIS_PREDICTED, DIAGNOSIS_BASELINE = ("predicted, named effects in (each window open loop)",
+                                           "predicted, the model as given")
 
 
 def follow_track_figure(result: FollowResult, title: str) -> Figure:
     """``follow``: each fix as measured and as the twin predicted it (the position innovations' two sides)."""
     track = result.track
-    return track_figure(track[:, 1:3], [track[:, 3:5]], title, "predicted by the twin (each fix from the one before)")
+    return track_figure(track[:, 1:3], [track[:, 3:5]], title, FOLLOW_PREDICTED)
 
 
 def diagnosis_track_figure(done: TrialDiagnosis, title: str) -> Figure:
     """``diagnose``: the measured track and each window's open-loop replay, the model as presented (with the named
     effects) and, dashed, the model before them."""
+    measured, extended, baseline = diagnosis_tracks(done)
+    return track_figure(measured, extended, title, DIAGNOSIS_PREDICTED, baseline, DIAGNOSIS_BASELINE)
+
+
+def diagnosis_tracks(done: TrialDiagnosis) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
+    """The measured track (n, 2) and the windows' predicted segments, named effects in and the model as given."""
     windows = done.windows
 
     def segments(position: np.ndarray) -> list[np.ndarray]:
         return [position[:, w] for w in range(position.shape[1])]
 
     measured = windows.position.transpose(1, 0, 2).reshape(-1, 2)
-    return track_figure(measured, segments(done.extended_prediction.position), title,
-                        "predicted, named effects in (each window open loop)",
-                        segments(done.baseline_prediction.position), "predicted, the model as given")
+    return measured, segments(done.extended_prediction.position), segments(done.baseline_prediction.position)
