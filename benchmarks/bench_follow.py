@@ -167,8 +167,9 @@ def study_clean_hour(duration_s: float) -> None:
 
 
 CLEAN_KINDS = ("random-held", "random", "zigzag")
-"""Command kinds of study H: ``random-held`` as ``boat-twin simulate random --duration 3600`` runs it (the
-registry's 600 s of random commands, the last one held: a steady turn for 50 minutes, issue 38's hour);
+"""Command kinds of study H: ``random-held`` as ``boat-twin simulate random --duration 3600`` ran it until the
+random scenario drew over the whole run (600 s of random commands, the last one held: a steady turn for 50 minutes,
+issue 38's hour);
 ``random`` drawn over the whole hour and ``zigzag`` (20°/20°) as the hidden studies run them
 (:func:`boat_twin.diagnose.hidden.scenario`)."""
 CLEAN_BOATS = {"default": {}, "heavy-slow-steering": {"mass_kg": 1_700.0, "radius_of_gyration_yaw_m": 1.9,
@@ -182,7 +183,7 @@ def clean_hour(kind: str, boat_name: str, seed: int, duration_s: float) -> dict[
     base = TwinConfig()
     config = replace(base, vessel=replace(base.vessel, **CLEAN_BOATS[boat_name]))
     rng = np.random.default_rng(seed)
-    commands = (make_scenario("random", config.vessel, rng, duration_s) if kind == "random-held"
+    commands = (replace(make_scenario("random", config.vessel, rng), duration_s=duration_s) if kind == "random-held"
                 else scenario(kind, config.vessel, rng, duration_s))
     run = run_sea_trial(config, commands, seed)
     data = measured_trial(run.record, 0, config, np.random.default_rng(seed + 100))

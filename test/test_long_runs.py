@@ -172,8 +172,8 @@ def test_a_long_trial_s_analysis_stops_at_once_when_signalled(long_trial, tmp_pa
     reader.join(10.0)
     assert status == code, (status, lines)
     assert took_s < STOP_WITHIN_S, took_s
-    # (the diagnosis' progress line is rewritten in place, without a newline: the stop's line follows it)
-    assert lines[-1].rstrip().endswith(said) and not any("Traceback" in line for line in lines), lines
+    # the stop's line on its own line, also after a progress line rewritten in place (boat_twin.progress_line)
+    assert lines[-1] == said + "\n" and not any("Traceback" in line for line in lines), lines
     assert _snapshot(tmp_path) == before
     assert not [p.name for p in tmp_path.rglob("*") if p.name.startswith((".partial-", ".old-")) or ".lock" in p.name]
 

@@ -16,7 +16,7 @@ import signal
 import sys
 import threading
 
-from boat_twin import __version__
+from boat_twin import __version__, progress_line
 from boat_twin.errors import InputError, PrintedStops
 from boat_twin.threads import one_blas_thread, one_blas_thread_environment
 
@@ -106,6 +106,7 @@ def _drop_unraisable(unraisable: sys.UnraisableHookArgs) -> None:
 def _say_stopped(stop: BaseException) -> int:
     """The one line and the exit status of a run stopped by Ctrl-C (130) or SIGTERM (143)."""
     interrupted = isinstance(stop, KeyboardInterrupt)
+    progress_line.end()
     sys.stderr.write("boat-twin: interrupted\n" if interrupted else "boat-twin: terminated\n")
     return 130 if interrupted else 143
 
@@ -131,6 +132,7 @@ def main(argv: list[str] | None = None) -> int:
         with one_blas_thread():
             return int(args.handler(args))
     except InputError as err:
+        progress_line.end()
         sys.stderr.write(f"boat-twin {verb}: error: {err}\n")
         return 2
     except (KeyboardInterrupt, Terminated) as stop:
@@ -147,6 +149,7 @@ def main(argv: list[str] | None = None) -> int:
         if not is_write_failure(err):
             raise
         where = f"{err.filename}: " if isinstance(err, OSError) and err.filename else ""
+        progress_line.end()
         sys.stderr.write(f"boat-twin {verb}: error: {where}cannot write ({write_failure(err)})\n")
         return 2
     finally:

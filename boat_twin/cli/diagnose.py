@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from boat_twin import progress_line
 from boat_twin.cli import verb_help
 from boat_twin.cli.options import (
     TRIAL_HELP,
@@ -32,8 +33,7 @@ from boat_twin.fleet.outputs import DIAGNOSE_OUTPUTS
 
 
 def _progress(message: str) -> None:
-    sys.stderr.write(f"\rdiagnose: {message:60s}")
-    sys.stderr.flush()
+    progress_line.show(f"diagnose: {message:60s}")
 
 
 TRIAL_OUTPUTS = DIAGNOSE_OUTPUTS
@@ -53,8 +53,7 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     warnings = command_warnings(trial, config.vessel)
     sys.stderr.write("".join(f"{line}\n" for line in [summary, *(f"warning: {w}" for w in warnings)]))
     done = diagnose_trial(trial, config, args.window, None if args.json else _progress)
-    if not args.json:
-        sys.stderr.write("\r" + " " * 72 + "\r")
+    progress_line.clear(72)
     result = done.result
     result["warnings"] += assumed_config(args)
     if out is not None:

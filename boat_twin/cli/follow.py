@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from boat_twin import progress_line
 from boat_twin.cli import verb_help
 from boat_twin.cli.options import (
     TRIAL_HELP,
@@ -38,8 +39,7 @@ OUTPUTS = FOLLOW_OUTPUTS
 
 
 def _progress(message: str) -> None:
-    sys.stderr.write(f"\r{message:60s}")
-    sys.stderr.flush()
+    progress_line.show(f"{message:60s}")
 
 
 RATIO_SUFFIX = "_innovation_ratio"
@@ -120,8 +120,7 @@ def run(args: argparse.Namespace) -> int:
                                     observer=ShadowView(view, Pacer(args.foxglove_speed)))
             finally:
                 view.close()
-        if not args.json:
-            sys.stderr.write("\r" + " " * 62 + "\r")
+        progress_line.clear(62)
         done.warnings += assumed_config(args)
         if not args.json:
             sys.stderr.write("".join(f"warning: {w}\n" for w in done.warnings))

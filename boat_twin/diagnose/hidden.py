@@ -26,7 +26,7 @@ from boat_twin.diagnose.effects import EFFECTS
 from boat_twin.io.bags import write_bag
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.params import VesselParams
-from boat_twin.vessel.scenarios import CommandProfile, Helm, Scenario, Zigzag, make_scenario, random_commands
+from boat_twin.vessel.scenarios import CommandProfile, Helm, Scenario, Zigzag, make_scenario
 from boat_twin.vessel.simulate import OUTPUT_RATE_HZ
 from boat_twin.vessel.tow import TowConfig, tow_drag_N
 
@@ -60,8 +60,6 @@ def scenario(kind: str, params: VesselParams, rng: np.random.Generator, duration
         return CommandProfile("tow-steps", times, rows, duration_s, float(speeds[0]))
     if kind not in TRIAL_SCENARIOS:
         raise ValueError(f"unknown trial kind {kind!r}")
-    if kind == "random":  # commands drawn over the whole trial (the registry's draws 600 s, then holds the last)
-        return random_commands(params, rng, duration_s)
     chosen = make_scenario(TRIAL_SCENARIOS[kind], params, rng, duration_s)
     if isinstance(chosen, Zigzag):
         # A helm deciding at the 10 Hz log rate: its commands lie on the log's samples, which the replay holds

@@ -380,7 +380,10 @@ def make_scenario(name: str, params: VesselParams, rng: np.random.Generator,
     factory = SCENARIOS.get(name)
     if factory is None:
         raise InputError(f"unknown scenario {name!r} (choose from {', '.join(SCENARIO_NAMES)})")
-    scenario = factory(params, rng)
+    if name == "random" and duration_s is not None:  # drawn over the whole run, not 600 s then the last held
+        scenario: Scenario = random_commands(params, rng, duration_s)
+    else:
+        scenario = factory(params, rng)
     if params.propulsion is not None and isinstance(scenario, CommandProfile):  # the boat's own commands
         scenario = replace(scenario, values=_layout_rows(params, scenario.values, scenario.initial_surge_mps))
     if duration_s is not None:
