@@ -420,3 +420,38 @@ def test_a_ships_screw_thrust_and_rudder_lift_are_fitted_with_its_turning_on_an_
     rudder_out = fit.config.vessel.propulsion.rudders[0]  # type: ignore[union-attr]
     assert rudder_out.lift_slope == pytest.approx(fit.values["rudder_lift_factor"] * 6.13 * 1.4 / 3.65)
     assert fit.config.vessel.thrust_factor_left == pytest.approx(fit.values["thrust_factor"])
+
+
+def test_identify_manoeuvring_finds_a_ships_screw_and_rudder_scale_from_a_zigzag_and_a_turning_circle(
+        tmp_path: Path) -> None:
+    """The single-screw ship of config/boats simulated with its screw at 0.9 of its K_T(J) and its rudder at 0.8 of
+    Fujii's lift slope; `identify --manoeuvring` on a zigzag and a turning circle with the nominal boat file finds
+    both factors within their intervals, writes them into twin.yaml (which simulate reads back) and re-simulates
+    a held-out zigzag within 10° of heading."""
+    import yaml
+
+    from boat_twin.cli import main
+    from boat_twin.config import load_twin_config
+
+    boat = Path(__file__).resolve().parents[1] / "config" / "boats" / "single_screw_rudder.yaml"
+    data = yaml.safe_load(boat.read_text())
+    rudder = data["vessel"]["propulsion"]["rudders"][0]
+    rudder["lift_slope_per_rad"] = 0.8 * 6.13 * rudder["aspect_ratio"] / (rudder["aspect_ratio"] + 2.25)
+    data["vessel"]["thrust_factor_left"] = 0.9
+    truth = tmp_path / "truth.yaml"
+    truth.write_text(yaml.safe_dump(data))
+    trials = []
+    for scenario in ("zigzag-20-20", "turning-circle", "zigzag-10-10"):
+        trials.append(str(tmp_path / f"{scenario}.mcap"))
+        assert main(["simulate", scenario, "--config", str(truth), "--seed", "4", "--out", trials[-1]]) == 0
+    assert main(["identify", *trials[:2], "--manoeuvring", "--config", str(boat), "--validate", trials[2],
+                 "--out", str(tmp_path / "fit")]) == 0
+    found = json.loads((tmp_path / "fit" / "manoeuvring.json").read_text())["manoeuvring"]
+    for key, value in (("thrust_factor", 0.9), ("rudder_lift_factor", 0.8)):
+        low, high = found["ci95"][key]
+        assert low <= value <= high and key not in found["not_identified"], (key, found["parameters"][key], low, high)
+    assert found["validation"][0]["heading_rmse_deg"] < 10.0 and not found["misfit"]
+    twin = load_twin_config(tmp_path / "fit" / "twin.yaml", None, None).vessel
+    assert twin.thrust_factor_left == pytest.approx(found["parameters"]["thrust_factor"])
+    assert twin.propulsion.rudders[0].lift_slope_per_rad == pytest.approx(  # type: ignore[union-attr]
+        found["parameters"]["rudder_lift_factor"] * 6.13 * 1.6 / (1.6 + 2.25))
