@@ -12,7 +12,8 @@ RMSE of a held-out turning circle re-simulated with the fit.
 Printed: each row, then the coverage per family (target ≥ 90 % of seeds) and the largest held-out heading RMSE
 (target ≤ 10°).
 
-Run: ``.venv/bin/python benchmarks/bench_any_boat.py [--seeds 10] [--only mass|thrust|turning]``.
+Run: ``.venv/bin/python benchmarks/bench_any_boat.py [--seeds 10] [--only mass|thrust|turning] [--family NAME]
+[--scenario random|thrust-steps]`` (``--scenario``: the ``mass`` and ``thrust`` rows' trial).
 """
 
 from __future__ import annotations
@@ -63,12 +64,12 @@ def _run(argv: list[str]) -> None:
         raise SystemExit(f"boat-twin {' '.join(argv)} exited {code}")
 
 
-def surge_row(family: str, seed: int, work: Path) -> bool:
+def surge_row(family: str, seed: int, work: Path, scenario: str = "random") -> bool:
     """Simulate and identify one random trial; print the mass against its interval; True if it holds m11."""
     boat = BOATS / f"{family}.yaml"
     m11 = derive_coefficients(load_twin_config(boat, None, None).vessel).m11_kg
     trial = work / f"{family}_{seed}.mcap"
-    _run(["simulate", "random", "--config", str(boat), "--seed", str(seed), "--out", str(trial)])
+    _run(["simulate", scenario, "--config", str(boat), "--seed", str(seed), "--out", str(trial)])
     out = work / f"{family}_{seed}_id"
     _run(["identify", str(trial), "--boat", str(boat), "--out", str(out)])
     selected = json.loads((out / "identify.json").read_text())["output_error"]["selected"]
@@ -80,14 +81,14 @@ def surge_row(family: str, seed: int, work: Path) -> bool:
     return holds
 
 
-def thrust_row(family: str, seed: int, work: Path) -> bool:
+def thrust_row(family: str, seed: int, work: Path, scenario: str = "random") -> bool:
     """A random trial of the family's boat with its thrust at THRUST_TRUTH × its map, identified with the nominal
     boat file (its mass given); True if the thrust scale's interval holds THRUST_TRUTH."""
     nominal = _boat_file(family, work, "nominal", {"mass_kg": load_twin_config(BOATS / f"{family}.yaml", None, None)
                                         .vessel.mass_kg})
     truth = _boat_file(family, work, "weak", {"thrust_factor_left": THRUST_TRUTH, "thrust_factor_right": THRUST_TRUTH})
     trial = work / f"{family}_{seed}_thrust.mcap"
-    _run(["simulate", "random", "--config", str(truth), "--seed", str(seed), "--out", str(trial)])
+    _run(["simulate", scenario, "--config", str(truth), "--seed", str(seed), "--out", str(trial)])
     out = work / f"{family}_{seed}_thrust_id"
     _run(["identify", str(trial), "--boat", str(nominal), "--out", str(out)])
     scale = json.loads((out / "identify.json").read_text())["output_error"]["thrust_scale"]["selected"]
@@ -136,14 +137,17 @@ def main_bench() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10)
     parser.add_argument("--only", choices=("mass", "thrust", "turning"), default=None)
+    parser.add_argument("--family", choices=FAMILIES, default=None, help="the mass and thrust rows of one family")
+    parser.add_argument("--scenario", choices=("random", "thrust-steps"), default="random")
     args = parser.parse_args()
+    families = FAMILIES if args.family is None else (args.family,)
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        for family in FAMILIES if args.only in (None, "mass") else ():
-            holds = [surge_row(family, seed, work) for seed in range(args.seeds)]
+        for family in families if args.only in (None, "mass") else ():
+            holds = [surge_row(family, seed, work, args.scenario) for seed in range(args.seeds)]
             print(f"{family}: mass interval holds m11 on {sum(holds)}/{len(holds)} seeds")
-        for family in FAMILIES if args.only in (None, "thrust") else ():
-            holds = [thrust_row(family, THRUST_SEED_OFFSET + seed, work) for seed in range(args.seeds)]
+        for family in families if args.only in (None, "thrust") else ():
+            holds = [thrust_row(family, THRUST_SEED_OFFSET + seed, work, args.scenario) for seed in range(args.seeds)]
             print(f"{family}: thrust scale interval holds {THRUST_TRUTH:g} on {sum(holds)}/{len(holds)} seeds")
         if args.only in (None, "turning"):
             rows = [turning_row(seed, work) for seed in range(args.seeds)]
