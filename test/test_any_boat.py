@@ -16,6 +16,7 @@ from independent import rk4_held
 
 from boat_twin.errors import InputError
 from boat_twin.vessel.params import (
+    ModelCoefficients,
     VesselParams,
     derive_coefficients,
     froude_scaled_resistance,
@@ -47,10 +48,12 @@ SKID = {"mass_kg": 29.0, "length_m": 1.6, "beam_m": 0.9, "draft_m": 0.1, "bollar
 of a small survey boat: mass, length, beam, draft, thruster positions)."""
 
 
-def _independent_derivative(vessel: VesselParams, state: np.ndarray, command: np.ndarray) -> np.ndarray:
+def _independent_derivative(vessel: VesselParams, state: np.ndarray, command: np.ndarray,
+                            c: ModelCoefficients | None = None) -> np.ndarray:
     """The documented equations of motion (boat_twin.vessel.dynamics, actuators) written out again: body velocity
-    (u, v, r) and pose; each thruster's thrust from its own map, the rudder's MMG normal force."""
-    c = derive_coefficients(vessel)
+    (u, v, r) and pose; each thruster's thrust from its own map times its thrust factor, the rudder's MMG normal
+    force (its lift slope given, or Fujii's). ``c``: the vessel's derived coefficients (computed when None)."""
+    c = derive_coefficients(vessel) if c is None else c
     east, north, psi, u, v, r = state
     layout = vessel.propulsion
     assert layout is not None
@@ -68,6 +71,7 @@ def _independent_derivative(vessel: VesselParams, state: np.ndarray, command: np
             j_adv = (1 - p.wake_fraction) * u_p / (abs(n) * p.diameter_m) if n else 0.0
             thrust = RHO * n * abs(n) * p.diameter_m**4 * (p.kt[0] + p.kt[1] * j_adv + p.kt[2] * j_adv**2)
             thrust *= 1.0 if n >= 0 else p.astern_ratio
+        thrust *= (vessel.thrust_factor_left, vessel.thrust_factor_right)[j]
         thrusts.append(thrust)
         x_force += thrust * math.cos(thruster.angle_rad)
         y_force += thrust * math.sin(thruster.angle_rad)
@@ -84,7 +88,8 @@ def _independent_derivative(vessel: VesselParams, state: np.ndarray, command: np
                 eta = min(1.0, d / math.sqrt(rudder.aspect_ratio * rudder.area_m2))
                 wash = u_r + 0.5 * (far - u_r)
                 u_r = math.sqrt(eta * wash**2 + (1 - eta) * u_r**2)
-        slope = 6.13 * rudder.aspect_ratio / (rudder.aspect_ratio + 2.25)
+        slope = 6.13 * rudder.aspect_ratio / (rudder.aspect_ratio + 2.25) if rudder.lift_slope_per_rad is None \
+            else rudder.lift_slope_per_rad
         normal = 0.5 * RHO * rudder.area_m2 * slope * (u_r**2 + v_r**2) * math.sin(delta - math.atan2(v_r, u_r))
         x_force += -normal * math.sin(delta)
         y_force += normal * math.cos(delta)
@@ -296,3 +301,157 @@ def test_a_boat_files_commands_go_on_its_actuators_topics_and_read_back(tmp_path
 def test_a_turning_source_that_does_not_exist_is_refused_in_one_line() -> None:
     with pytest.raises(InputError, match="'turning' must be one of reference_turn, hull"):
         params_from_dict({"turning": "clarke"}, "boat.yaml")
+
+
+def test_a_given_rudder_lift_slope_and_thrust_factor_move_the_boat_as_its_equations_say() -> None:
+    """A rudder's measured (or fitted) lift slope replaces Fujii's in the kernel, and a thruster's factor scales
+    its map's thrust, as the independent integrator writes them; the boat file carries the slope back."""
+    rudder = {**SHIP["propulsion"]["rudders"][0], "lift_slope_per_rad": 1.7}
+    spec = {**SHIP, "thrust_factor_left": 0.8, "propulsion": {**SHIP["propulsion"], "rudders": [rudder]}}
+    vessel = params_from_dict(spec, "ship")
+    assert vessel.propulsion is not None and vessel.propulsion.rudders[0].lift_slope == 1.7
+    assert params_from_dict(params_to_dict(vessel), "again").propulsion == vessel.propulsion
+    times = np.array([0.0, 10.0, 25.0])
+    rows = np.array([[20.0, 0.0, 0.0, 0.0], [22.0, 0.0, 0.3, 0.3], [25.0, 0.0, -0.4, -0.4]])
+    assert _compare_with_independent(vessel, times, rows, 40.0, 1.0) < 1e-4
+    fujii = params_from_dict(SHIP, "ship")
+    profile = CommandProfile("c", times, rows, 40.0, 1.0)
+    assert np.max(np.abs(simulate(vessel, profile).states[:, 0, 5] - simulate(fujii, profile).states[:, 0, 5])) > 0.01
+
+
+def _gnss_speed(u_mps: np.ndarray, rng: np.random.Generator, sigma_mps: float = 0.05) -> np.ndarray:
+    """Speed over ground as a GNSS receiver gives it: the norm of the velocity with noise σ on each axis, m/s."""
+    return np.hypot(u_mps + rng.normal(0.0, sigma_mps, u_mps.size), rng.normal(0.0, sigma_mps, u_mps.size))
+
+
+def test_the_thrust_tables_scale_is_identified_with_the_boat_files_mass_held() -> None:
+    """A 40 kg skid-steer boat (not the catamaran of config/boats) whose thrusters deliver 0.8 of their measured
+    table, integrated here: identify with the boat file's mass finds the table's scale within its interval,
+    beside the baseline's; without a mass the contract has no scale (the default outputs unchanged)."""
+    from boat_twin.ident.pipeline import identify_pooled
+
+    table = {"command": [-1.0, -0.05, 0.05, 1.0], "thrust_N": [-20.0, 0.0, 0.0, 36.0]}
+    boat = {**SKID, "mass_kg": 40.0, "length_m": 1.9, "propulsion": {"thrusters": [
+        {**t, "table": table} for t in SKID["propulsion"]["thrusters"]]}}
+    truth = params_from_dict({**boat, "thrust_factor_left": 0.8, "thrust_factor_right": 0.8}, "truth")
+    rng = np.random.default_rng(5)
+    levels = rng.choice([0.0, 0.25, 0.4, 0.55, 0.7, 0.85, 1.0], size=24)
+    command = np.repeat(levels, 250)  # 24 steps of 25 s at 10 Hz, both thrusters alike: straight ahead
+    rows = np.stack([command, command, 0.0 * command, 0.0 * command], axis=1)
+    coefficients = derive_coefficients(truth)
+    states = rk4_held(lambda s, c: _independent_derivative(truth, s, c, coefficients), np.zeros(6), rows, 0.02, 5)
+    t = np.arange(command.size) / 10.0
+    mapped = 2.0 * np.interp(command, table["command"], table["thrust_N"])  # the table as the boat file gives it
+    m11 = 40.0 * (1.0 + truth.surge_added_mass_ratio)
+    found = identify_pooled([(t, mapped, _gnss_speed(states[:, 3], rng))], fallback_mass_kg=m11)
+    oe = found.output_error
+    scale = oe.to_dict()["thrust_scale"]
+    for name, fit in (("selected", oe.selected), ("baseline", oe.baseline)):
+        low, high = scale[name]["ci95"]
+        assert scale[name]["identified"] and low <= 0.8 <= high, (name, scale[name])
+        assert scale[name]["scale"] * fit.mass_kg == pytest.approx(m11)  # the mass free, read with it held
+    low, high = scale["selected"]["ci95"]
+    assert high - low < 0.1, scale  # the baseline's is wider: its a·u + b·u² misses this hull's curve
+    assert scale["mass_held_kg"] == m11
+    without = identify_pooled([(t, mapped, _gnss_speed(states[:, 3], rng))])
+    assert "thrust_scale" not in without.output_error.to_dict()
+
+
+def _ship_trials(vessel: VesselParams, rev_per_s: float, rng: np.random.Generator) -> list:
+    """Two open-loop rudder zigzags (±20° then ±10° every 8 s, one each way) of a propeller + rudder boat at
+    ``rev_per_s``, integrated here, recorded with the twin's default sensor noise (GNSS 0.1 s late)."""
+    from boat_twin.io.trial import Trial, TrialMetadata
+
+    coefficients = derive_coefficients(vessel)
+    trials = []
+    for side in (1.0, -1.0):
+        t = np.arange(1301) / 10.0
+        square = np.where(((t - 10.0) // 8.0) % 2 == 0, 1.0, -1.0) * np.radians(np.where(t < 74.0, 20.0, 10.0))
+        angle = side * square * (t >= 10.0)
+        rows = np.stack([np.full(t.size, rev_per_s), 0.0 * t, angle, angle], axis=1)
+        start = np.array([0.0, 0.0, 0.3, 1.0, 0.0, 0.0])
+        for _ in range(2):  # run in to the steady speed the screw holds
+            states = rk4_held(lambda s, c: _independent_derivative(vessel, s, c, coefficients), start,
+                              rows[:101] * [1, 1, 0, 0], 0.02, 5)
+            start = states[-1] * [0, 0, 0, 1, 0, 0] + [0, 0, 0.3, 0, 0, 0]
+        states = rk4_held(lambda s, c: _independent_derivative(vessel, s, c, coefficients), start, rows, 0.02, 5)
+        rates = np.array([_independent_derivative(vessel, s, c, coefficients)
+                          for s, c in zip(states, rows, strict=True)])
+        psi, u, v, r = states[:, 2], states[:, 3], states[:, 4], states[:, 5]
+        late = np.concatenate([[0], np.arange(t.size - 1)])
+        n = t.size
+
+        def noisy(x: np.ndarray, sigma: float) -> np.ndarray:
+            return x + rng.normal(0.0, sigma, x.size)
+
+        trials.append(Trial(
+            t_s=t, thrust_left_N=rows[:, 0], thrust_right_N=rows[:, 1], angle_left_rad=angle,
+            angle_right_rad=angle.copy(), lat_deg=np.full(n, np.nan), lon_deg=np.full(n, np.nan),
+            east_m=noisy(states[late, 0], 2.1), north_m=noisy(states[late, 1], 2.1),
+            vel_east_mps=noisy((u * np.cos(psi) - v * np.sin(psi))[late], 0.05),
+            vel_north_mps=noisy((u * np.sin(psi) + v * np.cos(psi))[late], 0.05),
+            heading_rad=noisy(psi, math.radians(3.0)), yaw_rate_radps=noisy(r, math.radians(0.06)),
+            accel_x_mps2=np.full(n, np.nan), accel_y_mps2=noisy(rates[:, 4] + u * r, 0.04),
+            metadata=TrialMetadata(source=f"independent ship zigzag {side:+g}")))
+    return trials
+
+
+def test_a_ships_screw_thrust_and_rudder_lift_are_fitted_with_its_turning_on_an_independent_integrator() -> None:
+    """Another single-screw ship (220 kg, 2.8 m, a larger rudder) whose screw delivers 0.85 of its K_T(J) and whose
+    rudder lifts 0.75 of Fujii's slope, integrated here: `identify --manoeuvring`'s fit from the nominal boat file
+    (surge held) finds both factors within their intervals."""
+    from boat_twin.config import TwinConfig
+    from boat_twin.ident.manoeuvring import fit_manoeuvring
+
+    rudder = {**SHIP["propulsion"]["rudders"][0], "area_m2": 0.028, "aspect_ratio": 1.4}
+    nominal_spec = {**SHIP, "mass_kg": 220.0, "length_m": 2.8, "propulsion": {**SHIP["propulsion"],
+                                                                                "rudders": [rudder]}}
+    nominal = params_from_dict(nominal_spec, "nominal")
+    slope = 0.75 * 6.13 * 1.4 / (1.4 + 2.25)
+    truth = params_from_dict({**nominal_spec, "thrust_factor_left": 0.85, "propulsion": {
+        **nominal_spec["propulsion"], "rudders": [{**rudder, "lift_slope_per_rad": slope}]}}, "truth")
+    trials = _ship_trials(truth, 14.0, np.random.default_rng(3))
+    fit = fit_manoeuvring(trials, TwinConfig(vessel=nominal))
+    assert {"thrust_factor", "rudder_lift_factor"} <= set(fit.fitted)
+    for key, value in (("thrust_factor", 0.85), ("rudder_lift_factor", 0.75)):
+        low, high = fit.ci95[key]
+        assert low <= value <= high and key not in fit.not_identified, (key, fit.values[key], low, high)
+    assert not fit.misfit, fit.residual_to_noise
+    rudder_out = fit.config.vessel.propulsion.rudders[0]  # type: ignore[union-attr]
+    assert rudder_out.lift_slope == pytest.approx(fit.values["rudder_lift_factor"] * 6.13 * 1.4 / 3.65)
+    assert fit.config.vessel.thrust_factor_left == pytest.approx(fit.values["thrust_factor"])
+
+
+def test_identify_manoeuvring_finds_a_ships_screw_and_rudder_scale_from_a_zigzag_and_a_turning_circle(
+        tmp_path: Path) -> None:
+    """The single-screw ship of config/boats simulated with its screw at 0.9 of its K_T(J) and its rudder at 0.8 of
+    Fujii's lift slope; `identify --manoeuvring` on a zigzag and a turning circle with the nominal boat file finds
+    both factors within their intervals, writes them into twin.yaml (which simulate reads back) and re-simulates
+    a held-out zigzag within 10° of heading."""
+    import yaml
+
+    from boat_twin.cli import main
+    from boat_twin.config import load_twin_config
+
+    boat = Path(__file__).resolve().parents[1] / "config" / "boats" / "single_screw_rudder.yaml"
+    data = yaml.safe_load(boat.read_text())
+    rudder = data["vessel"]["propulsion"]["rudders"][0]
+    rudder["lift_slope_per_rad"] = 0.8 * 6.13 * rudder["aspect_ratio"] / (rudder["aspect_ratio"] + 2.25)
+    data["vessel"]["thrust_factor_left"] = 0.9
+    truth = tmp_path / "truth.yaml"
+    truth.write_text(yaml.safe_dump(data))
+    trials = []
+    for scenario in ("zigzag-20-20", "turning-circle", "zigzag-10-10"):
+        trials.append(str(tmp_path / f"{scenario}.mcap"))
+        assert main(["simulate", scenario, "--config", str(truth), "--seed", "4", "--out", trials[-1]]) == 0
+    assert main(["identify", *trials[:2], "--manoeuvring", "--config", str(boat), "--validate", trials[2],
+                 "--out", str(tmp_path / "fit")]) == 0
+    found = json.loads((tmp_path / "fit" / "manoeuvring.json").read_text())["manoeuvring"]
+    for key, value in (("thrust_factor", 0.9), ("rudder_lift_factor", 0.8)):
+        low, high = found["ci95"][key]
+        assert low <= value <= high and key not in found["not_identified"], (key, found["parameters"][key], low, high)
+    assert found["validation"][0]["heading_rmse_deg"] < 10.0 and not found["misfit"]
+    twin = load_twin_config(tmp_path / "fit" / "twin.yaml", None, None).vessel
+    assert twin.thrust_factor_left == pytest.approx(found["parameters"]["thrust_factor"])
+    assert twin.propulsion.rudders[0].lift_slope_per_rad == pytest.approx(  # type: ignore[union-attr]
+        found["parameters"]["rudder_lift_factor"] * 6.13 * 1.6 / (1.6 + 2.25))

@@ -131,19 +131,42 @@ their intervals through the joint jackknife. Each window's surge relaxes towards
 predicted speed up to ~0.5 % off, which the coefficients otherwise absorbed through the m22·v·r surge coupling
 and the speed in every lift term: holding a curve 1 % high moved a_v +9 % (issue 25, docs/live-twin.md)."""
 SURGE_FACTOR_KEYS = tuple(p.key for p in SURGE_FACTORS)
-FITTABLE = PARAMETERS + SURGE_FACTORS
+LAYOUT_FACTORS = (
+    Parameter("thrust_factor", "every thruster's thrust over its map's in the boat file (thrust table / K_T "
+              "scale), -", True),
+    Parameter("rudder_lift_factor", "every rudder's lift slope f_α over the boat file's, -", True),
+)
+"""The boat file's actuators' scale (:mod:`boat_twin.vessel.actuators`), fitted with the coefficients by default on
+a boat with a propulsion section (the lift factor where it has rudders; :func:`default_free`): a thrust table or
+open-water K_T(J) measured elsewhere, or Fujii's lift slope, is rarely exact on the boat. With the surge model held
+(m11, Fc), the thrust's scale is seen in the speed the thrust holds and, on a skid-steer boat, in the yaw moment of
+differential thrust; the rudder's in its sway force and yaw moment against the held m11·u·r coupling."""
+LAYOUT_FACTOR_KEYS = tuple(p.key for p in LAYOUT_FACTORS)
+FITTABLE = PARAMETERS + SURGE_FACTORS + LAYOUT_FACTORS
 """Every parameter ``free`` may name, in the order of the correlation matrix."""
 
+
+def default_free(base: TwinConfig) -> tuple[str, ...]:
+    """What :func:`fit_manoeuvring` fits unless told: the coefficients, and on a boat file's propulsion section
+    its thrust factor and, where it has rudders, their lift factor (:data:`LAYOUT_FACTORS`)."""
+    layout = base.vessel.propulsion
+    if layout is None:
+        return PARAMETER_KEYS
+    return PARAMETER_KEYS + ("thrust_factor",) + (("rudder_lift_factor",) if layout.rudders else ())
+
 HELD_NOTE = ("held, not fitted: m11 and the resistance Fc(u) (surge: the thrust–speed identification or the given "
-             "model), the thrust envelope and thrust factors, the outboards' position x_e, y_e")
+             "model), the thrust envelope and {thrust}, the outboards' position x_e, y_e")
 SCALED_NOTE = ("held, not fitted: the given surge model (m11 and the shape of Fc(u)) but for the factors fitted with "
-               "the coefficients ({fitted}), the thrust envelope and thrust factors, the outboards' position x_e, y_e")
+               "the coefficients ({fitted}), the thrust envelope and {thrust}, the outboards' position x_e, y_e")
 LEVER_ARM_NOTE = ("engine lever arm x_e: the yaw equation holds it only as x_e/m33 (with a_r/m33, x_c·a_v/m33, "
                   "N_rr/m33), so a wrong x_e rescales m33 and the yaw coefficients together; taken as given "
                   "({x_e:+.2f} m), m33, a_r and N_rr are relative to it")
 LAYOUT_LEVER_NOTE = ("the boat file's thrusters and rudders are held as given ({where}): the yaw equation holds their "
                      "moments only over m33, so a wrong position or rudder area rescales m33 and the yaw coefficients "
                      "together")
+LAYOUT_FACTOR_NOTE = ("fitted with the coefficients: {fitted} (the boat file's thrust map and rudder lift slope "
+                      "scaled, their shape held; the thrust's scale rests on the held surge model m11, Fc(u): a "
+                      "resistance x % off reads as a thrust x % off)")
 TIMING_NOTE = ("STEERING TIMING: the residuals follow the steering's timing (score test t = {t:+.1f}, limit "
                "±{t_limit:g}): the outboards act {delay_s:+.2f} s late (95 % [{low:+.2f}, {high:+.2f}] s, linearized) "
                "against the model, a command delay or actuator lag it lacks; the coefficients and their intervals "
@@ -168,8 +191,22 @@ def _start_values(base: TwinConfig) -> dict[str, float]:
     values = {key: float(getattr(coeff, key)) for key in MANOEUVRING_KEYS}
     values["lateral_centre_x_m"] = float(coeff.lateral_centre_x_m)
     values["steering_offset_rad"] = float(base.vessel.steering_offset_rad)
-    values.update({key: 1.0 for key in SURGE_FACTOR_KEYS})
+    values.update({key: 1.0 for key in SURGE_FACTOR_KEYS + LAYOUT_FACTOR_KEYS})
     return values
+
+
+def _scaled_layout(base: TwinConfig, thrust_factor: float, lift_factor: float) -> TwinConfig:
+    """``base`` with every thruster's thrust factor × ``thrust_factor`` and every rudder's lift slope ×
+    ``lift_factor`` (:data:`LAYOUT_FACTORS`)."""
+    vessel = base.vessel
+    changes: dict[str, Any] = {}
+    if thrust_factor != 1.0:
+        changes.update(thrust_factor_left=vessel.thrust_factor_left * thrust_factor,
+                       thrust_factor_right=vessel.thrust_factor_right * thrust_factor)
+    if lift_factor != 1.0 and vessel.propulsion is not None:
+        rudders = tuple(replace(r, lift_slope_per_rad=r.lift_slope * lift_factor) for r in vessel.propulsion.rudders)
+        changes["propulsion"] = replace(vessel.propulsion, rudders=rudders)
+    return replace(base, vessel=replace(vessel, **changes)) if changes else base
 
 
 def apply_parameters(base: TwinConfig, values: dict[str, float]) -> TwinConfig:
@@ -372,6 +409,7 @@ class _Problem:
         base = self.base
         if values["surge_mass_factor"] != 1.0 or values["resistance_factor"] != 1.0:
             base = _scaled_surge(base, math.log(values["surge_mass_factor"]), math.log(values["resistance_factor"]))
+        base = _scaled_layout(base, values["thrust_factor"], values["rudder_lift_factor"])
         return apply_parameters(base, values)
 
     def _replay(self, xs: Sequence[np.ndarray], nuisances: bool) -> list[list[np.ndarray]]:
@@ -533,8 +571,8 @@ class ManoeuvringFit:
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready result (SI)."""
         return {
-            "parameters": {k: self.values[k] for k in PARAMETER_KEYS + tuple(k for k in SURGE_FACTOR_KEYS
-                                                                              if k in self.fitted)},
+            "parameters": {k: self.values[k] for k in PARAMETER_KEYS + tuple(
+                k for k in SURGE_FACTOR_KEYS + LAYOUT_FACTOR_KEYS if k in self.fitted)},
             "ci95": {k: list(v) for k, v in self.ci95.items()},
             "fitted": list(self.fitted),
             "correlation": {"parameters": list(self.fitted), "matrix": np.round(self.correlation, 4).tolist()},
@@ -569,13 +607,15 @@ def _scaled_surge(base: TwinConfig, log_mass: float, log_resistance: float) -> T
 
 
 def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float = WINDOW_S,
-                    free: Sequence[str] = PARAMETER_KEYS) -> ManoeuvringFit:
+                    free: Sequence[str] | None = None) -> ManoeuvringFit:
     """Fit the manoeuvring coefficients ``free`` (keys of :data:`PARAMETER_KEYS`, every one by default) of
     ``base`` (the prior; its surge and the others held) to ``trials``; ``free`` may name the
     :data:`SURGE_FACTOR_KEYS` too, the scale of ``base``'s surge model, which is then fitted with them (its curve's
-    shape held) instead of taken as exact."""
+    shape held) instead of taken as exact, and the :data:`LAYOUT_FACTOR_KEYS`, the scale of its thrust and rudder
+    lift. None: :func:`default_free` (every coefficient, and a boat file's layout factors)."""
     if not trials:
         raise InputError("no trial to fit the manoeuvring coefficients to")
+    free = default_free(base) if free is None else free
     unknown = sorted(set(free) - {p.key for p in FITTABLE})
     if unknown or not free:
         raise ValueError(f"manoeuvring parameters to fit: unknown {unknown}" if unknown else "nothing to fit")
@@ -620,10 +660,14 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     timing = problem.steering_timing(x, jac, fun, len(free))
     scaled = [key for key in SURGE_FACTOR_KEYS if key in free]
     layout = base.vessel.propulsion
-    notes = [SCALED_NOTE.format(fitted=", ".join(scaled)) if scaled else HELD_NOTE,
+    thrust = "the thrust factors' ratio" if "thrust_factor" in free else "thrust factors"
+    notes = [SCALED_NOTE.format(fitted=", ".join(scaled), thrust=thrust) if scaled else HELD_NOTE.format(thrust=thrust),
              LEVER_ARM_NOTE.format(x_e=base.vessel.engine_x_m) if layout is None else LAYOUT_LEVER_NOTE.format(
                  where=", ".join([f"{t.name} x {t.x_m:+.2f} m" for t in layout.thrusters]
                                  + [f"rudder {r.name} x {r.x_m:+.2f} m, {r.area_m2:g} m²" for r in layout.rudders]))]
+    layout_fitted = [key for key in LAYOUT_FACTOR_KEYS if key in free]
+    if layout_fitted:
+        notes.append(LAYOUT_FACTOR_NOTE.format(fitted=", ".join(layout_fitted)))
     if timing["flagged"]:
         notes.append(TIMING_NOTE.format(**timing, low=timing["delay_ci95_s"][0], high=timing["delay_ci95_s"][1]))
     return ManoeuvringFit(

@@ -685,12 +685,40 @@ class OutputErrorResult:
     reason: str
     mass_identified: bool
     mass_note: str
+    thrust_scale: dict[str, Any] | None = None
+    """The thrust's scale with the effective mass held at a boat file's (:func:`thrust_scale`), for the selected
+    fit and the baseline; None: no mass given."""
 
     def to_dict(self) -> dict[str, Any]:
         """The ``output_error`` entry of ``identify --json`` (SI)."""
         return {"selected": self.selected.to_dict(), "baseline": self.baseline.to_dict(),
                 "candidates": self.candidates, "folds": self.folds, "selection_reason": self.reason,
-                "mass_identified": self.mass_identified, "mass_note": self.mass_note}
+                "mass_identified": self.mass_identified, "mass_note": self.mass_note} | (
+                    {} if self.thrust_scale is None else {"thrust_scale": self.thrust_scale})
+
+
+THRUST_SCALE_NOTE = ("the surge alone cannot tell a heavier boat from a weaker thrust: m·du/dt = k·T − Fc(u) moves "
+                     "alike for (m, k, Fc) and (λm, λk, λFc); with the effective mass held at the boat file's "
+                     "{mass:.4g} kg (taken as exact) the thrust is k × the boat file's map (thrust table, K_T(J) or "
+                     "N), Fc k × the fitted curve; the model keeps k = 1 and the fitted mass")
+
+
+def thrust_scale(result: OutputErrorResult, mass_kg: float) -> dict[str, Any]:
+    """The thrust's scale k (thrust table / K_T scale: the thrust the boat felt over the one its commands map to)
+    with the effective mass held at ``mass_kg`` (a boat file's), for the selected fit and the baseline. The fit with
+    the mass held and k free is the fit with the mass free and k = 1 reparametrised (the model is invariant under
+    (m, k, Fc) → (λm, λk, λFc): :data:`THRUST_SCALE_NOTE`), so k = ``mass_kg`` / m̂ and its 95 % interval is the
+    fitted mass's mapped through it: [``mass_kg``/m_high, ``mass_kg``/m_low] (None: unbounded). Identified when the
+    mass is (:func:`_mass_verdict`). The boat file's mass is taken as exact: its own error moves k by its share."""
+    out: dict[str, Any] = {"mass_held_kg": mass_kg, "note": THRUST_SCALE_NOTE.format(mass=mass_kg)}
+    for name, fit in (("selected", result.selected), ("baseline", result.baseline)):
+        lo, hi = fit.mass_ci95_kg
+        identified, _ = _mass_verdict(fit, None)
+        out[name] = {"scale": mass_kg / fit.mass_kg,
+                     "ci95": [mass_kg / hi if np.isfinite(hi) and hi > 0.0 else None,
+                              mass_kg / lo if np.isfinite(lo) and lo > 0.0 else None],
+                     "identified": identified}
+    return out
 
 
 def _folds(records: list[SurgeRecord], segments: list[Segment]) -> tuple[list[tuple[list[Segment],

@@ -20,7 +20,7 @@ from boat_twin.data import dyda2021_table1_si
 from boat_twin.errors import InputError
 from boat_twin.ident.dynamic import DynamicResult, DynamicWindow, check_samples, identify_dynamic
 from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadyCriteria, detect_steady_segments
-from boat_twin.ident.output_error import OutputErrorResult, SurgeFit, SurgeRecord, identify_surge
+from boat_twin.ident.output_error import OutputErrorResult, SurgeFit, SurgeRecord, identify_surge, thrust_scale
 from boat_twin.ident.paper import reproduce
 from boat_twin.ident.resimulate import Resimulation, resimulate
 from boat_twin.ident.results import (
@@ -302,13 +302,16 @@ def identify_pooled(
 def _output_error(records: list[SurgeRecord], fallback_mass_kg: float | None, warnings: list[str]
                   ) -> OutputErrorResult:
     """The output-error model over every sample of ``records``; the fallback mass held when the data do not
-    identify one (without one, a warning: no mass in the model)."""
+    identify one (without one, a warning: no mass in the model). With a fallback mass, the thrust's scale with
+    the mass held at it (:func:`~boat_twin.ident.output_error.thrust_scale`, from the fit of the mass)."""
     oe = identify_surge(records)
+    scale = None if fallback_mass_kg is None else thrust_scale(oe, fallback_mass_kg)
     if not oe.mass_identified and fallback_mass_kg is not None:
         warnings.append(f"{oe.mass_note}; the boat file's mass (with its added mass) {fallback_mass_kg:.0f} kg is "
                         "held in the model (not identified: no interval on it)")
         oe = identify_surge(records, mass_kg=fallback_mass_kg)
-    elif not oe.mass_identified:
+    oe.thrust_scale = scale
+    if not oe.mass_identified and fallback_mass_kg is None:
         warnings.append(f"{oe.mass_note}; no mass in the model (give a boat file with mass_kg)")
     return oe
 

@@ -260,6 +260,16 @@ def count(n: int, noun: str) -> str:
     return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
+def thrust_scale_line(scale: dict[str, Any]) -> str:
+    """The thrust's scale with the mass held at the boat file's (selected fit, baseline), in one line."""
+    def interval(fit: dict[str, Any]) -> str:
+        lo, hi = (f"{v:.3g}" if v is not None else "unbounded" for v in fit["ci95"])
+        return f"{fit['scale']:.3g} [{lo}, {hi}]" + ("" if fit["identified"] else " NOT IDENTIFIED")
+    return (f"thrust scale k with the effective mass held at the boat file's {scale['mass_held_kg']:.4g} kg, "
+            f"95% CI: {interval(scale['selected'])} (baseline {interval(scale['baseline'])}); the surge alone "
+            "cannot tell a heavier boat from a weaker thrust: the model keeps the fitted mass and k = 1")
+
+
 def model_lines(result: IdentifyResult) -> list[str]:
     """The identified model in words: the selected output-error fit against the baseline, the curve with its
     intervals, the mass (or why there is none), the steady points' polynomial as a view, and anything not
@@ -284,6 +294,8 @@ def model_lines(result: IdentifyResult) -> list[str]:
                      f"{sel['clusters']} blocks of {sel['cluster_s']:.3g} s)")
     else:
         lines.append(f"effective mass NOT IDENTIFIED: {oe['mass_note']}")
+    if "thrust_scale" in oe:
+        lines.append(thrust_scale_line(oe["thrust_scale"]))
     a, b = base["coefficients"]
     lines.append(f"baseline m·du/dt = T - a·u - b·u|u| (output error): a = {a:.4g} N·s/m, b = {b:.4g} N·s²/m², "
                  f"mass {base['mass_kg']:.0f} kg; held-out RMSE {cv['baseline']:.3g} m/s, selected "

@@ -14,7 +14,7 @@ with the steering input), and propeller + rudder. A thruster's command becomes t
   curve K_T(J) = k₀ + k₁·J + k₂·J² (Carlton 2012, ch. 6); astern (n < 0) it delivers ``astern_ratio`` of that.
 
 A rudder's normal force is the MMG model's (Yasukawa & Yoshimura 2015, eq. 11-13; Fossen 2021, §9.4):
-F_N = ½ρ·A_R·f_α·U_R²·sin α_R, with the lift slope f_α = 6.13·Λ/(Λ + 2.25) of its aspect ratio Λ (Fujii), the
+F_N = ½ρ·A_R·f_α·U_R²·sin α_R, with the lift slope f_α given or 6.13·Λ/(Λ + 2.25) of its aspect ratio Λ (Fujii), the
 inflow U_R from the surge and sway at the rudder and, where a propeller or thruster washes it, the slipstream
 speed u_R² = η·(u_A + κ·(V_∞ − u_A))² + (1 − η)·u_A² with V_∞² = u_A² + 8T/(ρπD²) (momentum theory; η = D / the
 rudder's span, κ = 0.5). Sign: a positive rudder angle turns the boat like a positive outboard angle (its force
@@ -136,11 +136,20 @@ class Rudder:
     """Λ = span²/area, -: 1-2 for small craft rudders (Molland & Turnock 2007, ch. 3; assumed 1.5)."""
     washed_by: str | None = None
     """The name of the thruster whose slipstream reaches it, or None (only the hull's inflow)."""
+    lift_slope_per_rad: float | None = None
+    """f_α, its normal-force slope, 1/rad: given (measured, or fitted by ``identify --manoeuvring``), or None for
+    Fujii's from its aspect ratio (:func:`fujii_lift_slope_per_rad`)."""
 
     @property
     def span_m(self) -> float:
         """Its span, m: √(Λ·A)."""
         return math.sqrt(self.aspect_ratio * self.area_m2)
+
+    @property
+    def lift_slope(self) -> float:
+        """f_α, 1/rad: :attr:`lift_slope_per_rad` when given, else Fujii's of its aspect ratio."""
+        return fujii_lift_slope_per_rad(self.aspect_ratio) if self.lift_slope_per_rad is None \
+            else self.lift_slope_per_rad
 
 
 def fujii_lift_slope_per_rad(aspect_ratio: float) -> float:
@@ -222,7 +231,7 @@ def _propeller(data: Any, where: str) -> PropellerMap:
 
 
 THRUSTER_KEYS = ("name", "x_m", "y_m", "steered", "angle_rad", "command", "table", "propeller", "diameter_m")
-RUDDER_KEYS = ("name", "x_m", "y_m", "area_m2", "aspect_ratio", "washed_by")
+RUDDER_KEYS = ("name", "x_m", "y_m", "area_m2", "aspect_ratio", "lift_slope_per_rad", "washed_by")
 
 
 def _thruster(data: Any, where: str) -> Thruster:
@@ -265,7 +274,9 @@ def _rudder(data: Any, where: str, thrusters: tuple[Thruster, ...]) -> Rudder:
                   y_m=number(f"{where}: y_m", spec.get("y_m", 0.0), minimum=-500.0, maximum=500.0),
                   aspect_ratio=number(f"{where}: aspect_ratio", spec.get("aspect_ratio", 1.5), above=0.0,
                                       maximum=20.0),
-                  washed_by=washed_by)
+                  washed_by=washed_by,
+                  lift_slope_per_rad=None if spec.get("lift_slope_per_rad") is None else number(
+                      f"{where}: lift_slope_per_rad", spec["lift_slope_per_rad"], above=0.0, maximum=4.0 * math.pi))
 
 
 def propulsion_from_dict(data: Any, where: str) -> Propulsion:
@@ -308,6 +319,7 @@ def propulsion_to_dict(propulsion: Propulsion) -> dict[str, Any]:
             item["diameter_m"] = t.diameter_m
         thrusters.append(item)
     rudders = [{"name": r.name, "x_m": r.x_m, "y_m": r.y_m, "area_m2": r.area_m2, "aspect_ratio": r.aspect_ratio,
+                **({"lift_slope_per_rad": r.lift_slope_per_rad} if r.lift_slope_per_rad is not None else {}),
                 **({"washed_by": r.washed_by} if r.washed_by else {})} for r in propulsion.rudders]
     return {"thrusters": thrusters, **({"rudders": rudders} if rudders else {})}
 

@@ -45,7 +45,6 @@ from boat_twin.vessel.actuators import (
     SLIPSTREAM_KAPPA,
     TABLE_MAX_POINTS,
     Propulsion,
-    fujii_lift_slope_per_rad,
 )
 from boat_twin.vessel.helms import CompiledHelm, fresh_memory, helm_command
 from boat_twin.vessel.params import WINDAGE_DRAG_COEFFICIENT, VesselParams, derive_coefficients
@@ -167,7 +166,7 @@ def _layout_coefficients(propulsion: Propulsion | None) -> np.ndarray:
     for r, rudder in enumerate(propulsion.rudders):
         washed = -1 if rudder.washed_by is None else names.index(rudder.washed_by)
         diameter = propulsion.thrusters[washed].diameter_m if washed >= 0 else 0.0
-        gain = 0.5 * SEAWATER_DENSITY_KGPM3 * rudder.area_m2 * fujii_lift_slope_per_rad(rudder.aspect_ratio)
+        gain = 0.5 * SEAWATER_DENSITY_KGPM3 * rudder.area_m2 * rudder.lift_slope
         out[base + r * _RUDDER:base + (r + 1) * _RUDDER] = [
             1.0, rudder.x_m, rudder.y_m, gain, float(washed), min(1.0, diameter / rudder.span_m)]
     return out

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from boat_twin.units import SEAWATER_DENSITY_KGPM3
-from boat_twin.vessel.actuators import SLIPSTREAM_KAPPA, Thruster, fujii_lift_slope_per_rad
+from boat_twin.vessel.actuators import SLIPSTREAM_KAPPA, Thruster
 from boat_twin.vessel.params import VesselParams
 
 
@@ -68,7 +68,7 @@ def surge_thrust_N(vessel: VesselParams, command_N: np.ndarray, angle_rad: np.nd
             eta = min(1.0, diameter / rudder.span_m)
             wash = np.abs(surge) + SLIPSTREAM_KAPPA * (far - np.abs(surge))
             inflow = np.where(push > 0.0, np.sqrt(eta * wash**2 + (1.0 - eta) * surge**2), surge)
-        gain = 0.5 * SEAWATER_DENSITY_KGPM3 * rudder.area_m2 * fujii_lift_slope_per_rad(rudder.aspect_ratio)
+        gain = 0.5 * SEAWATER_DENSITY_KGPM3 * rudder.area_m2 * rudder.lift_slope
         delta = angles[..., r]
         total = total - gain * inflow**2 * np.sin(delta) ** 2
     return total
