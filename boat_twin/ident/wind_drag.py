@@ -57,8 +57,8 @@ class WindDragResult:
 
 
 def wind_drag_result(oe: OutputErrorResult, trials: int) -> WindDragResult | None:
-    """The wind drag of an output-error identification whose records carried the measured wind (None: none did,
-    so no coefficient was fitted)."""
-    if not oe.selected.coupling_fitted:
+    """The wind drag of an output-error identification whose records carried the measured wind of ``trials``
+    trials (None: none did, so no coefficient was fitted)."""
+    if trials == 0 or not oe.selected.coupling_fitted:
         return None
     return WindDragResult(wind_drag(oe.selected), wind_drag(oe.baseline), trials)
