@@ -121,9 +121,10 @@ def calibration_from_dict(data: Any, source: str = "<calibration>") -> Calibrati
     if not isinstance(commands, dict) or not commands:
         raise InputError(f"{source}: missing field 'commands' (role: {{source, table}} or {{value}})")
     roles = _actuator_roles(commands, source)
-    maps = {roles.get(key, key): _command_map(roles.get(key, key), entry, f"{source}: commands.{key}",
-                                              _unit(str(key)))
-            for key, entry in commands.items()}
+    maps = {}
+    for key, entry in commands.items():
+        role = roles.get(str(key), str(key))
+        maps[role] = _command_map(role, entry, f"{source}: commands.{key}", _unit(str(key)))
     if roles and "thrust_left" in maps and "thrust_right" not in maps:  # a single thruster: no second slot
         maps["thrust_right"] = CommandMap("thrust_right", None, np.zeros(0), np.zeros(0), 0.0)
     return Calibration(maps, source, {role: key for key, role in roles.items()})
