@@ -80,3 +80,19 @@ def test_the_diagnosis_names_the_measured_wind_and_nothing_else(windy: tuple[Ves
     done = diagnose_trial(trial, TwinConfig(vessel=params))
     assert done.result["measured_wind"]["named"]
     assert done.result["verdict"] == [] and done.result["unexplained"] is False
+
+
+def test_windows_meet_their_measured_wind_whatever_the_configs_steady_wind(
+        windy: tuple[VesselParams, Trial]) -> None:
+    """The manoeuvring fit replays several trials through one config: re-referenced to it, each window meets its
+    own measured wind as the diagnosis' config (the trial's mean) gives it."""
+    from boat_twin.twin.replay import cut_windows, predict, wind_against, with_measured_wind
+
+    params, trial = windy
+    windows, calm = cut_windows(trial, 20.0), TwinConfig(vessel=params)
+    against = predict(wind_against(windows, calm), calm)
+    measured = predict(windows, with_measured_wind(calm, trial))
+    for signal in ("vel_east_mps", "vel_north_mps", "yaw_rate_radps"):
+        np.testing.assert_allclose(against.signals[signal], measured.signals[signal], atol=1e-9)
+    plain = predict(windows, calm)  # the departures alone on a calm config: not the measured wind
+    assert np.nanmax(np.abs(plain.signals["vel_east_mps"] - measured.signals["vel_east_mps"])) > 0.05

@@ -241,6 +241,18 @@ def with_measured_wind(config: TwinConfig, trial: Trial) -> TwinConfig:
     return replace(config, environment=replace(config.environment, wind_east_mps=wind[0], wind_north_mps=wind[1]))
 
 
+def wind_against(windows: Windows, config: TwinConfig) -> Windows:
+    """``windows`` whose measured wind departs from ``config``'s steady wind rather than from the trial's mean:
+    replayed through ``config``, every window meets its own measured wind whatever the config holds (a fit of
+    several trials with one config; unchanged without an anemometer)."""
+    mean = measured_wind_mps(windows.trial)
+    if windows.wind_departure_mps is None or mean is None:
+        return windows
+    env = config.environment
+    shift = np.array(mean) - np.array([env.wind_east_mps, env.wind_north_mps])
+    return replace(windows, wind_departure_mps=windows.wind_departure_mps + shift)
+
+
 def _wind_departure(trial: Trial, index: np.ndarray) -> np.ndarray | None:
     """(m, 2) each window's (samples ``index``, (T, m)) mean measured wind less the trial's mean, m/s (0 for a
     window without a known wind sample); None without an anemometer."""
