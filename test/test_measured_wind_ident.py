@@ -43,6 +43,7 @@ def windy() -> tuple[VesselParams, Trial]:
 
 def test_the_surge_fit_recovers_the_wind_drag_coefficient(windy: tuple[VesselParams, Trial]) -> None:
     from boat_twin.ident.pipeline import identify_trials
+    from boat_twin.ident.report import model_lines
 
     _, trial = windy
     result, _ = identify_trials([trial])
@@ -53,6 +54,7 @@ def test_the_surge_fit_recovers_the_wind_drag_coefficient(windy: tuple[VesselPar
     assert drag["baseline"]["model"] == "baseline" and np.all(np.isfinite(drag["baseline"]["ci95_Ns2pm2"]))
     assert result["twin"]["vessel"]["frontal_windage_area_m2"] == pytest.approx(AREA_M2, rel=0.05)
     assert result["twin"]["sources"]["frontal_windage_area_m2"].startswith("identified")
+    assert any(line.startswith("measured wind (an anemometer on 1 trial(s)") for line in model_lines(result))
     blind = replace(trial, wind_east_mps=None, wind_north_mps=None)  # the same recording without its anemometer
     assert "wind_drag" not in identify_trials([blind])[0]
 
