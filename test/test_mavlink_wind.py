@@ -120,3 +120,21 @@ def test_a_wrong_actuator_calibration_is_refused_in_one_line(commands: dict, mes
     with pytest.raises(InputError, match=message) as err:
         calibration_from_dict({"commands": commands}, "cal.yaml")
     assert "\n" not in str(err.value) and str(err.value).startswith("cal.yaml: ")
+
+
+def test_convert_writes_the_wind_vanes_wind_that_the_bag_reader_reads_back(
+        single_screw: tuple[Path, Path], tmp_path: Path) -> None:
+    from boat_twin.cli import main
+    from boat_twin.io.bags import read_trial
+
+    log, cal = single_screw
+    bag = tmp_path / "boat.mcap"
+    assert main(["convert", str(log), "--out", str(bag), "--calibration", str(cal)]) == 0
+    mav, back = read_trial_file(log, calibration=str(cal)), read_trial(bag)
+    assert back.metadata.topics["wind"] == "/wind" and back.wind_east_mps is not None
+    assert mav.wind_east_mps is not None and mav.wind_north_mps is not None and back.wind_north_mps is not None
+    at = back.t_s + back.metadata.start_time_s - mav.metadata.start_time_s  # the two grids on the log's clock
+    for ours, theirs in ((back.wind_east_mps, mav.wind_east_mps), (back.wind_north_mps, mav.wind_north_mps)):
+        known = np.isfinite(ours) & (at >= mav.t_s[0]) & (at <= mav.t_s[-1])
+        assert np.count_nonzero(known) > 250
+        np.testing.assert_allclose(ours[known], np.interp(at[known], mav.t_s, theirs), atol=1e-6)
