@@ -33,7 +33,8 @@ def rk4_held(deriv: Callable[[np.ndarray, float], np.ndarray], state: np.ndarray
 def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Callable[[float], float],
                duration_s: float, rng: np.random.Generator, *, delay_s: float = 0.0, lag_s: float = 0.0,
                yaw_offset_rad: float = 0.0, latency_s: float = 0.1, dropout: float = 0.0,
-               initial_surge_mps: float = 5.0, heading_rad: float = 0.3, engines: bool = False) -> Trial:
+               initial_surge_mps: float = 5.0, heading_rad: float = 0.3, engines: bool = False,
+               wind_mps: Callable[[float], tuple[float, float]] | None = None) -> Trial:
     """A trial of a twin-outboard boat of ``params`` (a VesselParams: its derived coefficients, documented in
     boat_twin.vessel.dynamics' docstring) integrated here with classic RK4 at 100 Hz, written apart from the twin's
     kernel: both outboards at ``thrust_N(t)`` each (N, within the envelope: no limit is applied) and
@@ -47,11 +48,26 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
     3°, gyro 0.06°/s) and each GNSS fix lost with probability ``dropout``. The command log holds what was commanded
     (the undelayed ``thrust_N``, ``steering_rad``) as a recorder of stamped command messages gives it
     (:func:`logged_commands`): each change at the log sample nearest the instant it was issued, and that instant in
-    ``command_switch_s``."""
+    ``command_switch_s``. ``wind_mps(t)``: a true wind over ground (east, north, m/s) acting as the twin's model
+    documents it (quadratic drag on the frontal and lateral windage in the apparent wind, less the calm-air drag,
+    the lateral force at the centre of windage; the drag coefficient as boat_twin.vessel.params states it), logged
+    by an anemometer with 0.3 m/s noise per component."""
     from boat_twin.io.trial import Trial, TrialMetadata
-    from boat_twin.vessel.params import derive_coefficients
+    from boat_twin.units import AIR_DENSITY_KGPM3
+    from boat_twin.vessel.params import WINDAGE_DRAG_COEFFICIENT, derive_coefficients
 
     c = derive_coefficients(params)
+    k_x = 0.5 * AIR_DENSITY_KGPM3 * WINDAGE_DRAG_COEFFICIENT * params.frontal_windage_area_m2
+    k_y = 0.5 * AIR_DENSITY_KGPM3 * WINDAGE_DRAG_COEFFICIENT * params.lateral_windage_area_m2
+
+    def windage(psi: float, u: float, v: float, t: float) -> tuple[float, float]:
+        if wind_mps is None:
+            return 0.0, 0.0
+        we, wn = wind_mps(t)
+        ae, an = we - (u * math.cos(psi) - v * math.sin(psi)), wn - (u * math.sin(psi) + v * math.cos(psi))
+        ua, va = ae * math.cos(psi) + an * math.sin(psi), -ae * math.sin(psi) + an * math.cos(psi)
+        air, calm = math.hypot(ua, va), math.hypot(u, v)
+        return k_x * (air * ua + calm * u), k_y * (air * va + calm * v)
     m11, m22, m33 = c.m11_kg, c.m22_kg, c.m33_kgm2
     x_e = params.engine_x_m
 
@@ -67,11 +83,13 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
             ahead = params.bollard_thrust_N if abs(u) < 1e-9 else \
                 min(params.bollard_thrust_N, params.propulsive_efficiency * params.engine_power_W / abs(u))
             thrust = min(max(thrust, -params.reverse_thrust_ratio * params.bollard_thrust_N), ahead)
-        fx, fy = 2.0 * thrust * math.cos(d), 2.0 * thrust * math.sin(d)
+        xw, yw = windage(psi, u, v, t)
+        fx, fy = 2.0 * thrust * math.cos(d) + xw, 2.0 * thrust * math.sin(d) + yw
         drag = float(params.resistance.force_N(abs(u))) * (1.0 if u >= 0.0 else -1.0)  # opposes the motion
         du = (fx + m22 * v * r - drag) / m11
         dv = (fy - m11 * u * r - c.sway_damping_Nspm2 * abs(u) * v - c.sway_quadratic_Ns2pm2 * abs(v) * v) / m22
-        dr = (x_e * fy - (m22 - m11) * u * v - c.lateral_centre_x_m * c.sway_damping_Nspm2 * abs(u) * v
+        dr = (x_e * (fy - yw) + params.windage_centre_x_m * yw - (m22 - m11) * u * v
+              - c.lateral_centre_x_m * c.sway_damping_Nspm2 * abs(u) * v
               - c.yaw_damping_Nms * abs(u) * r - c.yaw_quadratic_Nms2 * abs(r) * r) / m33
         return np.array([u * math.cos(psi) - v * math.sin(psi), u * math.sin(psi) + v * math.cos(psi), r, du, dv,
                          dr, dthrust])
@@ -125,6 +143,8 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
         accel_y_mps2=np.full(n, np.nan), metadata=TrialMetadata(source="independent integrator"), **gnss,
         **({"gnss_bridged": bridged} if bridged.any() else {}),
         **({"command_switch_s": switch} if np.any(switch != 0.0) else {}),
+        **({} if wind_mps is None else dict(zip(("wind_east_mps", "wind_north_mps"), (
+            noisy(np.array([wind_mps(t)[k] for t in time_s]), 0.3) for k in range(2)), strict=True))),
     )
 
 

@@ -122,3 +122,25 @@ def test_resimulation_error_grows_for_a_wrong_model(stepped_trial) -> None:
     assert resimulate(trial, heavy).to_dict()["speed_rmse_mps"] > 1.1 * reference  # transients lag
     no_mass = {"resistance": model["resistance"]}
     assert resimulate(trial, no_mass).mass_source == "the base boat's (none identified)"
+
+
+def test_a_boat_files_commands_become_its_surge_thrust() -> None:
+    """A single-screw ship's rev/s and rudder angle through its propeller and rudder (the propulsion section):
+    the identifier sees the thrust the twin's own map gives, as an identifier fed that thrust in N does."""
+    from pathlib import Path
+
+    from boat_twin.config import load_config
+    from boat_twin.vessel.propulsion import surge_thrust_N
+
+    vessel = load_config(Path(__file__).resolve().parents[1] / "config" / "boats" / "single_screw_rudder.yaml").vessel
+    ship, plain = LiveIdentifier(order=2, vessel=vessel), LiveIdentifier(order=2)
+    for k in range(400):
+        command, rudder, speed = 8.0 + 4.0 * (k // 100), 0.2 * ((k // 50) % 2), 0.5 + k / 400
+        ship.set_command(0, command)
+        ship.set_command(2, rudder)
+        plain.set_command(0, float(surge_thrust_N(vessel, np.array([command, 0.0]), np.array([rudder, 0.0]), speed)))
+        plain.set_command(1, 0.0)
+        ship.on_velocity(k * 100_000_000, speed, 0.0)
+        plain.on_velocity(k * 100_000_000, speed, 0.0)
+    assert ship.core.snapshot() == plain.core.snapshot()
+    assert ship.status()["held_commands"][1] == 0.0  # one screw: the second slot holds no thrust

@@ -97,3 +97,27 @@ def test_a_wind_speed_without_its_bearing_is_refused_in_one_line(tmp_path: Path)
     (tmp_path / "map.yaml").write_text("columns: {time: t, lat: lat, lon: lon, thrust_left: thr, wind_speed: ws}\n")
     with pytest.raises(InputError, match="'wind_speed' and 'wind_from' go together"):
         read_csv_trial(tmp_path / "log.csv", tmp_path / "map.yaml")
+
+
+def test_the_live_twins_rolling_diagnosis_takes_the_measured_wind(windy_bag: Path) -> None:
+    """The anemometer's samples reach the live twin's rolling diagnosis (the offline diagnosis' own function):
+    it replays with the measured wind and names no wind of its own, where the calm twin misfits."""
+    from boat_twin.io.samples import trial_samples
+    from boat_twin.shadow.session import Shadow, ShadowSettings
+
+    trial = read_trial(windy_bag)
+    shadow = Shadow(TwinConfig(), ShadowSettings(adapt=False))
+    runs = []
+    for kind, t, values in trial_samples(trial):
+        shadow.add(kind, t, values)
+        if shadow.rolling.latest is not None and (not runs or runs[-1] is not shadow.rolling.latest):
+            runs.append(shadow.rolling.latest)
+    shadow.flush()
+    end = float(trial.t_s[-1])
+    recent = shadow.recent.trial(end - 130.0, end)
+    assert recent.wind_east_mps is not None and recent.wind_north_mps is not None
+    assert np.nanmean(recent.wind_east_mps) == pytest.approx(WIND[0])
+    assert np.nanmean(recent.wind_north_mps) == pytest.approx(WIND[1])
+    done = [run for run in runs if not run.error]
+    assert done and all("wind" not in [c.name for c in run.causes + run.withheld] for run in done), \
+        [(run.t_s, [c.name for c in run.causes]) for run in runs]

@@ -32,7 +32,7 @@ from boat_twin.diagnose.structure import residual_structure
 from boat_twin.diagnose.table import TableDiagnosis, diagnose_table, table_result
 from boat_twin.errors import InputError
 from boat_twin.io.trial import Trial, long_holds, thrust_outliers
-from boat_twin.twin.replay import Prediction, Windows, cut_windows
+from boat_twin.twin.replay import Prediction, Windows, cut_windows, measured_wind_mps, with_measured_wind
 from boat_twin.units import KGF_N, KNOT_MPS
 from boat_twin.vessel.params import (
     HELD_COMMAND_TIME_CONSTANTS,
@@ -85,9 +85,9 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
     windows = cut_windows(trial, window_s)
     wind = measured_wind_mps(trial)
     unaware = None
-    if wind is not None:  # a measured wind is a known input: the twin replays with it, judged against without
-        unaware = Diagnosis(windows, base).fit([])
-        base = replace(base, environment=replace(base.environment, wind_east_mps=wind[0], wind_north_mps=wind[1]))
+    if wind is not None:  # a measured wind is a known input: the twin replays with it as it varied, judged
+        unaware = Diagnosis(replace(windows, wind_departure_mps=None), base).fit([])  # against the twin without
+        base = with_measured_wind(base, trial)
     diagnosis = Diagnosis(windows, base, progress)
     selection = forward_select(diagnosis, catalogue(base, trial.speed_mps))
     baseline_prediction = selection.baseline.residuals.prediction
@@ -105,17 +105,6 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
                           + trial.metadata.warnings())
     return TrialDiagnosis(windows, selection, base, extended, baseline_prediction, extended_prediction, result,
                           held_back)
-
-
-def measured_wind_mps(trial: Trial) -> tuple[float, float] | None:
-    """The trial's measured true wind over ground (east, north), m/s: its mean over the recording (a steady
-    wind: the twin's environment holds one), None without an anemometer or a known sample."""
-    if trial.wind_east_mps is None or trial.wind_north_mps is None:
-        return None
-    known = np.isfinite(trial.wind_east_mps) & np.isfinite(trial.wind_north_mps)
-    if not np.any(known):
-        return None
-    return float(np.mean(trial.wind_east_mps[known])), float(np.mean(trial.wind_north_mps[known]))
 
 
 def measured_wind_dict(wind: tuple[float, float], delta_bic_value: float) -> MeasuredWind:

@@ -274,7 +274,7 @@ def text_report(result: DiagnosisResult) -> str:
     wind = result.get("measured_wind")
     if wind is not None:
         lines.append(f"measured    wind {wind['speed_mps']:.3g} m/s from {wind['from_deg']:.0f}° (the recording's "
-                     "anemometer, mean): a known input of the replay; "
+                     "anemometer, mean): a known input of the replay, window by window; "
                      + (f"named: it explains a misfit of the twin without it (ΔBIC {wind['delta_bic']:.1f})"
                         if wind["named"] else f"the twin without it fits as well (ΔBIC {wind['delta_bic']:+.1f})"))
     if not result["verdict"] and result["unexplained"]:

@@ -14,6 +14,8 @@ import numpy as np
 
 from boat_twin.ident.online import OnlineThrustSpeedIdentifier, SteadyCriteria, SteadySegment
 from boat_twin.validation import THRUST_LIMIT_N
+from boat_twin.vessel.params import VesselParams
+from boat_twin.vessel.propulsion import surge_thrust_N
 from boat_twin.vessel.resistance import PowerSeriesResistance
 
 COMMAND_LIMITS = (THRUST_LIMIT_N, THRUST_LIMIT_N, math.pi, math.pi)
@@ -25,8 +27,12 @@ SPEED_LIMIT_MPS = 343.0
 class LiveIdentifier:
     """Holds the last command of each outboard; turns each velocity fix into an identifier sample."""
 
-    def __init__(self, order: int = 3, memory_s: float = 3600.0, criteria: SteadyCriteria | None = None) -> None:
+    def __init__(self, order: int = 3, memory_s: float = 3600.0, criteria: SteadyCriteria | None = None,
+                 vessel: VesselParams | None = None) -> None:
         self.order = order
+        self.vessel = vessel if vessel is not None and vessel.propulsion is not None else None
+        """A boat whose propulsion section says how its commands (a table's unit, rev/s; its rudders' angles)
+        become surge thrust (:func:`~boat_twin.vessel.propulsion.surge_thrust_N`); None: commands in N."""
         self.memory_s = memory_s
         self.criteria = criteria or SteadyCriteria()
         """Steady-state criteria (window, thrust tolerance): fixed live, where the boat is not known in advance."""
@@ -35,7 +41,9 @@ class LiveIdentifier:
     def reset(self) -> None:
         """Forget everything (a new trial)."""
         self.core = OnlineThrustSpeedIdentifier(self.order, memory_s=self.memory_s, criteria=self.criteria)
-        self.commands = np.array([math.nan, math.nan, 0.0, 0.0])
+        single = self.vessel is not None and self.vessel.propulsion is not None and \
+            len(self.vessel.propulsion.thrusters) == 1
+        self.commands = np.array([math.nan, 0.0 if single else math.nan, 0.0, 0.0])  # one thruster: no second
         self.max_speed_mps = 0.0
         self.first_stamp_ns: int | None = None
         self.rejected = 0
@@ -54,7 +62,8 @@ class LiveIdentifier:
 
     def on_velocity(self, stamp_ns: int, vel_east_mps: float, vel_north_mps: float) -> SteadySegment | None:
         """One GNSS velocity sample (header stamp in integer ns): surge thrust Σ T·cos δ of the held commands
-        against speed over ground. Time runs from the first sample, so seconds are exact to the ns.
+        (through the boat's thrust maps and rudders when it has a propulsion section) against speed over ground.
+        Time runs from the first sample, so seconds are exact to the ns.
         Returns the constant-thrust segment this sample closed, if any (accepted or not)."""
         speed = math.hypot(vel_east_mps, vel_north_mps)
         if not (math.isfinite(speed) and speed <= SPEED_LIMIT_MPS):
@@ -64,7 +73,8 @@ class LiveIdentifier:
             self.first_stamp_ns = stamp_ns
         stamp_s = (stamp_ns - self.first_stamp_ns) * 1e-9
         left, right, angle_left, angle_right = self.commands
-        thrust = float(left * math.cos(angle_left) + right * math.cos(angle_right))
+        thrust = float(left * math.cos(angle_left) + right * math.cos(angle_right)) if self.vessel is None else \
+            float(surge_thrust_N(self.vessel, self.commands[:2], self.commands[2:], speed))
         self.max_speed_mps = max(self.max_speed_mps, speed)
         segment = self.core.update(stamp_s, thrust, speed)
         if not self._finite():  # never publish NaN forever: start the fit again from here

@@ -61,6 +61,8 @@ from boat_twin.twin.replay import (
     predict,
     predict_vessels,
     residual,
+    wind_against,
+    with_measured_wind,
 )
 from boat_twin.vessel.params import MANOEUVRING_KEYS, derive_coefficients
 from boat_twin.vessel.resistance import CorrectedResistance
@@ -621,6 +623,7 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
         raise ValueError(f"manoeuvring parameters to fit: unknown {unknown}" if unknown else "nothing to fit")
     started = time.perf_counter()
     data = [prepare(trial, window_s) for trial in trials]
+    data = [replace(d, windows=wind_against(d.windows, base)) for d in data]  # a measured wind: a known input
     start = _start_values(base)
     free = [p.key for p in FITTABLE if p.key in free]
     problem = _Problem(data, base, start, free)
@@ -763,7 +766,7 @@ def validate(trial: Trial, config: TwinConfig) -> dict[str, Any]:
                      measured={s: values[s][index] for s in SIGNALS},
                      position=np.stack([trial.east_m[index], trial.north_m[index]], axis=-1), trial=trial,
                      start_index=np.array([first]))
-    prediction = predict(window, config)
+    prediction = predict(window, with_measured_wind(config, trial))  # one window: the measured wind's mean
     yaw = gyro_heading(trial, first)[first:stop]
     model_yaw = prediction.signals["heading_rad"][:, 0]
     rate_error = trial.yaw_rate_radps[first:stop] - prediction.signals["yaw_rate_radps"][:, 0]

@@ -39,7 +39,9 @@ from boat_twin.ident.settling import DerivedCriteria, derive_criteria
 from boat_twin.ident.steady import FitResult, fit_power_series, select_order
 from boat_twin.ident.trial_record import DELIVERED_THRUST, known_samples, trial_record
 from boat_twin.ident.twin_config import identified_vessel, thrust_seen
+from boat_twin.ident.wind_drag import wind_drag_result
 from boat_twin.io.trial import Trial, long_holds, thrust_outliers
+from boat_twin.twin.replay import measured_wind_mps
 from boat_twin.units import KGF_N, KNOT_MPS
 from boat_twin.vessel.params import (
     HELD_COMMAND_TIME_CONSTANTS,
@@ -385,7 +387,8 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
     config = config or TwinConfig()
     facts: dict[str, Any] = {k: v for k, v in boat.items() if k in VesselParams.__dataclass_fields__}
     config = replace(config, vessel=vessel_with_facts(config.vessel, facts))
-    records = [trial_record(trial, config) for trial in trials]
+    windy = [trial for trial in trials if measured_wind_mps(trial) is not None]
+    records = [trial_record(trial, config, wind=bool(windy)) for trial in trials]
     samples = [(rec.t_s, rec.thrust_N, rec.speed_mps) for rec in records]
     fallback = boat["mass_kg"] * (1.0 + boat.get("surge_added_mass_ratio", VesselParams().surge_added_mass_ratio)) \
         if "mass_kg" in boat else None
@@ -400,11 +403,13 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
     if not boat:
         found.warnings.append(ASSUMED_BOAT)
     with_fix = [trial for trial in trials if np.any(np.isfinite(trial.lat_deg))]
-    result = TrialsIdentification(found, [], None, origin=with_fix[0].metadata.origin if with_fix else None)
+    result = TrialsIdentification(found, [], None, origin=with_fix[0].metadata.origin if with_fix else None,
+                                  wind_drag=wind_drag_result(found.output_error, len(windy)))
     try:
         if found.physical_problems:
             raise InputError("the identified model is not physical: " + "; ".join(found.physical_problems))
         result.vessel, result.vessel_sources = identified_vessel(found.model, boat, thrust_seen(trials))
+        _identified_windage(result, boat)
     except InputError as err:
         result.twin_error = str(err)
         found.warnings.append(f"no twin configuration: {err}")
@@ -430,6 +435,17 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
             replay.error = str(err)
         result.trials.append(replay)
     return result
+
+
+def _identified_windage(result: TrialsIdentification, boat: dict[str, Any]) -> None:
+    """The twin's frontal windage area from the fitted wind drag (selected model) when its 95 % interval lies
+    above 0 and the boat file does not state the area."""
+    drag = result.wind_drag
+    if result.vessel is None or drag is None or "frontal_windage_area_m2" in boat \
+            or not drag.selected.ci95_Ns2pm2[0] > 0.0:
+        return
+    result.vessel = replace(result.vessel, frontal_windage_area_m2=drag.selected.frontal_area_m2)
+    result.vessel_sources["frontal_windage_area_m2"] = "identified (the measured wind's drag)"
 
 
 def trial_warnings(trial: Trial, boat: dict[str, float] | None = None) -> list[str]:

@@ -52,7 +52,7 @@ def trial_figure(result: IdentifyResult, records: Sequence[SurgeRecord]) -> Figu
     heading at the time it describes) with the steady-point view's settled tails (green) and the segments that
     gave no steady point (hatched grey: the output-error fit reads every sample, theirs too), the
     thrust held over each interval (a trial's delivered along the hull) and, where the fit scaled one, the
-    coupling force c·m₂₂·v·r."""
+    coupling force c·m₂₂·v·r (with a measured wind: the wind's force, its drag coefficient fitted)."""
     fig = Figure(figsize=(9, 6))
     ax_v, ax_f = fig.subplots(2, 1, sharex=True)
     scale = result["output_error"]["selected"].get("coupling_scale", 1.0)
@@ -62,8 +62,10 @@ def trial_figure(result: IdentifyResult, records: Sequence[SurgeRecord]) -> Figu
         ax_f.plot(rec.t_s, rec.thrust_N, color="tab:blue", drawstyle="steps-post",
                   label="thrust" if k == 0 else None)
         if rec.coupling_N is not None:
+            label = (f"measured wind's force k·(|Va|·ua + |V|·u), k = {scale:.3g} N·s²/m²" if "wind_drag" in result
+                     else f"coupling c·m22·v·r, c = {scale:.2f}")
             ax_f.plot(rec.t_s, scale * rec.coupling_N, lw=0.8, color="tab:orange", drawstyle="steps-post",
-                      label=None if coupled else f"coupling c·m22·v·r, c = {scale:.2f}")
+                      label=None if coupled else label)
             coupled = True
     for k, seg in enumerate(result["steady_points"]):
         ax_v.axvspan(seg["end_s"] - seg["duration_s"], seg["end_s"], color="tab:green", alpha=0.25,
@@ -300,6 +302,13 @@ def model_lines(result: IdentifyResult) -> list[str]:
     lines.append(f"baseline m·du/dt = T - a·u - b·u|u| (output error): a = {a:.4g} N·s/m, b = {b:.4g} N·s²/m², "
                  f"mass {base['mass_kg']:.0f} kg; held-out RMSE {cv['baseline']:.3g} m/s, selected "
                  f"{cv[sel['model']]:.3g} m/s")
+    wind: Any = dict(result).get("wind_drag")  # a trials' result (TrialIdentifyResult) only
+    if wind is not None:  # a measured wind: a known input, its drag coefficient fitted
+        (lo, hi), (blo, bhi) = wind["selected"]["ci95_Ns2pm2"], wind["baseline"]["ci95_Ns2pm2"]
+        lines.append(f"measured wind (an anemometer on {wind['trials']} trial(s), a known input): drag coefficient "
+                     f"k = {wind['selected']['coefficient_Ns2pm2']:.4g} N·s²/m², 95% CI [{lo:.4g}, {hi:.4g}] "
+                     f"(frontal windage {wind['selected']['frontal_windage_area_m2']:.3g} m² with C_a 0.8); "
+                     f"baseline {wind['baseline']['coefficient_Ns2pm2']:.4g} [{blo:.4g}, {bhi:.4g}]")
     if result["selected_order"] is not None:
         fit = next(f for f in result["fits"] if f["order"] == result["selected_order"])
         lines.append(f"steady points' polynomial (a view, not the model): N = {fit['order']}, c0..cN N/(m/s)^i: "

@@ -20,6 +20,7 @@ from boat_twin.ident.output_error import OutputErrorResult, SurgeRecord
 from boat_twin.ident.resimulate import Resimulation
 from boat_twin.ident.settling import DerivedCriteria
 from boat_twin.ident.steady import FitResult
+from boat_twin.ident.wind_drag import WindDragResult
 from boat_twin.vessel.params import VesselParams, params_to_dict
 
 NOT_PHYSICAL_NEXT = (
@@ -73,6 +74,9 @@ class TrialIdentifyResult(IdentifyResult, total=False):
     """Every pooled trial: source, metadata line, gaps, missing, derived and its own ``resimulation``."""
     twin: dict[str, Any]
     """The identified twin's vessel (``vessel``: every fact; ``sources``: where each came from) or ``{"error"}``."""
+    wind_drag: dict[str, Any]
+    """Where trials measured the true wind: its drag coefficient fitted with the selected model and the baseline
+    (:meth:`~boat_twin.ident.wind_drag.WindDragResult.to_dict`); absent otherwise."""
 
 
 def model_dict(fit: FitResult, effective_mass_kg: float | None = None) -> dict[str, Any]:
@@ -155,6 +159,8 @@ class TrialsIdentification:
     origin: tuple[float, float, float] | None = None
     """The first trial's geodetic origin (lat deg, lon deg, ellipsoidal height m) for the twin's GNSS, None: the
     trials have no fix."""
+    wind_drag: WindDragResult | None = None
+    """The measured wind's drag coefficient (None: no trial measured the wind)."""
 
 
 def steady_point_dicts(points: list[tuple[int, SteadySegment]]) -> list[dict[str, float]]:
@@ -193,4 +199,6 @@ def trials_identification_dict(found: TrialsIdentification) -> TrialIdentifyResu
     result["trial"] = {k: x for k, x in entries[0].items() if k != "resimulation"}
     result["resimulation"] = entries[0]["resimulation"]
     result["trials"] = entries
+    if found.wind_drag is not None:
+        result["wind_drag"] = found.wind_drag.to_dict()
     return result

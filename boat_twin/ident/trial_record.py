@@ -19,6 +19,12 @@ commanded angle + offset at the steering rate; the engines' first-order lag). Pe
 
 A trial without a heading (no IMU) keeps the speed over ground |v| and no coupling; the envelope, the actuators and
 the latency still apply.
+
+A measured true wind (an anemometer: :attr:`~boat_twin.io.trial.Trial.wind_east_mps`) is a known, time-varying
+input (:func:`wind_record`): the wind force along the hull the twin's model applies (boat_twin.vessel.dynamics:
+X_w = k·(|V_a|·u_a + |V|·u), air relative to the hull from the measured wind, GNSS velocity and heading at the
+times the samples describe) per unit of its drag coefficient k = ½ρ_a·C_a·A_F, whose value the fit estimates in
+the place of the coupling's scale; the sway-yaw coupling then enters the force at its model's value (c = 1).
 """
 
 from __future__ import annotations
@@ -84,10 +90,12 @@ def _interval_mean(values: np.ndarray) -> np.ndarray:
     return out
 
 
-def trial_record(trial: Trial, config: TwinConfig) -> SurgeRecord:
+def trial_record(trial: Trial, config: TwinConfig, wind: bool = False) -> SurgeRecord:
     """The trial's known samples as the surge fit reads them under ``config`` (module docstring): times the speeds
     describe (s), the delivered thrust along the hull (N), the surge (m/s; without a heading, the speed over
-    ground) and the sway-yaw coupling (N; None without a heading or a turn)."""
+    ground) and the sway-yaw coupling (N; None without a heading or a turn). With ``wind`` (a pooled fit whose
+    trials measured the wind) the coupling is part of the force and the record's further force is the measured
+    wind's per unit drag coefficient (:func:`wind_record`; None where this trial has no anemometer)."""
     known_samples(trial, trial.surge_thrust_N, trial.speed_mps)  # the recording's own faults, as commanded
     vessel, t = config.vessel, trial.t_s
     dt = float(np.median(np.diff(t))) if t.size > 1 else 0.1
@@ -112,10 +120,44 @@ def trial_record(trial: Trial, config: TwinConfig) -> SurgeRecord:
                     + surge_thrust_N(vessel, held, angles, u_mid))
     known = np.isfinite(thrust) & np.isfinite(surge) & (np.isfinite(coupling) if has_heading else True)
     coupling_N = coupling[known] if has_heading else None
-    if coupling_N is not None and np.sqrt(np.mean(coupling_N**2)) < COUPLING_MIN_SHARE * np.sqrt(
+    if not wind and coupling_N is not None and np.sqrt(np.mean(coupling_N**2)) < COUPLING_MIN_SHARE * np.sqrt(
             np.mean(thrust[known] ** 2)):
         coupling_N = None
+    if wind:
+        force = wind_force_per_drag(trial, yaw, surge, sway) if has_heading else None
+        if force is not None:
+            known &= np.isfinite(force)
+        return wind_record(horizon_record(t[known], thrust[known], surge[known], latency,
+                                          coupling[known] if has_heading else None),
+                           None if force is None else horizon_record(t[known], thrust[known], surge[known], latency,
+                                                                     force[known]).coupling_N, trial)
     record = horizon_record(t[known], thrust[known], surge[known], latency, coupling_N)
     if record.t_s.size < 3:
         raise InputError(f"{trial.metadata.source}: fewer than 3 samples with a known thrust, surge and heading")
     return record
+
+
+def wind_force_per_drag(trial: Trial, yaw_rad: np.ndarray, surge_mps: np.ndarray, sway_mps: np.ndarray
+                        ) -> np.ndarray | None:
+    """(n,) the surge wind force per unit drag coefficient, m²/s² (N per N·s²/m²), at the times the samples
+    describe (heading ``yaw_rad``; surge and sway through the water ``surge_mps``, ``sway_mps``): |V_a|·u_a +
+    |V|·u as the twin's model has it, the air relative to the hull being the measured wind (held across the
+    anemometer's gaps: NaN outside them) less the GNSS velocity over ground, along the hull. None without an
+    anemometer."""
+    if trial.wind_east_mps is None or trial.wind_north_mps is None:
+        return None
+    air_east, air_north = trial.wind_east_mps - trial.vel_east_mps, trial.wind_north_mps - trial.vel_north_mps
+    u_air = air_east * np.cos(yaw_rad) + air_north * np.sin(yaw_rad)
+    v_air = -air_east * np.sin(yaw_rad) + air_north * np.cos(yaw_rad)
+    return np.hypot(u_air, v_air) * u_air + np.hypot(surge_mps, sway_mps) * surge_mps
+
+
+def wind_record(record: SurgeRecord, wind_force: np.ndarray | None, trial: Trial) -> SurgeRecord:
+    """``record`` (its coupling, if any, at its model's value) with the wind force per unit drag coefficient
+    (held over its intervals as :func:`~boat_twin.ident.output_error.horizon_record` holds a coupling; None: this
+    trial has none) as the further force whose scale, the wind drag coefficient k in N·s²/m², the fit estimates."""
+    thrust = record.thrust_N if record.coupling_N is None else record.thrust_N + record.coupling_N
+    if record.t_s.size < 3:
+        raise InputError(f"{trial.metadata.source}: fewer than 3 samples with a known thrust, surge, heading and "
+                         "wind")
+    return SurgeRecord(record.t_s, thrust, record.speed_mps, wind_force)

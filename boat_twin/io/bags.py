@@ -24,7 +24,8 @@ from boat_twin.errors import InputError
 from boat_twin.files import OutputClaim
 from boat_twin.frames import quaternion_yaw_rad
 from boat_twin.io.mcap_crc import check_chunk_crcs, fill_chunk_crcs
-from boat_twin.io.messages import ACTUATOR_TOPIC, TOPIC_ODOM_TRUTH, TOPIC_WIND, TOPICS, TS, topic_type
+from boat_twin.io.messages import TOPIC_ODOM_TRUTH, TOPIC_WIND, TOPICS, TS, topic_type
+from boat_twin.io.roles import ACTUATOR_TOPIC, actuator_slots
 from boat_twin.io.sources import check_trial_path
 from boat_twin.io.trial import Stream, Trial, build_trial
 
@@ -284,15 +285,12 @@ def _actuator_topics(available: dict[str, str], chosen: dict[str, str], namespac
     found = sorted(t[len(prefix):] for t, msgtype in available.items()
                    if t.startswith(prefix) and msgtype == "std_msgs/msg/Float64"
                    and ACTUATOR_TOPIC.match(t[len(prefix):]))
-    thrusts = [t for t in found if t.startswith("thrusters/") and not t.endswith("/pos")]
-    angles = [t for t in found if t.startswith("rudders/")] or [t for t in found if t.endswith("/pos")]
     notes = []
-    pairs = [*zip(("thrust_left", "thrust_right"), thrusts[:2], strict=False),
-             *zip(("angle_left", "angle_right"), angles[:2], strict=False)]
+    pairs = actuator_slots(found)
     for role, topic in pairs:
         chosen[role] = prefix + topic
         notes.append(f"{role} read from {prefix + topic} (a boat file's actuator topic, slots in name order)")
-    if len(thrusts) == 1:
+    if [role for role, _ in pairs if role.startswith("thrust")] == ["thrust_left"]:
         notes.append(ONE_THRUSTER_NOTE)
     return notes
 

@@ -2,8 +2,9 @@
 
 The log's samples become messages as they were logged (not resampled): ``gnss/fix`` (NavSatFix, covariance
 unknown), ``gnss/vel`` (TwistStamped, ENU velocity over ground), ``imu/data`` (Imu, FLU in ENU, gravity
-included; REP-145: covariances unknown, element 0 = −1 where a field is not in the log) and the four thruster
-topics (Float64, N and rad, through the calibration). Stamps are the log's clock (:mod:`boat_twin.io.mavlink`).
+included; REP-145: covariances unknown, element 0 = −1 where a field is not in the log), the four thruster
+topics (Float64, N and rad, through the calibration) and a measured wind on ``wind`` (Vector3Stamped, ENU).
+Stamps are the log's clock (:mod:`boat_twin.io.mavlink`).
 """
 
 from __future__ import annotations
@@ -69,7 +70,11 @@ def log_messages(log: Any) -> Iterator[tuple[str, int, Any]]:
         for ns, value in zip(stamps, values[:, 0].tolist(), strict=True):
             yield topic, ns, msgs.float64(value)
 
-    builders = {"gnss_fix": fixes, "gnss_vel": velocities, "imu": imus}
+    def winds(stamps: list[int], values: np.ndarray) -> Iterator[tuple[str, int, Any]]:
+        for ns, (east, north) in zip(stamps, values.tolist(), strict=True):
+            yield msgs.TOPIC_WIND, ns, msgs.vector3_stamped(msgs.header(ns, msgs.FRAME_MAP), (east, north, 0.0))
+
+    builders = {"gnss_fix": fixes, "gnss_vel": velocities, "imu": imus, "wind": winds}
     first_command = [float(np.min(s.stamps_s)) for r, s in log.streams.items() if r in COMMAND_ROLES]
     for role, stream in log.streams.items():
         stamps, values = _sorted(stream.stamps_s, stream.values)

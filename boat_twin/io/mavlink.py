@@ -9,6 +9,8 @@ role          .tlog                                                  DataFlash .
 gnss_fix      GLOBAL_POSITION_INT (default) or GPS_RAW_INT (≥ 2D)    GPS (instance 0, Status ≥ 2D fix)
 gnss_vel      the same message: vx, vy (or vel and cog)              GPS: Spd and GCrs
 imu           ATTITUDE (+ RAW_IMU accelerations)                     ATT (+ IMU instance 0 rates, accelerations)
+wind          WIND (ArduPilot: direction it comes from, speed)       (not read)
+              or WIND_COV (wind_x north, wind_y east)
 commands      SERVO_OUTPUT_RAW, RC_CHANNELS or MANUAL_CONTROL        RCOU or RCIN
               through the calibration map                           through the calibration map
 ============  =====================================================  ========================================
@@ -94,6 +96,8 @@ GNSS_SOURCES = {"tlog": ("GLOBAL_POSITION_INT", "GPS_RAW_INT"), "dataflash": ("G
 """Messages a GNSS role can come from, in order of preference (``remap`` picks one)."""
 IMU_SOURCES = {"tlog": ("ATTITUDE",), "dataflash": ("ATT",)}
 """Messages the heading comes from."""
+WIND_SOURCES = {"tlog": ("WIND", "WIND_COV")}
+"""Messages a measured true wind comes from, in order of preference."""
 
 
 class _Chatter:
@@ -252,6 +256,7 @@ def read_mavlink_log(
     log = MavlinkLog(source, log_format, {}, {}, report=report)
     _gnss_streams(log, remap, tables, absolute)
     _imu_stream(log, tables, absolute)
+    _wind_stream(log, tables, absolute)
     _command_streams(log, plan, tables, absolute)
     if calibration is None:
         log.report.notes.append("no calibration: commands not mapped")
@@ -342,6 +347,17 @@ def _imu_stream(log: MavlinkLog, tables: dict[str, np.ndarray], absolute: dict[s
     log.streams["imu"] = Stream(t, out)
 
 
+def _wind_stream(log: MavlinkLog, tables: dict[str, np.ndarray], absolute: dict[str, np.ndarray]) -> None:
+    """The measured true wind (``wind``: east, north m/s, the air's velocity) from ArduPilot's WIND (a rover's
+    wind vane: the direction it comes from and its speed), else common WIND_COV (.tlog; DataFlash: not read)."""
+    for name in WIND_SOURCES.get(log.log_format, ()):
+        table = tables.get(name)
+        if table is not None and table.shape[0] >= 1:
+            log.streams["wind"] = Stream(absolute[name], table[:, 2:4])
+            log.topics["wind"] = name
+            return
+
+
 def _command_streams(log: MavlinkLog, plan: ReadPlan, tables: dict[str, np.ndarray],
                      absolute: dict[str, np.ndarray]) -> None:
     """Command roles through the calibration: (stamp, N or rad) per logged sample of their channel."""
@@ -367,7 +383,8 @@ def _command_streams(log: MavlinkLog, plan: ReadPlan, tables: dict[str, np.ndarr
         log.streams[role] = Stream(absolute[name][present], cmap.to_value(raw[present])[:, None])
         field_name = {"SERVO_OUTPUT_RAW": f"servo{cmap.channel}_raw", "RC_CHANNELS": f"chan{cmap.channel}_raw",
                       "MANUAL_CONTROL": str(cmap.channel)}.get(name, f"C{cmap.channel}")
-        log.topics[role] = f"{name}.{field_name} ({cmap.source})"
+        actuator = plan.calibration.actuators.get(role)
+        log.topics[role] = f"{name}.{field_name} ({cmap.source}{' -> ' + actuator if actuator else ''})"
         if name != "MANUAL_CONTROL":
             log.periodic_commands.add(role)
 

@@ -6,6 +6,14 @@ thrust (N) and steering angle (rad), read from YAML (see ``config/mavlink/``)::
       angle_left:   {source: SERVO2, table: [[1100, -0.5236], [1900, 0.5236]]}
       angle_right:  {value: 0.0}
 
+A boat with its own actuators (a boat file's propulsion section) names them by their command topics instead of
+the slot roles (the same rule as a bag's per-actuator topics, :func:`~boat_twin.io.roles.actuator_slots`)::
+
+    commands:
+      thrusters/prop/cmd:  {source: SERVO3, table: [[1100, -20.0], [1500, 0.0], [1900, 20.0]]}   # rev/s
+      rudders/main/angle:  {source: SERVO1, table: [[1100, 0.61], [1900, -0.61]]}                 # rad
+
+(a single thruster leaves the second slot at 0).
 ``source`` is ``SERVO<n>``, ``RC<n>`` or ``MANUAL_CONTROL.<x|y|z|r>`` (where each is read:
 :mod:`boat_twin.io.mavlink`); ``table`` lists [input, value] points with the input strictly increasing and the
 value monotone, linear in between and clamped beyond; ``value`` gives a constant instead. A pulse width of 0 (no
@@ -15,7 +23,7 @@ pulse) or 65535 (unused channel) and a MANUAL_CONTROL axis of 32767 (invalid) ma
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +31,7 @@ import numpy as np
 
 from boat_twin.errors import InputError
 from boat_twin.files import load_yaml
-from boat_twin.io.trial import COMMAND_ROLES
+from boat_twin.io.roles import ACTUATOR_TOPIC, COMMAND_ROLES, actuator_slots
 from boat_twin.validation import number
 
 ROLE_UNITS = {"thrust_left": "N", "thrust_right": "N", "angle_left": "rad", "angle_right": "rad"}
@@ -90,6 +98,8 @@ class Calibration:
 
     commands: dict[str, CommandMap]
     source: str = "<calibration>"
+    actuators: dict[str, str] = field(default_factory=dict)
+    """Command role → the boat's actuator it was named by (``thrusters/<name>/cmd``...; empty: slot roles)."""
 
     def to_value(self, role: str, raw: Any) -> np.ndarray:
         """Logged inputs of ``role`` → N or rad."""
@@ -110,14 +120,47 @@ def calibration_from_dict(data: Any, source: str = "<calibration>") -> Calibrati
     commands = data.get("commands")
     if not isinstance(commands, dict) or not commands:
         raise InputError(f"{source}: missing field 'commands' (role: {{source, table}} or {{value}})")
-    maps = {role: _command_map(role, entry, f"{source}: commands.{role}") for role, entry in commands.items()}
-    return Calibration(maps, source)
+    roles = _actuator_roles(commands, source)
+    maps = {}
+    for key, entry in commands.items():
+        role = roles.get(str(key), str(key))
+        maps[role] = _command_map(role, entry, f"{source}: commands.{key}", _unit(str(key)))
+    if roles and "thrust_left" in maps and "thrust_right" not in maps:  # a single thruster: no second slot
+        maps["thrust_right"] = CommandMap("thrust_right", None, np.zeros(0), np.zeros(0), 0.0)
+    return Calibration(maps, source, {role: key for key, role in roles.items()})
 
 
-def _command_map(role: str, entry: Any, where: str) -> CommandMap:
-    """One role's entry validated; errors name ``where`` (the file and the field)."""
+def _unit(key: str) -> str:
+    """The unit of a command's values: N or rad for the slot roles; for an actuator's topic N (``thrust``), its
+    table's unit or rev/s (``cmd``), rad (``pos``, ``angle``)."""
+    if key in ROLE_UNITS:
+        return ROLE_UNITS[key]
+    return {"thrust": "N", "cmd": "the thruster's unit"}.get(key.rsplit("/", 1)[-1], "rad")
+
+
+def _actuator_roles(commands: dict[Any, Any], source: str) -> dict[str, str]:
+    """Actuator topic → command role of a calibration naming a boat's actuators (empty: slot roles), by
+    :func:`~boat_twin.io.roles.actuator_slots`; one clear error for a mix of both or a third actuator."""
+    named = [str(k) for k in commands if ACTUATOR_TOPIC.match(str(k))]
+    if not named:
+        return {}
+    slots = [str(k) for k in commands if k in COMMAND_ROLES]
+    if slots:
+        raise InputError(f"{source}: commands.{slots[0]}: name the commands either by role (thrust_left...) or "
+                         "by the boat's actuators (thrusters/<name>/...), not both")
+    roles = {name: role for role, name in actuator_slots(named)}
+    extra = [k for k in named if k not in roles]
+    if extra:
+        raise InputError(f"{source}: commands.{extra[0]}: the twin has two thruster and two steering slots; this "
+                         "is one more")
+    return roles
+
+
+def _command_map(role: str, entry: Any, where: str, unit: str) -> CommandMap:
+    """One role's entry validated (its values in ``unit``); errors name ``where`` (the file and the field)."""
     if role not in COMMAND_ROLES:
-        raise InputError(f"{where}: unknown role (roles: {', '.join(COMMAND_ROLES)})")
+        raise InputError(f"{where}: unknown role (roles: {', '.join(COMMAND_ROLES)}, or a boat's actuators: "
+                         "thrusters/<name>/thrust|cmd|pos, rudders/<name>/angle)")
     if not isinstance(entry, dict):
         raise InputError(f"{where}: expected a mapping with 'source' and 'table', or 'value'")
     extra = sorted(set(entry) - {"source", "table", "value", "description"})
@@ -139,11 +182,11 @@ def _command_map(role: str, entry: Any, where: str) -> CommandMap:
         raise InputError(f"{where}.source: channel {match.group(2)} out of range 1-{_MAX_CHANNEL[match.group(1)]}")
     table = entry["table"]
     if not isinstance(table, list) or len(table) < 2:
-        raise InputError(f"{where}.table: expected at least two [input, {ROLE_UNITS[role]}] points")
+        raise InputError(f"{where}.table: expected at least two [input, {unit}] points")
     points = []
     for i, point in enumerate(table):
         if not isinstance(point, (list, tuple)) or len(point) != 2:
-            raise InputError(f"{where}.table[{i}]: expected [input, {ROLE_UNITS[role]}], got {point!r}")
+            raise InputError(f"{where}.table[{i}]: expected [input, {unit}], got {point!r}")
         points.append((number(f"{where}.table[{i}]", point[0]), number(f"{where}.table[{i}]", point[1])))
     raw = np.array([p[0] for p in points])
     value = np.array([p[1] for p in points])

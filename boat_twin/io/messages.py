@@ -14,7 +14,6 @@ them), ``imu_link`` the UM7 (coincides with ``base_link``).
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
@@ -23,7 +22,7 @@ import numpy as np
 from rosbags.typesys import Stores, get_typestore
 
 from boat_twin.frames import quaternion_xyzw
-from boat_twin.io.roles import COMMAND_ROLES
+from boat_twin.io.roles import ACTUATOR_TOPIC, COMMAND_ROLES
 from boat_twin.sensors.gnss import GnssMeasurements
 from boat_twin.sensors.um7 import ImuMeasurements
 from boat_twin.vessel.actuators import Propulsion
@@ -67,8 +66,6 @@ LIVE_TOPICS: dict[str, str] = {
 """Topics only the simulator node publishes (never in a bag the twin writes)."""
 
 COMMAND_TOPICS = (TOPIC_THRUST_LEFT, TOPIC_THRUST_RIGHT, TOPIC_ANGLE_LEFT, TOPIC_ANGLE_RIGHT)
-ACTUATOR_TOPIC = re.compile(r"^(thrusters/\w+/(thrust|cmd|pos)|rudders/\w+/angle)$")
-"""A boat file's per-actuator command topics (:func:`command_topics`): std_msgs/Float64."""
 
 
 def command_topics(propulsion: Propulsion | None) -> dict[str, str]:

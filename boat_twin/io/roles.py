@@ -1,5 +1,8 @@
 """The roles a trial's streams play (names only, free of heavy imports: the command line lists them in --help)."""
 
+import re
+from collections.abc import Iterable
+
 COMMAND_ROLES = ("thrust_left", "thrust_right", "angle_left", "angle_right")
 """Command streams, each one scalar per message (N, a thruster's own unit, or rad)."""
 SENSOR_ROLES = ("gnss_fix", "gnss_vel", "imu")
@@ -9,3 +12,16 @@ MEASURED_INPUT_ROLES = ("wind",)
 an anemometer, a known input of the diagnosis."""
 TRIAL_ROLES = COMMAND_ROLES + SENSOR_ROLES + MEASURED_INPUT_ROLES
 """Roles a topic remap may name."""
+
+ACTUATOR_TOPIC = re.compile(r"^(thrusters/\w+/(thrust|cmd|pos)|rudders/\w+/angle)$")
+"""A boat file's per-actuator command topics (:func:`~boat_twin.io.messages.command_topics`): std_msgs/Float64."""
+
+
+def actuator_slots(names: Iterable[str]) -> list[tuple[str, str]]:
+    """(command role, actuator) for a boat's per-actuator command names (:data:`ACTUATOR_TOPIC`): thrusters in the
+    order of their names (the boat file's slots: list them alphabetically), rudders before steered thrusters; at
+    most two of each (the kernel's slots). What the bag reader and the MAVLink calibration map read alike."""
+    found = sorted(names)
+    thrusts = [t for t in found if t.startswith("thrusters/") and not t.endswith("/pos")]
+    angles = [t for t in found if t.startswith("rudders/")] or [t for t in found if t.endswith("/pos")]
+    return [*zip(COMMAND_ROLES[:2], thrusts[:2], strict=False), *zip(COMMAND_ROLES[2:], angles[:2], strict=False)]

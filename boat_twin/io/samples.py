@@ -15,7 +15,8 @@ COMMAND_KINDS = ("thrust_left", "thrust_right", "angle_left", "angle_right")
 """Command streams, in the column order of the dynamics' commands (N, N, rad, rad)."""
 SENSOR_KINDS = ("gnss_fix", "gnss_vel", "imu")
 """Sensor streams: fix (lat deg, lon deg, alt m), velocity over ground (east, north m/s), IMU (yaw rad, yaw
-rate rad/s, accel x, y m/s²): the roles and columns of :mod:`boat_twin.io.trial`."""
+rate rad/s, accel x, y m/s²): the roles and columns of :mod:`boat_twin.io.trial`; a measured true wind (east,
+north m/s) as ``wind`` (:data:`~boat_twin.io.roles.MEASURED_INPUT_ROLES`) where the trial has one."""
 COMMAND_HEARTBEAT_S = 1.0
 """A held command is fed again at least this often, s."""
 
@@ -30,6 +31,8 @@ def trial_samples(trial: Trial) -> Iterator[tuple[str, float, tuple[float, ...]]
         "imu": np.column_stack([wrap_pi(trial.heading_rad), trial.yaw_rate_radps, trial.accel_x_mps2,
                                 trial.accel_y_mps2]),
     }
+    if trial.wind_east_mps is not None and trial.wind_north_mps is not None:
+        sensors["wind"] = np.column_stack([trial.wind_east_mps, trial.wind_north_mps])
     rows = {kind: values.tolist() for kind, values in sensors.items()}
     finite = {kind: np.all(np.isfinite(values[:, :2]), axis=1).tolist() for kind, values in sensors.items()}
     held = [math.nan] * 4
@@ -43,7 +46,7 @@ def trial_samples(trial: Trial) -> Iterator[tuple[str, float, tuple[float, ...]]
                 held[k], sent[k] = value, t
         commands.sort(key=lambda command: command[1])
         yield from (c for c in commands if c[1] <= t)
-        for kind in SENSOR_KINDS:
+        for kind in sensors:
             if finite[kind][i]:
                 yield kind, t, tuple(rows[kind][i])
         yield from (c for c in commands if c[1] > t)  # issued after this sample's time: after its sensors

@@ -108,8 +108,9 @@ class _Decoder:
         """Message type → its method, for the types this plan reads (their rows are created here)."""
         handlers: dict[str, Callable[[Any, float], None]] = {
             "ATTITUDE": self.attitude, "RAW_IMU": self.raw_imu, "GLOBAL_POSITION_INT": self.global_position,
-            "GPS_RAW_INT": self.gps_raw}
-        for name, width in (("ATTITUDE", 8), ("RAW_IMU", 8), ("GLOBAL_POSITION_INT", 7), ("GPS_RAW_INT", 7)):
+            "GPS_RAW_INT": self.gps_raw, "WIND": self.wind, "WIND_COV": self.wind_cov}
+        for name, width in (("ATTITUDE", 8), ("RAW_IMU", 8), ("GLOBAL_POSITION_INT", 7), ("GPS_RAW_INT", 7),
+                            ("WIND", 4), ("WIND_COV", 4)):
             self.rows[name] = Rows(width)
         commands: tuple[tuple[str, Callable[[Any, float], None], list[Any]], ...] = (
             ("SERVO_OUTPUT_RAW", self.servo_output, self.servo_channels),
@@ -159,6 +160,21 @@ class _Decoder:
         mg = MILLI_G_MPS2
         self.rows["RAW_IMU"].add((t, sid, msg.xacc * mg, -msg.yacc * mg, -msg.zacc * mg,
                                   msg.xgyro * 1e-3, -msg.ygyro * 1e-3, -msg.zgyro * 1e-3))
+
+    def wind(self, msg: Any, recv: float) -> None:
+        """ArduPilot's WIND (no clock of its own: the receive time): the direction the wind comes from, degrees
+        clockwise from north, and its speed, m/s → the air's velocity (east, north)."""
+        if not (math.isfinite(msg.direction) and math.isfinite(msg.speed)):
+            return
+        going = math.radians(msg.direction + 180.0)
+        self.rows["WIND"].add((recv, -1.0, msg.speed * math.sin(going), msg.speed * math.cos(going)))
+
+    def wind_cov(self, msg: Any, recv: float) -> None:
+        """common WIND_COV: the wind's velocity in NED (wind_x north, wind_y east, m/s; NaN: unknown)."""
+        if not (math.isfinite(msg.wind_x) and math.isfinite(msg.wind_y)):
+            return
+        t, sid = self._usec64(msg.time_usec, recv, current=True)
+        self.rows["WIND_COV"].add((t, sid, msg.wind_y, msg.wind_x))
 
     def servo_output(self, msg: Any, recv: float) -> None:
         usec = msg.time_usec

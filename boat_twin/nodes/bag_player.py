@@ -4,8 +4,10 @@ boat_twin.io.playback.
 
 Plays any trial the readers accept: a rosbag2 directory (MCAP or sqlite3), a bare .mcap, a ROS 1 .bag, a MAVLink
 log (.tlog, .BIN) with a calibration, a CSV table with a column mapping. Topics (relative, so a namespace
-applies): thrusters/{left,right}/thrust and pos (std_msgs/Float64), gnss/fix (NavSatFix), gnss/vel
-(TwistStamped), imu/data (Imu), all reliable (system default QoS), and /clock. Header stamps and /clock run
+applies): the commands on the boat's actuator topics (std_msgs/Float64: thrusters/{left,right}/thrust and pos, or
+with a config_file whose vessel has a propulsion section its own thrusters/<name>/thrust|cmd|pos and
+rudders/<name>/angle), gnss/fix (NavSatFix), gnss/vel (TwistStamped), imu/data (Imu), wind (Vector3Stamped, where
+the trial measured it), all reliable (system default QoS), and /clock. Header stamps and /clock run
 from ``start_time_s`` + trial time; other nodes follow with use_sim_time:=true. Exits when the trial ends.
 
 Parameters (read at start-up)
@@ -16,7 +18,8 @@ Parameters (read at start-up)
   namespace (string, "")        namespace the recording's topics were recorded under
   calibration (string, "")      MAVLink logs: PWM → N / rad calibration YAML
   columns (string, "")          CSV trials: QUANTITY=COLUMN,... or a YAML mapping
-  config_file (string, "")      twin YAML whose sensors' noise fills the covariances (empty: built-in)
+  config_file (string, "")      twin YAML whose sensors' noise fills the covariances and whose boat's actuators
+                                name the command topics (empty: built-in)
   start_time_s (double, 1.0)    stamp of the trial's t = 0, s (0 would read as "no clock yet")
   wait_for_subscriber_s (double, 10.0)  wall time to wait for a subscriber on gnss/vel before playing
   frame_prefix (string, "")     prepended to every frame id (several boats: boat1/)
@@ -34,7 +37,7 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.io import messages
-from boat_twin.io.playback import playback_messages
+from boat_twin.io.playback import playback_messages, playback_topics
 from boat_twin.io.sources import read_trial_file
 from boat_twin.nodes import conventions, parameters
 from boat_twin.nodes.simulator import _time, message_class
@@ -80,10 +83,8 @@ class BagPlayerNode(Node):
         self.messages = playback_messages(trial, config, self.start_s)
         self.pending = next(self.messages, None)
         self.publishers_by_topic = {}
-        for topic in messages.COMMAND_TOPICS + (messages.TOPIC_GNSS_FIX, messages.TOPIC_GNSS_VEL,
-                                                messages.TOPIC_IMU_DATA):
-            cls = message_class(messages.TOPICS[topic])
-            self.publishers_by_topic[topic] = self.create_publisher(cls, topic, QoSProfile(depth=100))
+        for topic, kind in playback_topics(config).items():  # the boat file's actuator topics, the wind
+            self.publishers_by_topic[topic] = self.create_publisher(message_class(kind), topic, QoSProfile(depth=100))
         self.clock_pub = self.create_publisher(ClockMsg, "/clock", QoSProfile(depth=1))
         self.started_wall: float | None = None
         self.created_wall = time.monotonic()
@@ -109,7 +110,7 @@ class BagPlayerNode(Node):
             if stamp_ns != clock_ns:  # the clock reaches each stamp before its messages go out
                 self.clock_pub.publish(ClockMsg(clock=_time(stamp_ns)))
                 clock_ns = stamp_ns
-            self.publishers_by_topic[topic].publish(messages.serialize(msg, messages.TOPICS[topic]))
+            self.publishers_by_topic[topic].publish(messages.serialize(msg, messages.topic_type(topic)))
             self.pending = next(self.messages, None)
         self.clock_pub.publish(ClockMsg(clock=_time(played_ns)))
         if self.pending is None:

@@ -12,7 +12,9 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from functools import partial
+from typing import TYPE_CHECKING, Any
 
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
@@ -24,6 +26,7 @@ from boat_twin.errors import InputError
 from boat_twin.nodes import parameters
 
 if TYPE_CHECKING:
+    from boat_twin.vessel.actuators import Propulsion
     from boat_twin.view.stream import TwinView
 
 COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -31,6 +34,23 @@ COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=
 CLOCK_WAIT_S = 5.0
 """Wall time a node on simulated time waits for its first /clock before it warns, s: a simulator needs 2-4 s
 to start on a loaded 2-core machine (tests/test_node_*.py), so 5 s is a silent start-up, not a slow one."""
+
+
+def subscribe_commands(node: Node, propulsion: Propulsion | None, callback: Callable[[int, Any], None]) -> list[str]:
+    """Subscribe ``node`` to the command topics of a boat (:func:`~boat_twin.io.messages.command_topics`: the
+    default layout's, or a boat file's per-name ``thrusters/<name>/thrust|cmd|pos`` and ``rudders/<name>/angle``),
+    std_msgs/Float64 at :data:`COMMAND_QOS`; ``callback(column, msg)`` with the command's column (thrust left,
+    right, angle left, right). Returns the topics subscribed."""
+    from std_msgs.msg import Float64
+
+    from boat_twin.io.messages import command_topics
+    from boat_twin.io.roles import COMMAND_ROLES
+
+    topics = command_topics(propulsion)
+    for index, role in enumerate(COMMAND_ROLES):
+        if role in topics:
+            node.create_subscription(Float64, topics[role], partial(callback, index), COMMAND_QOS)
+    return [topics[role] for role in COMMAND_ROLES if role in topics]
 
 
 def steady_clock() -> Clock:

@@ -1,6 +1,8 @@
 """ROS 2 node ``identifier``: online thrust-speed identification from live topics. Thin wiring only.
 
-Subscribes: thrusters/{left,right}/thrust and pos (std_msgs/Float64, best effort), gnss/vel
+Subscribes: the boat's command topics (std_msgs/Float64, best effort: thrusters/{left,right}/thrust and pos, or with
+a config_file whose vessel has a propulsion section its own thrusters/<name>/thrust|cmd|pos and
+rudders/<name>/angle, the commands turned into surge thrust by its thrust maps), gnss/vel
 (geometry_msgs/TwistStamped, best effort like SensorDataQoS: connects to reliable and best-effort drivers alike).
 Publishes every second of the node clock (sim time with use_sim_time:=true): identification/coefficients
 (std_msgs/Float64MultiArray, layout label "c0_N_per_mps0,...,effective_mass_kg"; NaN until known) and
@@ -21,6 +23,7 @@ Parameters (read at start-up)
   thrust_tolerance_N (double, 5)    thrust counts as constant within max(this, 1 %) of a segment's start, N
   model_path (string)       YAML written by ~/save; default $ROS_HOME/boat_twin/identified_model.yaml
                             ($ROS_HOME defaults to ~/.ros)
+  config_file (string, "")  twin YAML whose boat's actuators name the command topics (empty: built-in boat)
   hardware_id (string, namespace)   of the /diagnostics status
 """
 
@@ -28,7 +31,6 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
-from functools import partial
 from pathlib import Path
 
 from geometry_msgs.msg import TwistStamped
@@ -39,14 +41,16 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64, Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
+from boat_twin.config import load_config
 from boat_twin.errors import InputError
 from boat_twin.ident.live import LiveIdentifier
 from boat_twin.ident.online import SteadyCriteria
 from boat_twin.ident.steady import MAX_ORDER
-from boat_twin.io.messages import COMMAND_TOPICS, TOPIC_GNSS_VEL
+from boat_twin.io.messages import TOPIC_GNSS_VEL
 from boat_twin.nodes import conventions, parameters
 from boat_twin.nodes.diagnostics import OK, WARN, Diagnostics, Status
 from boat_twin.nodes.spin import run_node
+from boat_twin.vessel.params import VesselParams
 
 SENSOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
 """SensorDataQoS (best effort: takes reliable and best-effort drivers) with 10 s of a 10 Hz stream as history,
@@ -77,9 +81,10 @@ class IdentifierNode(Node):
                                                  "thrust counts as constant within this, N", above=0.0))
         model_path = parameters.string(self, "model_path", "", "YAML written by ~/save (empty: $ROS_HOME/...)")
         self.model_path = Path(model_path).expanduser() if model_path else default_model_path()
-        self.ident = LiveIdentifier(order, memory_s, criteria)
-        for index, topic in enumerate(COMMAND_TOPICS):
-            self.create_subscription(Float64, topic, partial(self.on_command, index), conventions.COMMAND_QOS)
+        config_file = parameters.string(self, "config_file", "", "twin YAML naming the boat's actuators")
+        vessel = load_config(Path(config_file)).vessel if config_file else VesselParams()
+        self.ident = LiveIdentifier(order, memory_s, criteria, vessel)
+        conventions.subscribe_commands(self, vessel.propulsion, self.on_command)  # a boat file's own topics
         self.create_subscription(TwistStamped, TOPIC_GNSS_VEL, self.on_velocity, SENSOR_QOS)
         self.coefficients_pub = self.create_publisher(Float64MultiArray, "identification/coefficients", 10)
         self.diagnostics = Diagnostics(self)

@@ -52,7 +52,6 @@ from std_srvs.srv import SetBool, Trigger
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.errors import InputError
 from boat_twin.io import messages
-from boat_twin.io.roles import COMMAND_ROLES
 from boat_twin.nodes import conventions, parameters
 from boat_twin.nodes.diagnostics import OK, WARN, Diagnostics, Status
 from boat_twin.nodes.spin import run_node
@@ -117,11 +116,7 @@ class SimulatorNode(Node):
         self.watchdog = CommandWatchdog(timeout_s)
         self.publishers_by_topic = self._sensor_publishers(truth_tf)
         self.velocity_variances = [config.gnss.velocity_stdev_mps ** 2] * 3
-        command_topics = messages.command_topics(config.vessel.propulsion)  # a boat file's own actuators' topics
-        for index, role in enumerate(COMMAND_ROLES):
-            if role in command_topics:
-                self.create_subscription(Float64, command_topics[role], partial(self.on_command, index),
-                                         conventions.COMMAND_QOS)
+        conventions.subscribe_commands(self, config.vessel.propulsion, self.on_command)  # a boat file's own topics
         self.clock_pub: Publisher | None = None
         self.schedule = TickSchedule(1.0 / OUTPUT_RATE_HZ, factor if self.publish_clock else 1.0)
         self.overruns = 0

@@ -38,6 +38,7 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.pipeline import TrialDiagnosis, diagnose_trial
 from boat_twin.errors import InputError
+from boat_twin.io.roles import MEASURED_INPUT_ROLES
 from boat_twin.io.trial import Stream, Trial, build_trial
 from boat_twin.shadow.sync import COMMAND_KINDS, SENSOR_KINDS
 
@@ -103,7 +104,8 @@ class RollingResult:
 
 class RecentStreams:
     """The accepted samples of the last ``keep_s`` seconds per stream (and, per command, the last value before
-    them), as a :class:`~boat_twin.io.trial.Trial` on demand."""
+    them), as a :class:`~boat_twin.io.trial.Trial` on demand; a measured input (an anemometer's ``wind``) among
+    them, which the diagnosis then takes as known (:func:`~boat_twin.diagnose.pipeline.diagnose_trial`)."""
 
     def __init__(self, keep_s: float) -> None:
         self.keep_s = keep_s
@@ -112,7 +114,7 @@ class RecentStreams:
     def clear(self) -> None:
         """Forget every sample."""
         self._rows: dict[str, deque[tuple[float, tuple[float, ...]]]] = {
-            kind: deque() for kind in COMMAND_KINDS + SENSOR_KINDS}
+            kind: deque() for kind in COMMAND_KINDS + SENSOR_KINDS + MEASURED_INPUT_ROLES}
         self.first_s = math.nan
 
     def add(self, kind: str, t_s: float, values: tuple[float, ...]) -> None:

@@ -18,6 +18,8 @@ from boat_twin.config import TwinConfig, save_config
 from boat_twin.diagnose.defaults import WINDOW_S as REPLAY_WINDOW_S
 from boat_twin.errors import InputError
 from boat_twin.ident.manoeuvring import prediction_error, prepare
+from boat_twin.io.roles import MEASURED_INPUT_ROLES
+from boat_twin.io.trial import VALUE_LIMITS
 from boat_twin.shadow.adapt import SurgeAdapter, SurgeModel
 from boat_twin.shadow.rolling import (
     IDLE_PERIOD_S,
@@ -151,7 +153,12 @@ class Shadow:
 
     # --- intake ------------------------------------------------------------------------------------------
     def add(self, kind: str, stamp_s: float, values: tuple[float, ...]) -> None:
-        """One sample as it arrives (see :meth:`ShadowTwin.add`)."""
+        """One sample as it arrives (see :meth:`ShadowTwin.add`); a measured wind (``wind``: east, north m/s) goes
+        to the rolling diagnosis' streams alone (:func:`measured_input`)."""
+        if kind in MEASURED_INPUT_ROLES:
+            if measured_input(kind, stamp_s, values):
+                self.recent.add(kind, stamp_s, values)
+            return
         self.twin.add(kind, stamp_s, values)
         if self.twin.counts["restarts"] != self._restarts:  # the stream restarted: its buffers go too
             self._restarts = self.twin.counts["restarts"]
@@ -416,6 +423,13 @@ class Shadow:
         """Write the current twin as a twin.yaml (atomically), a comment line saying where it came from."""
         save_config(self.twin_config(), path, f"boat_twin live twin at t = {self.twin.t_s:.1f} s: "
                     f"{self.adapter.swaps} model swap(s)")
+
+
+def measured_input(kind: str, stamp_s: float, values: tuple[float, ...]) -> bool:
+    """Whether a measured input's sample is usable: a finite stamp and values within the recording limits
+    (:data:`~boat_twin.io.trial.VALUE_LIMITS`)."""
+    return math.isfinite(stamp_s) and len(values) == len(VALUE_LIMITS[kind]) and all(
+        low <= value <= high for value, (_, low, high, _) in zip(values, VALUE_LIMITS[kind], strict=True))
 
 
 def _with_cause(environment: Environment, name: str, parameters: dict[str, float]) -> Environment:

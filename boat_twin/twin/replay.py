@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.signal import savgol_filter
@@ -89,6 +89,11 @@ class Windows:
     trial: Trial
     start_index: np.ndarray
     """(m,) index into the trial's grid of each window's first sample."""
+    wind_departure_mps: np.ndarray | None = None
+    """(m, 2) each window's mean measured true wind (east, north) less the trial's mean (:func:`measured_wind_mps`),
+    m/s; None: no anemometer. The replay adds it to the config's steady wind, which for a trial with an anemometer
+    holds the measured mean (:func:`with_measured_wind`): the twin meets the wind as it was measured, window by
+    window."""
     _actuators: dict[tuple[float, ...], np.ndarray] = field(default_factory=dict, init=False, repr=False,
                                                             compare=False)
     """:meth:`actuators` by the actuator parameters it was computed for."""
@@ -212,7 +217,61 @@ def cut_windows(trial: Trial, window_s: float = 20.0, earliest_s: float = 0.0) -
                            np.where(measured, trial.north_m, np.nan)[index]], axis=-1),
         trial=trial,
         start_index=start,
+        wind_departure_mps=_wind_departure(trial, index),
     )
+
+
+def measured_wind_mps(trial: Trial) -> tuple[float, float] | None:
+    """The trial's measured true wind over ground (east, north), m/s: its mean over the recording, None without
+    an anemometer or a known sample."""
+    if trial.wind_east_mps is None or trial.wind_north_mps is None:
+        return None
+    known = np.isfinite(trial.wind_east_mps) & np.isfinite(trial.wind_north_mps)
+    if not np.any(known):
+        return None
+    return float(np.mean(trial.wind_east_mps[known])), float(np.mean(trial.wind_north_mps[known]))
+
+
+def with_measured_wind(config: TwinConfig, trial: Trial) -> TwinConfig:
+    """``config`` with its steady wind set to ``trial``'s mean measured wind (:func:`measured_wind_mps`; unchanged
+    without an anemometer): a measured wind is a known input, and the windows carry how it varied."""
+    wind = measured_wind_mps(trial)
+    if wind is None:
+        return config
+    return replace(config, environment=replace(config.environment, wind_east_mps=wind[0], wind_north_mps=wind[1]))
+
+
+def wind_against(windows: Windows, config: TwinConfig) -> Windows:
+    """``windows`` whose measured wind departs from ``config``'s steady wind rather than from the trial's mean:
+    replayed through ``config``, every window meets its own measured wind whatever the config holds (a fit of
+    several trials with one config; unchanged without an anemometer)."""
+    mean = measured_wind_mps(windows.trial)
+    if windows.wind_departure_mps is None or mean is None:
+        return windows
+    env = config.environment
+    shift = np.array(mean) - np.array([env.wind_east_mps, env.wind_north_mps])
+    return replace(windows, wind_departure_mps=windows.wind_departure_mps + shift)
+
+
+def _wind_departure(trial: Trial, index: np.ndarray) -> np.ndarray | None:
+    """(m, 2) each window's (samples ``index``, (T, m)) mean measured wind less the trial's mean, m/s (0 for a
+    window without a known wind sample); None without an anemometer."""
+    mean = measured_wind_mps(trial)
+    if mean is None or trial.wind_east_mps is None or trial.wind_north_mps is None:
+        return None
+    wind = np.stack([trial.wind_east_mps[index], trial.wind_north_mps[index]], axis=-1) - np.array(mean)
+    known = np.all(np.isfinite(wind), axis=-1, keepdims=True)
+    count = known.sum(axis=0)
+    return np.where(count > 0, np.where(known, wind, 0.0).sum(axis=0) / np.maximum(count, 1), 0.0)
+
+
+def _environments(windows: Windows, config: TwinConfig, vessels: int) -> np.ndarray:
+    """(vessels·m, 4) the dynamics' environment row of every boat (boat j·m + w: vessel j, window w): the config's
+    current and wind, plus each window's measured wind departure (:attr:`Windows.wind_departure_mps`)."""
+    rows = np.tile(config.environment.as_vector(), (vessels * windows.start_index.size, 1))
+    if windows.wind_departure_mps is not None:
+        rows[:, 2:] += np.tile(windows.wind_departure_mps, (vessels, 1))
+    return rows
 
 
 def _centred_mean(values: np.ndarray, half: int) -> np.ndarray:
@@ -268,7 +327,7 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
     start = np.tile(windows.start_index, vessels)
     vessel = np.repeat(np.arange(vessels), windows.start_index.size)
     sway = np.zeros(start.size)
-    environments = np.tile(config.environment.as_vector(), (sway.size, 1))
+    environments = _environments(windows, config, vessels)
     for lag in range(int(round(SWAY_OBSERVER_S / dt)), 0, -1):
         index = start - lag
         inside = index >= 0
@@ -375,7 +434,7 @@ def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[Vess
     if initial_shift is not None:
         states += initial_shift.reshape(states.shape)
     substeps = max(1, int(round(windows.dt_s * REPLAY_INTEGRATION_RATE_HZ)))
-    environments = np.tile(config.environment.as_vector(), (states.shape[0], 1))
+    environments = _environments(windows, config, len(vessels))
     acting, switch = windows.acting(config.vessel.command_delay_s)
     index = windows.index
     commands = np.tile(acting[index], (1, len(vessels), 1))
