@@ -73,4 +73,4 @@ def test_a_boat_files_mass_held_is_not_reported_as_identified(skid) -> None:
     assert row["status"] == "ok" and (out / "skid" / "twin.yaml").exists()
     held = [w for w in report["warnings"] if "kg is held in the model" in w]  # said, not only in the text
     assert len(held) == 1 and "do not identify the mass" in held[0], report["warnings"]
-    assert f"mass {report['model']['effective_mass_kg']:.0f} kg" in held[0]
+    assert f"(with its added mass) {report['model']['effective_mass_kg']:.0f} kg is held" in held[0]
