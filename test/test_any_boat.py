@@ -9,6 +9,7 @@ import json
 import math
 from contextlib import nullcontext
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -226,6 +227,8 @@ def test_a_boat_file_of_another_size_is_carried_not_copied(tmp_path: Path) -> No
                      "propeller": {"diameter_m": 0.2, "kt": [0.0, 0.1, 0.1]}}]}, "k0 > 0"),
     ({"thrusters": [{"name": "a", "x_m": -1}], "rudders": [{"name": "r", "x_m": -1.2, "area_m2": 0.1,
                                                           "washed_by": "a"}]}, "has no diameter_m"),
+    ({"thrusters": [{"name": "a", "x_m": -1}], "rudders": [{"name": "r", "x_m": -1.2, "area_m2": 0.1,
+                                                          "lift_slope_per_rad": -1.0}]}, "lift_slope_per_rad"),
 ])
 def test_a_wrong_propulsion_section_is_refused_in_one_line(change: dict, message: str) -> None:
     with pytest.raises(InputError, match=message) as caught:
@@ -259,21 +262,28 @@ def test_a_skid_steer_boats_file_identifies_and_diagnoses_its_own_clean_trial_si
     assert not any(d["causes"] or d["unexplained"] for d in followed["diagnoses"])
 
 
+def _manoeuvring_fit(tmp_path: Path, truth: Path, boat: Path, scenarios: tuple[str, str, str], seed: int
+                     ) -> dict[str, Any]:
+    """The boat of ``truth`` simulated through ``scenarios`` (CLI), then ``identify --manoeuvring`` of the first two
+    against ``boat``, the third held out (--validate): manoeuvring.json's ``manoeuvring``."""
+    from boat_twin.cli import main
+
+    trials = [str(tmp_path / f"{scenario}.mcap") for scenario in scenarios]
+    for scenario, trial in zip(scenarios, trials, strict=True):
+        assert main(["simulate", scenario, "--config", str(truth), "--seed", str(seed), "--out", trial]) == 0
+    assert main(["identify", *trials[:2], "--manoeuvring", "--config", str(boat), "--validate", trials[2],
+                 "--out", str(tmp_path / "fit")]) == 0
+    return json.loads((tmp_path / "fit" / "manoeuvring.json").read_text())["manoeuvring"]
+
+
 def test_a_single_screw_ships_turning_is_identified_from_two_zigzags_and_predicts_a_turning_circle(
         tmp_path: Path) -> None:
     """`identify --manoeuvring` on a propeller + rudder boat: every coefficient's interval holds the boat file's
     value and a held-out turning circle re-simulates within 10° of heading (the issue's target)."""
-    from boat_twin.cli import main
     from boat_twin.config import load_twin_config
 
     boat = Path(__file__).resolve().parents[1] / "config" / "boats" / "single_screw_rudder.yaml"
-    trials = []
-    for scenario in ("zigzag-20-20", "zigzag-10-10", "turning-circle"):
-        trials.append(str(tmp_path / f"{scenario}.mcap"))
-        assert main(["simulate", scenario, "--config", str(boat), "--seed", "2", "--out", trials[-1]]) == 0
-    assert main(["identify", *trials[:2], "--manoeuvring", "--config", str(boat), "--validate", trials[2],
-                 "--out", str(tmp_path / "fit")]) == 0
-    found = json.loads((tmp_path / "fit" / "manoeuvring.json").read_text())["manoeuvring"]
+    found = _manoeuvring_fit(tmp_path, boat, boat, ("zigzag-20-20", "zigzag-10-10", "turning-circle"), 2)
     truth = derive_coefficients(load_twin_config(boat, None, None).vessel)
     for key in ("m22_kg", "m33_kgm2", "sway_damping_Nspm2", "yaw_damping_Nms", "yaw_quadratic_Nms2"):
         low, high = found["ci95"][key]
@@ -430,7 +440,6 @@ def test_identify_manoeuvring_finds_a_ships_screw_and_rudder_scale_from_a_zigzag
     a held-out zigzag within 10° of heading."""
     import yaml
 
-    from boat_twin.cli import main
     from boat_twin.config import load_twin_config
 
     boat = Path(__file__).resolve().parents[1] / "config" / "boats" / "single_screw_rudder.yaml"
@@ -440,13 +449,7 @@ def test_identify_manoeuvring_finds_a_ships_screw_and_rudder_scale_from_a_zigzag
     data["vessel"]["thrust_factor_left"] = 0.9
     truth = tmp_path / "truth.yaml"
     truth.write_text(yaml.safe_dump(data))
-    trials = []
-    for scenario in ("zigzag-20-20", "turning-circle", "zigzag-10-10"):
-        trials.append(str(tmp_path / f"{scenario}.mcap"))
-        assert main(["simulate", scenario, "--config", str(truth), "--seed", "4", "--out", trials[-1]]) == 0
-    assert main(["identify", *trials[:2], "--manoeuvring", "--config", str(boat), "--validate", trials[2],
-                 "--out", str(tmp_path / "fit")]) == 0
-    found = json.loads((tmp_path / "fit" / "manoeuvring.json").read_text())["manoeuvring"]
+    found = _manoeuvring_fit(tmp_path, truth, boat, ("zigzag-20-20", "turning-circle", "zigzag-10-10"), 4)
     for key, value in (("thrust_factor", 0.9), ("rudder_lift_factor", 0.8)):
         low, high = found["ci95"][key]
         assert low <= value <= high and key not in found["not_identified"], (key, found["parameters"][key], low, high)
