@@ -261,31 +261,12 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
     heading (±0.06 m/s), which at low speed turns into a spurious turn of several degrees per window.
     Samples without commands or sensors hold the sway.
     """
-    dt = windows.dt_s
     vessels = actuators.shape[1]
     acting, switch = windows.acting(config.vessel.command_delay_s)
-    last = len(acting) - 1
-    start = np.tile(windows.start_index, vessels)
-    vessel = np.repeat(np.arange(vessels), windows.start_index.size)
-    sway = np.zeros(start.size)
-    environments = np.tile(config.environment.as_vector(), (sway.size, 1))
-    for lag in range(int(round(SWAY_OBSERVER_S / dt)), 0, -1):
-        index = start - lag
-        inside = index >= 0
-        index = np.maximum(index, 0)
-        states = np.zeros((sway.size, 6))
-        states[:, 2], states[:, 3], states[:, 4], states[:, 5] = heading[index], surge[index], sway, yaw_rate[index]
-        following = np.minimum(index + 1, last)  # a command issued just before the next sample acts in this step
-        commands = np.stack([acting[index], acting[following]])
-        angles = actuators[index, vessel, :2]
-        angles = np.where(np.isfinite(angles), angles, dynamics.steering_targets(commands[0]))
-        thrust = actuators[index, vessel, 2:]
-        thrust = np.where(np.isfinite(thrust), thrust, dynamics.thrust_start(commands[0]))
-        path, _, _ = dynamics.run(states, commands, environments, dt, 1, angles, thrust,
-                                  np.stack([switch[index], switch[following]]), acting[np.maximum(index - 1, 0)])
-        stepped = path[1, :, 4]
-        sway = np.where(inside & np.isfinite(stepped), stepped, sway)
-    return sway
+    return dynamics.observe_sway(np.tile(windows.start_index, vessels),
+                                 np.repeat(np.arange(vessels), windows.start_index.size),
+                                 int(round(SWAY_OBSERVER_S / windows.dt_s)), heading, surge, yaw_rate, acting, switch,
+                                 actuators, config.environment.as_vector(), windows.dt_s)
 
 
 @dataclass(frozen=True)
