@@ -106,6 +106,16 @@ class Windows:
         """(T, m) index into the trial's grid of every window sample."""
         return self.start_index[None, :] + np.arange(self.t_s.shape[0])[:, None]
 
+    def part(self, columns: slice) -> Windows:
+        """The windows ``columns`` of these, sharing the trial's command and actuator series kept here (a replay
+        of many vessels run a part of the windows at a time holds only that part's paths)."""
+        part = Windows(self.t_s[:, columns], self.commands[:, columns],
+                       {name: values[:, columns] for name, values in self.measured.items()},
+                       self.position[:, columns], self.trial, self.start_index[columns])
+        object.__setattr__(part, "_actuators", self._actuators)
+        object.__setattr__(part, "_acting", self._acting)
+        return part
+
     def acting(self, delay_s: float) -> tuple[np.ndarray, np.ndarray]:
         """The commands (n, 4) the boat acts on over the trial when they act ``delay_s`` after they were issued,
         and their switch times (n,), s after each sample (as
@@ -247,12 +257,14 @@ def _integrated(rate: np.ndarray, dt: float) -> np.ndarray:
 
 
 def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, heading: np.ndarray,
-                   surge: np.ndarray, yaw_rate: np.ndarray, actuators: np.ndarray) -> np.ndarray:
+                   surge: np.ndarray, yaw_rate: np.ndarray, actuators: np.ndarray,
+                   columns: np.ndarray | None = None) -> np.ndarray:
     """(k·m,) sway through water at each window's start, m/s, for each of the ``k`` vessels of ``dynamics``
     (boat j·m + w: vessel j, window w): the model's sway equation run over the :data:`SWAY_OBSERVER_S` before
     it, from rest, driven by the commands the boat acts on (at their switch times) and the *measured* heading,
     surge (GNSS) and yaw rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length) and
-    the outboards' angles and lagged thrust those commands drive on each vessel (``actuators``, (n, k, 4)).
+    the outboards' angles and lagged thrust those commands drive on each vessel (``actuators``, (n, k, 4); or
+    (n, u, 4) with ``columns`` (k,) the column of each vessel, when vessels share one).
     Each sample step is the kernel's RK4 step from the measured state with the observer's sway (the sway it
     ends with is kept, the rest is measured again at the next sample).
 
@@ -261,10 +273,10 @@ def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, hea
     heading (±0.06 m/s), which at low speed turns into a spurious turn of several degrees per window.
     Samples without commands or sensors hold the sway.
     """
-    vessels = actuators.shape[1]
+    columns = np.arange(actuators.shape[1]) if columns is None else np.asarray(columns)
     acting, switch = windows.acting(config.vessel.command_delay_s)
-    return dynamics.observe_sway(np.tile(windows.start_index, vessels),
-                                 np.repeat(np.arange(vessels), windows.start_index.size),
+    return dynamics.observe_sway(np.tile(windows.start_index, columns.size),
+                                 np.repeat(columns, windows.start_index.size),
                                  int(round(SWAY_OBSERVER_S / windows.dt_s)), heading, surge, yaw_rate, acting, switch,
                                  actuators, config.environment.as_vector(), windows.dt_s)
 
@@ -301,10 +313,11 @@ def measured_motion(windows: Windows, config: TwinConfig) -> MeasuredMotion:
 
 
 def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, actuators: np.ndarray,
-                   motion: MeasuredMotion | None = None) -> np.ndarray:
+                   motion: MeasuredMotion | None = None, columns: np.ndarray | None = None) -> np.ndarray:
     """(k·m, 6) state at each window's start for each of the ``k`` vessels of ``dynamics`` (boat j·m + w:
     vessel j, window w), from the sensors as ``config`` says they err (``actuators``: the outboards' angles and
-    lagged thrust over the trial on each vessel, (n, k, 4), :meth:`Windows.actuators`).
+    lagged thrust over the trial on each vessel, (n, k, 4), :meth:`Windows.actuators`; or (n, u, 4) with
+    ``columns`` (k,) the column of each vessel).
 
     Heading, surge and yaw rate: :func:`measured_motion` (``motion``, if already computed for ``config``'s
     sensors and current); sway: the :func:`_sway_observer`. Every term is a measurement or driven by
@@ -312,12 +325,13 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, act
     absorb.
     """
     motion = motion or measured_motion(windows, config)
-    start = np.tile(windows.start_index, actuators.shape[1])
+    columns = np.arange(actuators.shape[1]) if columns is None else np.asarray(columns)
+    start = np.tile(windows.start_index, columns.size)
     states = np.zeros((start.size, 6))
     states[:, 2] = motion.heading_rad[start]
     states[:, 3] = motion.surge_mps[start]
     states[:, 4] = _sway_observer(windows, config, dynamics, motion.heading_rad, motion.surge_mps,
-                                  motion.yaw_rate_radps, actuators)
+                                  motion.yaw_rate_radps, actuators, columns)
     states[:, 5] = motion.yaw_rate_radps[start]
     return states
 
@@ -351,8 +365,11 @@ def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[Vess
     m = windows.start_index.size
     drag = tow_drag_table(config.tow, config.vessel)
     dynamics = Dynamics(config.vessel, drag, boats=[v for v in vessels for _ in range(m)])
-    history = np.stack([windows.actuators(Dynamics(v)) for v in vessels], axis=1)
-    states = initial_states(windows, config, dynamics, history, motion)
+    column: dict[int, int] = {}  # a vessel given several times (a projection's nuisance steps): one history
+    columns = np.array([column.setdefault(id(v), len(column)) for v in vessels])
+    distinct = list({id(v): v for v in vessels}.values())
+    history = np.stack([windows.actuators(Dynamics(v)) for v in distinct], axis=1)
+    states = initial_states(windows, config, dynamics, history, motion, columns)
     if initial_shift is not None:
         states += initial_shift.reshape(states.shape)
     substeps = max(1, int(round(windows.dt_s * REPLAY_INTEGRATION_RATE_HZ)))
@@ -364,7 +381,7 @@ def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[Vess
     if np.any(switch[index] != 0.0):
         switching = np.tile(switch[index], (1, len(vessels)))
     before = np.tile(acting[np.maximum(windows.start_index - 1, 0)], (len(vessels), 1))
-    start = history[windows.start_index].transpose(1, 0, 2).reshape(-1, 4)
+    start = history[windows.start_index][:, columns].transpose(1, 0, 2).reshape(-1, 4)
     path, rates, _ = dynamics.run(states, commands, environments, windows.dt_s / substeps, substeps,
                                   np.ascontiguousarray(start[:, :2]), np.ascontiguousarray(start[:, 2:]),
                                   switching, before)
