@@ -95,8 +95,8 @@ class InitialStateProjection:
         """The projection linearized at ``config`` (one replay with every nuisance stepped in turn), residuals
         normalized by ``sigma``, each window compared up to its predictability horizon (the same replay has
         every nuisance also ± its prior standard deviation). Replayed :data:`PROJECTION_WINDOWS` windows at a
-        time (each window's numbers are its own): the 3q + 1 replays of a whole 6-hour trial at once took
-        700 MB."""
+        time (each window's numbers are its own): the 3q + 1 replays of a whole 6-hour trial at once took the
+        process from 250 MB to 1.2 GB."""
         q = len(NUISANCES)
         stdev = prior_stdev(windows, sigma)
         motion = measured_motion(windows, config)
