@@ -1144,8 +1144,9 @@ class Dynamics:
         its own, so the numbers do not depend on the grouping."""
         m = self.model
         self._check_boats(len(start))
-        arrays = [np.ascontiguousarray(x, dtype=float) for x in (heading_rad, surge_mps, yaw_rate_radps, commands,
-                                                                 switch_s, actuators, environment)]
+        heading, surge, yaw_rate, acting, switch, known, env = (
+            np.ascontiguousarray(x, dtype=float)
+            for x in (heading_rad, surge_mps, yaw_rate_radps, commands, switch_s, actuators, environment))
         start, vessel = (np.ascontiguousarray(x, dtype=np.int64) for x in (start, vessel))
         out = np.zeros(len(start))
         group = max(1, CALL_BOAT_STEPS // max(lags, 1))
@@ -1154,8 +1155,9 @@ class Dynamics:
             rows = self.coefficients if self.coefficients.shape[0] == 1 else self.coefficients[a:b]
             part = np.zeros(b - a)
             with _threads_for(b - a):
-                _observe_sway_parallel(start[a:b], vessel[a:b], int(lags), *arrays[:6], rows, m.resistance_N,
-                                       m.resistance_max_speed_mps, m.extra_drag_N, arrays[6], float(dt_s), part)
+                _observe_sway_parallel(start[a:b], vessel[a:b], int(lags), heading, surge, yaw_rate, acting, switch,
+                                       known, rows, m.resistance_N, m.resistance_max_speed_mps, m.extra_drag_N, env,
+                                       float(dt_s), part)
             out[a:b] = part
         return out
 
