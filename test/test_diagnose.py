@@ -694,3 +694,31 @@ def test_the_withheld_rule_judges_each_cause_by_what_it_explains_and_withholds_t
     assert withheld(named, left("yaw_rate_radps", 1.9)) == []  # structure within 2x the noise: not withheld
     assert withheld(named, left("yaw_rate_radps", 1.9), misfit=True) == named  # live: the twin misfits
     assert withheld(named, left("vel_east_mps", 5.0), misfit=False) == []  # live: the twin fits
+
+
+def test_the_projection_replays_a_part_of_the_windows_at_a_time_with_the_same_numbers(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 37: the initial-state projection's 13 replays run PROJECTION_WINDOWS windows at a time, so their
+    paths' memory does not grow with the trial; every window's sensitivity, horizon and inverse are those of one
+    replay of all windows, bit for bit, and the traced peak is a fraction of it."""
+    import tracemalloc
+
+    from boat_twin.diagnose import initial_state
+    from boat_twin.diagnose.search import white_noise_stdev
+
+    trial = read_trial(Path(__file__).resolve().parents[1] / "bags" / "thrust_steps_sample")
+    windows = cut_windows(trial, 20.0)
+    sigma = {s: white_noise_stdev(windows.measured[s]) for s in SIGNALS}
+    made, peaks = [], []
+    for at_a_time in (10**6, 7):
+        monkeypatch.setattr(initial_state, "PROJECTION_WINDOWS", at_a_time)
+        initial_state.InitialStateProjection.for_model(windows, TwinConfig(), sigma)  # compiled, caches filled
+        tracemalloc.start()
+        made.append(initial_state.InitialStateProjection.for_model(windows, TwinConfig(), sigma))
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+    whole, parts = made
+    assert windows.start_index.size > 4 * 7
+    for name in ("sensitivity", "compared", "inverse", "stdev"):
+        np.testing.assert_array_equal(getattr(parts, name), getattr(whole, name), err_msg=name)
+    assert peaks[1] < 0.4 * peaks[0], peaks

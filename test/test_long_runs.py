@@ -54,6 +54,20 @@ def test_convert_imports_no_analysis(own_tlog, tmp_path) -> None:
     assert out.exists()
 
 
+def test_identify_imports_neither_the_diagnosis_nor_the_live_twin(tmp_path) -> None:
+    """``identify`` writes its report through fleet.reports, which imported the diagnosis and the live twin for the
+    other verbs' reports (1.4 s of imports on a loaded machine; issue 37: identify against a plain fit)."""
+    sample = ROOT / "bags" / "thrust_steps_sample"
+    code = (f"import contextlib, io, json, sys\nfrom boat_twin.cli import main\n"
+            f"with contextlib.redirect_stdout(io.StringIO()):\n"
+            f"    assert main(['identify', {str(sample)!r}, '--out', {str(tmp_path / 'out')!r}]) == 0\n"
+            "print(json.dumps(sorted(m for m in sys.modules if m.startswith(('boat_twin.diagnose.pipeline', "
+            "'boat_twin.diagnose.search', 'boat_twin.diagnose.report', 'boat_twin.shadow')))))")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    assert json.loads(run.stdout.strip().splitlines()[-1]) == []
+
+
 BLAS_THREADS = ("import sys\nfrom boat_twin import cli\n"
                 "class Args:\n    @staticmethod\n    def handler(args):\n"
                 "        import numpy, threadpoolctl\n"

@@ -114,6 +114,59 @@ def test_large_ensembles_on_numba_threads_equal_the_serial_kernel(monkeypatch: p
 
 
 
+def _sway_by_ticks(dynamics_: Dynamics, start, vessel, lags, heading, surge, yaw_rate, acting, switch, actuators,
+                   environments, dt) -> np.ndarray:
+    """The sway observer as one two-tick :meth:`Dynamics.run` per sample for all boats (replay's loop before
+    issue 37), each boat in its row of ``environments``: the reference :meth:`Dynamics.observe_sway` must equal."""
+    last = len(acting) - 1
+    sway = np.zeros(start.size)
+    for lag in range(lags, 0, -1):
+        index = start - lag
+        inside = index >= 0
+        index = np.maximum(index, 0)
+        states = np.zeros((sway.size, 6))
+        states[:, 2], states[:, 3], states[:, 4], states[:, 5] = heading[index], surge[index], sway, yaw_rate[index]
+        following = np.minimum(index + 1, last)
+        commands = np.stack([acting[index], acting[following]])
+        angles = actuators[index, vessel, :2]
+        angles = np.where(np.isfinite(angles), angles, dynamics_.steering_targets(commands[0]))
+        thrust = actuators[index, vessel, 2:]
+        thrust = np.where(np.isfinite(thrust), thrust, dynamics_.thrust_start(commands[0]))
+        path, _, _ = dynamics_.run(states, commands, environments, dt, 1, angles, thrust,
+                                   np.stack([switch[index], switch[following]]), acting[np.maximum(index - 1, 0)])
+        sway = np.where(inside & np.isfinite(path[1, :, 4]), path[1, :, 4], sway)
+    return sway
+
+
+@pytest.mark.parametrize("boats_per_call", [None, 7])
+def test_the_compiled_sway_observer_equals_a_run_per_sample(monkeypatch: pytest.MonkeyPatch,
+                                                             boats_per_call: int | None) -> None:
+    """Issue 37: the sway observer in one compiled call (or in groups of boats, as a long trial's is) gives the
+    per-sample two-tick runs' sway bit for bit: commands switching between samples, NaN actuators, boats
+    whose run-in starts before the trial, two vessels with their own coefficients."""
+    rng = np.random.default_rng(4)
+    n, dt, lags = 400, 0.1, 50
+    vessels = [replace(PARAMS, steering_rate_radps=0.5, thrust_time_constant_s=1.0),
+               replace(PARAMS, manoeuvring={"m22_kg": 90.0}, steering_offset_rad=0.01)]
+    acting = np.column_stack([rng.uniform(0, 600, (n, 2)), rng.uniform(-0.3, 0.3, (n, 2))])
+    acting[100:110] = np.nan
+    switch = np.where(rng.random(n) < 0.3, rng.uniform(-0.05, 0.05, n), 0.0)
+    actuators = np.stack([Dynamics(v).actuator_history(dt, acting, switch) for v in vessels], axis=1)
+    heading, surge, yaw_rate = rng.uniform(-3, 3, n), rng.uniform(0, 8, n), rng.uniform(-0.3, 0.3, n)
+    windows = np.array([20, 60, 105, 150, 230, 399])
+    start, vessel = np.tile(windows, 2), np.repeat([0, 1], windows.size)
+    model = Dynamics(PARAMS, boats=[v for v in vessels for _ in windows])
+    environments = np.array([0.2, -0.1, 1.0, 2.0]) + rng.uniform(-3, 3, (start.size, 4)) * [0, 0, 1, 1]  # wind
+    reference = _sway_by_ticks(model, start, vessel, lags, heading, surge, yaw_rate, acting, switch, actuators,
+                               environments, dt)
+    if boats_per_call:
+        monkeypatch.setattr(dynamics, "CALL_BOAT_STEPS", boats_per_call * lags)
+    observed = model.observe_sway(start, vessel, lags, heading, surge, yaw_rate, acting, switch, actuators,
+                                  environments, dt)
+    np.testing.assert_array_equal(observed, reference)
+    assert np.all(np.abs(reference) > 1e-4)  # every boat observed a sway
+
+
 def test_coefficients_of_another_number_of_boats_are_refused() -> None:
     """One coefficient row for all boats or one per boat; anything else would read past the rows."""
     dynamics = Dynamics(PARAMS, boats=[PARAMS, PARAMS])

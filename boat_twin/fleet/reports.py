@@ -5,20 +5,22 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from boat_twin.config import TwinConfig, save_config
 from boat_twin.diagnose.defaults import EXTENDED_MODEL_NAME
-from boat_twin.diagnose.pipeline import TrialDiagnosis
-from boat_twin.diagnose.report import concerned_signals, evidence_figure, residual_figure, signal_figure
 from boat_twin.files import atomic_save_figure, atomic_write_text, ensure_out_dir, to_json
 from boat_twin.ident.pipeline import TrialIdentifyResult
 from boat_twin.ident.report import write_trial_report
 from boat_twin.ident.results import TrialsIdentification
 from boat_twin.sensors.gnss import GnssConfig
-from boat_twin.shadow.follow import FollowResult
 from boat_twin.vessel.params import VesselParams
+
+if TYPE_CHECKING:  # the diagnosis and the live twin are imported by the verbs that write their reports only
+    from boat_twin.diagnose.pipeline import TrialDiagnosis
+    from boat_twin.shadow.follow import FollowResult
 
 
 def antenna_height_m(vessel: VesselParams) -> float:
@@ -56,6 +58,7 @@ def write_diagnosis_report(out: Path, done: TrialDiagnosis, source: str, named: 
     extended model (its path set in ``done.result["extended_model"]``), five figures (the track map:
     :mod:`boat_twin.view.track_map`; the one-page summary: :mod:`boat_twin.view.summary`) and diagnosis.json.
     ``named``: the directory the texts name (default ``out``; a report set's final name)."""
+    from boat_twin.diagnose.report import concerned_signals, evidence_figure, residual_figure, signal_figure
     from boat_twin.view.summary import diagnosis_summary_figure
     from boat_twin.view.track_map import diagnosis_track_figure
 

@@ -111,6 +111,16 @@ class Windows:
         """(T, m) index into the trial's grid of every window sample."""
         return self.start_index[None, :] + np.arange(self.t_s.shape[0])[:, None]
 
+    def part(self, columns: slice) -> Windows:
+        """The windows ``columns`` of these, sharing the trial's command and actuator series kept here (a replay
+        of many vessels run a part of the windows at a time holds only that part's paths)."""
+        part = Windows(self.t_s[:, columns], self.commands[:, columns],
+                       {name: values[:, columns] for name, values in self.measured.items()},
+                       self.position[:, columns], self.trial, self.start_index[columns])
+        object.__setattr__(part, "_actuators", self._actuators)
+        object.__setattr__(part, "_acting", self._acting)
+        return part
+
     def acting(self, delay_s: float) -> tuple[np.ndarray, np.ndarray]:
         """The commands (n, 4) the boat acts on over the trial when they act ``delay_s`` after they were issued,
         and their switch times (n,), s after each sample (as
@@ -306,45 +316,30 @@ def _integrated(rate: np.ndarray, dt: float) -> np.ndarray:
 
 
 def _sway_observer(windows: Windows, config: TwinConfig, dynamics: Dynamics, heading: np.ndarray,
-                   surge: np.ndarray, yaw_rate: np.ndarray, actuators: np.ndarray) -> np.ndarray:
+                   surge: np.ndarray, yaw_rate: np.ndarray, actuators: np.ndarray,
+                   columns: np.ndarray | None = None) -> np.ndarray:
     """(k·m,) sway through water at each window's start, m/s, for each of the ``k`` vessels of ``dynamics``
     (boat j·m + w: vessel j, window w): the model's sway equation run over the :data:`SWAY_OBSERVER_S` before
     it, from rest, driven by the commands the boat acts on (at their switch times) and the *measured* heading,
     surge (GNSS) and yaw rate (gyro) of the whole trial (``heading``, ``surge``, ``yaw_rate``: trial-length) and
-    the outboards' angles and lagged thrust those commands drive on each vessel (``actuators``, (n, k, 4)).
+    the outboards' angles and lagged thrust those commands drive on each vessel (``actuators``, (n, k, 4); or
+    (n, u, 4) with ``columns`` (k,) the column of each vessel, when vessels share one).
     Each sample step is the kernel's RK4 step from the measured state with the observer's sway (the sway it
     ends with is kept, the rest is measured again at the next sample).
 
     Sway is a fast state (time constant m22 / (Y_v·u): 0.4 s at 10 m/s), so it forgets its start; the gyro
     that drives it through the m11·u·r term is 50× less noisy than a sway read from GNSS velocity and IMU
     heading (±0.06 m/s), which at low speed turns into a spurious turn of several degrees per window.
-    Samples without commands or sensors hold the sway.
+    Samples without commands or sensors hold the sway. Each window's observer runs in that window's
+    environment (:func:`_environments`: the config's current and wind plus the window's measured wind).
     """
-    dt = windows.dt_s
-    vessels = actuators.shape[1]
+    columns = np.arange(actuators.shape[1]) if columns is None else np.asarray(columns)
     acting, switch = windows.acting(config.vessel.command_delay_s)
-    last = len(acting) - 1
-    start = np.tile(windows.start_index, vessels)
-    vessel = np.repeat(np.arange(vessels), windows.start_index.size)
-    sway = np.zeros(start.size)
-    environments = _environments(windows, config, vessels)
-    for lag in range(int(round(SWAY_OBSERVER_S / dt)), 0, -1):
-        index = start - lag
-        inside = index >= 0
-        index = np.maximum(index, 0)
-        states = np.zeros((sway.size, 6))
-        states[:, 2], states[:, 3], states[:, 4], states[:, 5] = heading[index], surge[index], sway, yaw_rate[index]
-        following = np.minimum(index + 1, last)  # a command issued just before the next sample acts in this step
-        commands = np.stack([acting[index], acting[following]])
-        angles = actuators[index, vessel, :2]
-        angles = np.where(np.isfinite(angles), angles, dynamics.steering_targets(commands[0]))
-        thrust = actuators[index, vessel, 2:]
-        thrust = np.where(np.isfinite(thrust), thrust, dynamics.thrust_start(commands[0]))
-        path, _, _ = dynamics.run(states, commands, environments, dt, 1, angles, thrust,
-                                  np.stack([switch[index], switch[following]]), acting[np.maximum(index - 1, 0)])
-        stepped = path[1, :, 4]
-        sway = np.where(inside & np.isfinite(stepped), stepped, sway)
-    return sway
+    return dynamics.observe_sway(np.tile(windows.start_index, columns.size),
+                                 np.repeat(columns, windows.start_index.size),
+                                 int(round(SWAY_OBSERVER_S / windows.dt_s)), heading, surge, yaw_rate, acting, switch,
+                                 actuators, _environments(windows, config, columns.size),
+                                 windows.dt_s)
 
 
 @dataclass(frozen=True)
@@ -379,10 +374,11 @@ def measured_motion(windows: Windows, config: TwinConfig) -> MeasuredMotion:
 
 
 def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, actuators: np.ndarray,
-                   motion: MeasuredMotion | None = None) -> np.ndarray:
+                   motion: MeasuredMotion | None = None, columns: np.ndarray | None = None) -> np.ndarray:
     """(k·m, 6) state at each window's start for each of the ``k`` vessels of ``dynamics`` (boat j·m + w:
     vessel j, window w), from the sensors as ``config`` says they err (``actuators``: the outboards' angles and
-    lagged thrust over the trial on each vessel, (n, k, 4), :meth:`Windows.actuators`).
+    lagged thrust over the trial on each vessel, (n, k, 4), :meth:`Windows.actuators`; or (n, u, 4) with
+    ``columns`` (k,) the column of each vessel).
 
     Heading, surge and yaw rate: :func:`measured_motion` (``motion``, if already computed for ``config``'s
     sensors and current); sway: the :func:`_sway_observer`. Every term is a measurement or driven by
@@ -390,12 +386,13 @@ def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, act
     absorb.
     """
     motion = motion or measured_motion(windows, config)
-    start = np.tile(windows.start_index, actuators.shape[1])
+    columns = np.arange(actuators.shape[1]) if columns is None else np.asarray(columns)
+    start = np.tile(windows.start_index, columns.size)
     states = np.zeros((start.size, 6))
     states[:, 2] = motion.heading_rad[start]
     states[:, 3] = motion.surge_mps[start]
     states[:, 4] = _sway_observer(windows, config, dynamics, motion.heading_rad, motion.surge_mps,
-                                  motion.yaw_rate_radps, actuators)
+                                  motion.yaw_rate_radps, actuators, columns)
     states[:, 5] = motion.yaw_rate_radps[start]
     return states
 
@@ -429,8 +426,11 @@ def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[Vess
     m = windows.start_index.size
     drag = tow_drag_table(config.tow, config.vessel)
     dynamics = Dynamics(config.vessel, drag, boats=[v for v in vessels for _ in range(m)])
-    history = np.stack([windows.actuators(Dynamics(v)) for v in vessels], axis=1)
-    states = initial_states(windows, config, dynamics, history, motion)
+    column: dict[int, int] = {}  # a vessel given several times (a projection's nuisance steps): one history
+    columns = np.array([column.setdefault(id(v), len(column)) for v in vessels])
+    distinct = list({id(v): v for v in vessels}.values())
+    history = np.stack([windows.actuators(Dynamics(v)) for v in distinct], axis=1)
+    states = initial_states(windows, config, dynamics, history, motion, columns)
     if initial_shift is not None:
         states += initial_shift.reshape(states.shape)
     substeps = max(1, int(round(windows.dt_s * REPLAY_INTEGRATION_RATE_HZ)))
@@ -442,7 +442,7 @@ def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[Vess
     if np.any(switch[index] != 0.0):
         switching = np.tile(switch[index], (1, len(vessels)))
     before = np.tile(acting[np.maximum(windows.start_index - 1, 0)], (len(vessels), 1))
-    start = history[windows.start_index].transpose(1, 0, 2).reshape(-1, 4)
+    start = history[windows.start_index][:, columns].transpose(1, 0, 2).reshape(-1, 4)
     path, rates, _ = dynamics.run(states, commands, environments, windows.dt_s / substeps, substeps,
                                   np.ascontiguousarray(start[:, :2]), np.ascontiguousarray(start[:, 2:]),
                                   switching, before)

@@ -702,6 +702,94 @@ def _step_all_parallel(
 
 
 @numba.njit(cache=True)
+def _observe_sway_boat(
+    b: int,
+    start: np.ndarray,
+    vessel: np.ndarray,
+    lags: int,
+    heading: np.ndarray,
+    surge: np.ndarray,
+    yaw_rate: np.ndarray,
+    acting: np.ndarray,
+    switch: np.ndarray,
+    actuators: np.ndarray,
+    coefficients: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    environments: np.ndarray,
+    dt: float,
+    out: np.ndarray,
+) -> None:
+    """Boat ``b``'s sway observer (:meth:`Dynamics.observe_sway`): from rest at sample ``start[b] - lags``, each
+    sample one tick of :func:`_boat_ticks` (its command ``acting[i]`` from ``switch[i]`` after the sample, the
+    previous before it, the next from ``switch[i + 1]`` when negative) from the measured heading, surge and yaw
+    rate with the observer's sway, keeping the sway it ends with when finite and the sample is in the trial."""
+    k = coefficients[0] if coefficients.shape[0] == 1 else coefficients[b]  # (prange's b is unsigned)
+    env = environments[0] if environments.shape[0] == 1 else environments[b]
+    last = acting.shape[0] - 1
+    s = np.empty(6)
+    steer = np.empty(2)
+    thrust = np.empty(2)
+    sway = 0.0
+    for lag in range(lags, 0, -1):
+        index = start[b] - lag
+        inside = index >= 0
+        index = max(index, 0)
+        following = min(index + 1, last)
+        cmd = acting[index]
+        previous = acting[max(index - 1, 0)]
+        s[0] = 0.0
+        s[1] = 0.0
+        s[2] = heading[index]
+        s[3] = surge[index]
+        s[4] = sway
+        s[5] = yaw_rate[index]
+        known = actuators[index, vessel[b]]
+        for j in range(2):
+            steer[j] = known[j] if np.isfinite(known[j]) else _steering_target(cmd[2 + j], k)
+            thrust[j] = known[2 + j] if np.isfinite(known[2 + j]) else cmd[j]
+        late = min(max(switch[index], 0.0), dt)
+        early = min(max(switch[following], -dt), 0.0)
+        if late == 0.0 and early == 0.0:
+            _start_step(steer, thrust, cmd, k)
+            _step_boat(s, steer, thrust, cmd, k, table, u_max, extra, env, dt, 1)
+        else:
+            _start_step(steer, thrust, previous if late > 0.0 else cmd, k)
+            _segment(s, steer, thrust, previous, k, table, u_max, extra, env, dt, late)
+            _segment(s, steer, thrust, cmd, k, table, u_max, extra, env, dt, dt + early - late)
+            _segment(s, steer, thrust, acting[following], k, table, u_max, extra, env, dt, -early)
+        if inside and np.isfinite(s[4]):
+            sway = s[4]
+    out[b] = sway
+
+
+@numba.njit(cache=True, parallel=True)
+def _observe_sway_parallel(
+    start: np.ndarray,
+    vessel: np.ndarray,
+    lags: int,
+    heading: np.ndarray,
+    surge: np.ndarray,
+    yaw_rate: np.ndarray,
+    acting: np.ndarray,
+    switch: np.ndarray,
+    actuators: np.ndarray,
+    coefficients: np.ndarray,
+    table: np.ndarray,
+    u_max: float,
+    extra: np.ndarray,
+    environments: np.ndarray,
+    dt: float,
+    out: np.ndarray,
+) -> None:
+    """:func:`_observe_sway_boat` of every boat, shared among numba's threads (one thread: the same loop)."""
+    for b in numba.prange(start.shape[0]):
+        _observe_sway_boat(b, start, vessel, lags, heading, surge, yaw_rate, acting, switch, actuators,
+                           coefficients, table, u_max, extra, environments, dt, out)
+
+
+@numba.njit(cache=True)
 def _step_time(n: int, substeps: int, output_rate: float, dt: float) -> float:
     """Time of global integration step ``n``, s: its output tick's time plus its substeps (as the Python step loop
     of ``vessel.simulate`` computes it, so the helms see the same floats)."""
@@ -1042,6 +1130,39 @@ class Dynamics:
             states[a:b], steering_rad[a:b], thrust_N[a:b] = state, steering, thrust
             out_states[:, a:b], out_derivatives[:, a:b], out_steering[:, a:b] = path, rates, angles
         return out_states, out_derivatives, out_steering
+
+    def observe_sway(self, start: np.ndarray, vessel: np.ndarray, lags: int, heading_rad: np.ndarray,
+                     surge_mps: np.ndarray, yaw_rate_radps: np.ndarray, commands: np.ndarray, switch_s: np.ndarray,
+                     actuators: np.ndarray, environments: np.ndarray, dt_s: float) -> np.ndarray:
+        """(N,) sway, m/s, of N boats each observed from rest over the ``lags`` samples (``dt_s`` apart) before
+        its sample ``start`` (N,): at every sample one RK4 tick as :meth:`run`'s (the command ``commands[i]``
+        (n, 4) from ``switch_s[i]`` (n,) after it) from the measured ``heading_rad``, ``surge_mps`` and
+        ``yaw_rate_radps`` (n,) with the observer's sway, the outboards' angles and lagged thrust where
+        ``actuators`` (n, vessels, 4) knows them for the boat's ``vessel`` (N,) index (else where the command
+        drives them), in its row of ``environments`` (N, 4) or their one row (4,); the sway held where a step
+        is not finite or before the first sample. Boats are run in
+        compiled calls of at most :data:`CALL_BOAT_STEPS` (Ctrl-C acts between them); each boat's arithmetic is
+        its own, so the numbers do not depend on the grouping."""
+        m = self.model
+        self._check_boats(len(start))
+        heading, surge, yaw_rate, acting, switch, known, env = (
+            np.ascontiguousarray(x, dtype=float)
+            for x in (heading_rad, surge_mps, yaw_rate_radps, commands, switch_s, actuators,
+                      np.atleast_2d(environments)))
+        start, vessel = (np.ascontiguousarray(x, dtype=np.int64) for x in (start, vessel))
+        out = np.zeros(len(start))
+        group = max(1, CALL_BOAT_STEPS // max(lags, 1))
+        for a in range(0, len(start), group):
+            b = min(a + group, len(start))
+            rows = self.coefficients if self.coefficients.shape[0] == 1 else self.coefficients[a:b]
+            sea = env if env.shape[0] == 1 else env[a:b]
+            part = np.zeros(b - a)
+            with _threads_for(b - a):
+                _observe_sway_parallel(start[a:b], vessel[a:b], int(lags), heading, surge, yaw_rate, acting, switch,
+                                       known, rows, m.resistance_N, m.resistance_max_speed_mps, m.extra_drag_N, sea,
+                                       float(dt_s), part)
+            out[a:b] = part
+        return out
 
     def _run_group(self, states: np.ndarray, steering_rad: np.ndarray, thrust_N: np.ndarray, commands: np.ndarray,
                    switch: np.ndarray, before: np.ndarray, coefficients: np.ndarray, environments: np.ndarray,
