@@ -33,7 +33,8 @@ def rk4_held(deriv: Callable[[np.ndarray, float], np.ndarray], state: np.ndarray
 def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Callable[[float], float],
                duration_s: float, rng: np.random.Generator, *, delay_s: float = 0.0, lag_s: float = 0.0,
                yaw_offset_rad: float = 0.0, latency_s: float = 0.1, dropout: float = 0.0,
-               initial_surge_mps: float = 5.0, heading_rad: float = 0.3, engines: bool = False) -> Trial:
+               initial_surge_mps: float = 5.0, heading_rad: float = 0.3, engines: bool = False,
+               accel_stdev_mps2: float | None = None) -> Trial:
     """A trial of a twin-outboard boat of ``params`` (a VesselParams: its derived coefficients, documented in
     boat_twin.vessel.dynamics' docstring) integrated here with classic RK4 at 100 Hz, written apart from the twin's
     kernel: both outboards at ``thrust_N(t)`` each (N, within the envelope: no limit is applied) and
@@ -47,7 +48,8 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
     3°, gyro 0.06°/s) and each GNSS fix lost with probability ``dropout``. The command log holds what was commanded
     (the undelayed ``thrust_N``, ``steering_rad``) as a recorder of stamped command messages gives it
     (:func:`logged_commands`): each change at the log sample nearest the instant it was issued, and that instant in
-    ``command_switch_s``."""
+    ``command_switch_s``. With ``accel_stdev_mps2`` the IMU also logs its accelerometer, u̇ − v·r and v̇ + u·r
+    (the rates at each logged sample) plus white noise of that σ; without, no accelerometer (NaN)."""
     from boat_twin.io.trial import Trial, TrialMetadata
     from boat_twin.vessel.params import derive_coefficients
 
@@ -94,6 +96,12 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
                 angle[0] = angle[0] + min(max(target - angle[0], -reach), reach) if reach > 0.0 else target
     time_s = np.arange(n) / 10.0
     psi, u, v = states[:, 2], states[:, 3], states[:, 4]
+    accel = np.full((n, 2), np.nan)
+    if accel_stdev_mps2 is not None:
+        for i in range(n):
+            d = rates(states[i], time_s[i])
+            accel[i] = (d[3] - states[i, 4] * states[i, 5] + rng.normal(0.0, accel_stdev_mps2),
+                        d[4] + states[i, 3] * states[i, 5] + rng.normal(0.0, accel_stdev_mps2))
     vel_e, vel_n = u * np.cos(psi) - v * np.sin(psi), u * np.sin(psi) + v * np.cos(psi)
     late = np.maximum(np.arange(n) - int(round(latency_s * 10)), 0)  # the fix at t holds the state at t − latency
 
@@ -121,8 +129,8 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
         t_s=time_s, thrust_left_N=thrust, thrust_right_N=thrust.copy(), angle_left_rad=angle,
         angle_right_rad=angle.copy(), lat_deg=np.full(n, np.nan), lon_deg=np.full(n, np.nan),
         heading_rad=noisy(psi + yaw_offset_rad, math.radians(3.0)),
-        yaw_rate_radps=noisy(states[:, 5], math.radians(0.06)), accel_x_mps2=np.full(n, np.nan),
-        accel_y_mps2=np.full(n, np.nan), metadata=TrialMetadata(source="independent integrator"), **gnss,
+        yaw_rate_radps=noisy(states[:, 5], math.radians(0.06)), accel_x_mps2=accel[:, 0],
+        accel_y_mps2=accel[:, 1], metadata=TrialMetadata(source="independent integrator"), **gnss,
         **({"gnss_bridged": bridged} if bridged.any() else {}),
         **({"command_switch_s": switch} if np.any(switch != 0.0) else {}),
     )

@@ -92,7 +92,7 @@ def _solve(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def misfit(residuals: dict[str, np.ndarray]) -> dict[str, float]:
     """Per signal, the RMS of the normalized residuals: 1 when only the measured noise is left."""
-    return {s: float(np.sqrt(np.nanmean(residuals[s] ** 2))) for s in SIGNALS}
+    return {s: float(np.sqrt(np.nanmean(residuals[s] ** 2))) for s in SIGNALS if np.isfinite(residuals[s]).any()}
 
 
 def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], prediction: Prediction,
@@ -105,6 +105,8 @@ def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], predi
     for signal in SIGNALS:
         r = residuals[signal]
         ok = np.isfinite(r) & np.all(np.isfinite(x_all), axis=-1)
+        if not ok.any():  # a sensor the trial has not (an IMU without its accelerometer)
+            continue
         mean, std = x_all[ok].mean(axis=0), x_all[ok].std(axis=0)
         std[std == 0] = 1.0
         std[-1], mean[-1] = 1.0, 0.0
