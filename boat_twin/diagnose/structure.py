@@ -115,8 +115,11 @@ def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], predi
         for k in np.unique(folds):
             train = ok & (folds != k)[None, :]
             test = ok & (folds == k)[None, :]
-            predicted[test] = x[test] @ _solve(x[train], r[train])
-        r2 = 1.0 - np.nansum((r - predicted)[ok] ** 2) / np.sum((r[ok] - r[ok].mean()) ** 2)
+            if train.any():  # (the accelerometer, past its horizon in every other fold, may have none)
+                predicted[test] = x[test] @ _solve(x[train], r[train])
+        held = ok & np.isfinite(predicted)  # a fold without training samples predicts nothing: no evidence
+        r2 = (1.0 - np.sum((r - predicted)[held] ** 2) / np.sum((r[held] - r[held].mean()) ** 2)
+              if held.sum() > 1 else 0.0)
         if r2 > R2_THRESHOLD or ratio[signal] > MISFIT_FACTOR:
             weights = _solve(x[ok], r[ok])[:-1]
             order = np.argsort(-np.abs(weights))[:3]
