@@ -113,7 +113,7 @@ class InitialStateProjection:
         # the accelerometer (0.04 m/s² noise) departs from linear a second or more before the path does, and its
         # residual is taken less the window's mean: it is compared only in the windows every signal can be
         # predicted through (all of them on a course the model holds stably; none on a straight run astern)
-        whole = compared.all(axis=0) & predictable(base, plus, minus, judged=(LONGITUDINAL_ACCEL,)).all(axis=0)
+        whole: np.ndarray = np.all(compared & predictable(base, plus, minus, judged=(LONGITUDINAL_ACCEL,)), axis=0)
         accel = compared & whole[None, :]
         rows = np.concatenate([accel if s == LONGITUDINAL_ACCEL else compared for s in SIGNALS])
         return cls(np.stack(columns, axis=-1), stdev, rows)
