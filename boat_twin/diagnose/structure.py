@@ -123,7 +123,8 @@ def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], predi
         if r2 > R2_THRESHOLD or ratio[signal] > MISFIT_FACTOR:
             weights = _solve(x[ok], r[ok])[:-1]
             order = np.argsort(-np.abs(weights))[:3]
-            worst = int(np.nanargmax(np.nanmean(r**2, axis=0)))
+            compared = np.sum(np.isfinite(r), axis=0)  # a window may compare none (the accelerometer)
+            worst = int(np.argmax(np.nansum(r**2, axis=0) / np.maximum(compared, 1)))
             middle = float(windows.t_s[windows.t_s.shape[0] // 2, worst])
             found.append(Signature(signal, ratio[signal], float(r2), tuple(names[i] for i in order), middle))
     return found
