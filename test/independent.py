@@ -34,11 +34,12 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
                duration_s: float, rng: np.random.Generator, *, delay_s: float = 0.0, lag_s: float = 0.0,
                yaw_offset_rad: float = 0.0, latency_s: float = 0.1, dropout: float = 0.0,
                initial_surge_mps: float = 5.0, heading_rad: float = 0.3, engines: bool = False,
-               wind_mps: Callable[[float], tuple[float, float]] | None = None) -> Trial:
+               wind_mps: Callable[[float], tuple[float, float]] | None = None,
+               accel_stdev_mps2: float | None = None) -> Trial:
     """A trial of a twin-outboard boat of ``params`` (a VesselParams: its derived coefficients, documented in
     boat_twin.vessel.dynamics' docstring) integrated here with classic RK4 at 100 Hz, written apart from the twin's
     kernel: both outboards at ``thrust_N(t)`` each (N, within the envelope: no limit is applied) and
-    ``steering_rad(t)`` (an instantaneous actuator), no wind or current. With ``engines`` the commands are requests
+    ``steering_rad(t)`` (an instantaneous actuator), no current. With ``engines`` the commands are requests
     the boat's engines deliver at most η·P/|u| ahead (``params``' power, efficiency and bollard thrust; astern its
     reverse ratio) and the outboards swing to the commanded angle at ``params.steering_rate_radps`` (the angle moved
     once per 10 ms step, written here apart from the twin's exact actuator). The boat acts on the commands
@@ -51,7 +52,9 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
     ``command_switch_s``. ``wind_mps(t)``: a true wind over ground (east, north, m/s) acting as the twin's model
     documents it (quadratic drag on the frontal and lateral windage in the apparent wind, less the calm-air drag,
     the lateral force at the centre of windage; the drag coefficient as boat_twin.vessel.params states it), logged
-    by an anemometer with 0.3 m/s noise per component."""
+    by an anemometer with 0.3 m/s noise per component. With ``accel_stdev_mps2`` the IMU also logs its accelerometer,
+    u̇ − v·r and v̇ + u·r (the rates at each logged sample) plus white noise of that σ; without, no
+    accelerometer (NaN)."""
     from boat_twin.io.trial import Trial, TrialMetadata
     from boat_twin.units import AIR_DENSITY_KGPM3
     from boat_twin.vessel.params import WINDAGE_DRAG_COEFFICIENT, derive_coefficients
@@ -112,6 +115,12 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
                 angle[0] = angle[0] + min(max(target - angle[0], -reach), reach) if reach > 0.0 else target
     time_s = np.arange(n) / 10.0
     psi, u, v = states[:, 2], states[:, 3], states[:, 4]
+    accel = np.full((n, 2), np.nan)
+    if accel_stdev_mps2 is not None:
+        for i in range(n):
+            d = rates(states[i], time_s[i])
+            accel[i] = (d[3] - states[i, 4] * states[i, 5] + rng.normal(0.0, accel_stdev_mps2),
+                        d[4] + states[i, 3] * states[i, 5] + rng.normal(0.0, accel_stdev_mps2))
     vel_e, vel_n = u * np.cos(psi) - v * np.sin(psi), u * np.sin(psi) + v * np.cos(psi)
     late = np.maximum(np.arange(n) - int(round(latency_s * 10)), 0)  # the fix at t holds the state at t − latency
 
@@ -139,8 +148,8 @@ def boat_trial(params: Any, thrust_N: Callable[[float], float], steering_rad: Ca
         t_s=time_s, thrust_left_N=thrust, thrust_right_N=thrust.copy(), angle_left_rad=angle,
         angle_right_rad=angle.copy(), lat_deg=np.full(n, np.nan), lon_deg=np.full(n, np.nan),
         heading_rad=noisy(psi + yaw_offset_rad, math.radians(3.0)),
-        yaw_rate_radps=noisy(states[:, 5], math.radians(0.06)), accel_x_mps2=np.full(n, np.nan),
-        accel_y_mps2=np.full(n, np.nan), metadata=TrialMetadata(source="independent integrator"), **gnss,
+        yaw_rate_radps=noisy(states[:, 5], math.radians(0.06)), accel_x_mps2=accel[:, 0],
+        accel_y_mps2=accel[:, 1], metadata=TrialMetadata(source="independent integrator"), **gnss,
         **({"gnss_bridged": bridged} if bridged.any() else {}),
         **({"command_switch_s": switch} if np.any(switch != 0.0) else {}),
         **({} if wind_mps is None else dict(zip(("wind_east_mps", "wind_north_mps"), (

@@ -33,6 +33,8 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.twin.replay import (
     HEADING_SMOOTHING_S,
+    LONGITUDINAL_ACCEL,
+    MOTION_SIGNALS,
     SETTLING_S,
     SIGNALS,
     SURGE_SMOOTHING_S,
@@ -100,7 +102,8 @@ class InitialStateProjection:
         q = len(NUISANCES)
         stdev = prior_stdev(windows, sigma)
         motion = measured_motion(windows, config)
-        columns, compared = [], []
+        least = int(round(SETTLING_S / windows.dt_s)) + 1  # the settling second and one compared sample
+        columns, rows = [], []
         for first in range(0, windows.start_index.size, PROJECTION_WINDOWS):
             part = windows.part(slice(first, first + PROJECTION_WINDOWS))
             shift = np.zeros((3 * q + 1, part.start_index.size, 6))
@@ -115,13 +118,20 @@ class InitialStateProjection:
             columns.append(np.stack([np.where(np.isfinite(base) & np.isfinite(r), (r - base) / step, 0.0)
                                      for r, (_, _, step) in zip(stacked[1:q + 1], NUISANCES, strict=True)],
                                     axis=-1))
-            least = int(round(SETTLING_S / windows.dt_s)) + 1  # the settling second and one compared sample
-            compared.append(predictable(base, stacked[q + 1:2 * q + 1], stacked[2 * q + 1:], least))
-        return cls(np.concatenate(columns, axis=1), stdev, np.concatenate(compared, axis=1))
+            plus, minus = stacked[q + 1:2 * q + 1], stacked[2 * q + 1:]
+            compared = predictable(base, plus, minus, least)
+            # the accelerometer (0.04 m/s² noise) departs from linear a second or more before the path does, and
+            # its residual is taken less the window's mean: it is compared only in the windows every signal can be
+            # predicted through (all of them on a course the model holds stably; none on a straight run astern)
+            whole = np.all(compared & predictable(base, plus, minus, judged=(LONGITUDINAL_ACCEL,)), axis=0)
+            accel = compared & whole[None, :]
+            rows.append(np.concatenate([accel if s == LONGITUDINAL_ACCEL else compared for s in SIGNALS]))
+        return cls(np.concatenate(columns, axis=1), stdev, np.concatenate(rows, axis=1))
 
     def compared_fraction(self) -> float:
-        """The share of the windows' samples within their predictability horizons (1: every one compared)."""
-        return float(np.mean(self.compared))
+        """The share of the windows' samples within their predictability horizons (1: every one compared), as
+        the motion signals are compared (the first signal's rows)."""
+        return float(np.mean(self.compared[:self.compared.shape[0] // len(SIGNALS)]))
 
     def corrections(self, residuals: np.ndarray) -> np.ndarray:
         """(m, q) each window's best correction δ* of its initial state for ``residuals`` (rows, m), NaN as 0."""
@@ -137,11 +147,13 @@ class InitialStateProjection:
         return corrected, (step / self.stdev).T
 
 
-def predictable(base: np.ndarray, plus: list[np.ndarray], minus: list[np.ndarray], least: int = 0) -> np.ndarray:
+def predictable(base: np.ndarray, plus: list[np.ndarray], minus: list[np.ndarray], least: int = 0,
+                judged: tuple[str, ...] = MOTION_SIGNALS) -> np.ndarray:
     """(T, m) the samples of each window before its predictability horizon: the first sample where some
     signal's response to a nuisance of ± its prior standard deviation departs from linear by more than
-    :data:`NONLINEAR_LIMIT` (normalized: in units of the signal's noise), i.e. where the window's best linear
-    correction can no longer stand for the initial state the sensors leave uncertain. ``base``, ``plus``,
+    :data:`NONLINEAR_LIMIT` (normalized: in units of the signal's noise; of the signals ``judged``), i.e.
+    where the window's best linear correction can no longer stand for the initial state the sensors leave
+    uncertain. ``base``, ``plus``,
     ``minus``: (rows, m) stacked normalized residuals of the replay from the measured states and from each
     nuisance ± its prior standard deviation. A window whose horizon falls before its sample ``least`` (its first
     compared one) is compared whole: a replay that departs from linear at once is not an unstable course the
@@ -159,7 +171,8 @@ def predictable(base: np.ndarray, plus: list[np.ndarray], minus: list[np.ndarray
     for p, n in zip(plus, minus, strict=True):
         second = 0.5 * (p + n) - base
         curvature = np.maximum(curvature, np.where(np.isfinite(second), np.abs(second), 0.0))
-    worst = np.max(np.stack(np.split(curvature, signals)), axis=0)  # (T, m)
+    rows = [i for i, s in enumerate(SIGNALS) if s in judged]
+    worst = np.max(np.stack(np.split(curvature, signals))[rows], axis=0)  # (T, m)
     compared = np.cumsum(worst > NONLINEAR_LIMIT, axis=0) == 0
     compared[:, compared.sum(axis=0) < least] = True
     return compared

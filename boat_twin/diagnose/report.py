@@ -19,13 +19,14 @@ from boat_twin.diagnose.search import (
 )
 from boat_twin.diagnose.structure import MISFIT_FACTOR, Signature, SignatureResult
 from boat_twin.diagnose.table import TableDiagnosis
-from boat_twin.twin.replay import SIGNALS, Prediction, Windows, residual
+from boat_twin.twin.replay import SIGNALS, Prediction, Windows, measured_signals, residual
 
 UNITS = {"vel_east_mps": "m/s", "vel_north_mps": "m/s", "yaw_rate_radps": "rad/s", "heading_rad": "rad",
-         "speed_mps": "m/s", "position_m": "m"}
+         "accel_x_mps2": "m/s²", "speed_mps": "m/s", "position_m": "m"}
 """Unit of every reported signal."""
 NAMES = {"vel_east_mps": "east velocity (GNSS)", "vel_north_mps": "north velocity (GNSS)",
-         "yaw_rate_radps": "yaw rate (gyro)", "heading_rad": "heading (IMU)"}
+         "yaw_rate_radps": "yaw rate (gyro)", "heading_rad": "heading (IMU)",
+         "accel_x_mps2": "longitudinal acceleration (IMU, window mean removed)"}
 """Axis label of every compared signal (its unit follows, "name, unit")."""
 
 
@@ -142,9 +143,10 @@ class DiagnosisResult(_DiagnosisResultBase, total=False):
 
 
 def signal_rmse(windows: Windows, prediction: Prediction) -> dict[str, float]:
-    """RMS of measured − predicted per signal (heading wrapped), speed over ground and horizontal position, SI."""
+    """RMS of measured − predicted per signal the trial has (heading wrapped; the longitudinal acceleration less
+    each window's mean), speed over ground and horizontal position, SI."""
     out = {}
-    for s in SIGNALS:
+    for s in measured_signals(windows):
         out[s] = float(np.sqrt(np.nanmean(residual(s, windows.measured[s], prediction.signals[s]) ** 2)))
     measured_speed = np.hypot(windows.measured["vel_east_mps"], windows.measured["vel_north_mps"])
     predicted_speed = np.hypot(prediction.signals["vel_east_mps"], prediction.signals["vel_north_mps"])
@@ -156,7 +158,8 @@ def signal_rmse(windows: Windows, prediction: Prediction) -> dict[str, float]:
 
 def _signal_gain(new: Fit, old: Fit) -> dict[str, float]:
     """Held-out gain per signal: 1 − held-out SSE(new) / held-out SSE(old)."""
-    return {s: float(1.0 - new.heldout_sse[i] / old.heldout_sse[i]) for i, s in enumerate(SIGNALS)}
+    return {s: float(1.0 - new.heldout_sse[i] / old.heldout_sse[i]) for i, s in enumerate(SIGNALS)
+            if old.heldout_sse[i] > 0.0}
 
 
 def _candidate_dict(candidate: Candidate, round_index: int) -> CandidateResult:
@@ -246,7 +249,7 @@ def result_dict(windows: Windows, selection: Selection, baseline: Prediction, ex
     return {
         "trial": windows.trial.metadata.source,
         "windows": {"count": int(windows.t_s.shape[1]), "length_s": float(windows.t_s.shape[0] * windows.dt_s)},
-        "noise": sigma,
+        "noise": {s: sigma[s] for s in measured_signals(windows)},
         "baseline": {"rmse": signal_rmse(windows, baseline)},
         "extended": {"rmse": signal_rmse(windows, extended)},
         "candidates": candidates,
@@ -269,7 +272,7 @@ def text_report(result: DiagnosisResult) -> str:
                      "predictability horizon the replay diverges from any initial state the sensors allow")
     base, ext = result["baseline"]["rmse"], result["extended"]["rmse"]
     lines.append("signal            baseline RMSE   extended RMSE")
-    for s in ("speed_mps", *SIGNALS, "position_m"):
+    for s in [s for s in ("speed_mps", *SIGNALS, "position_m") if s in base]:
         lines.append(f"  {s:16s} {base[s]:10.4f}      {ext[s]:10.4f}  {UNITS[s]}")
     wind = result.get("measured_wind")
     if wind is not None:
@@ -364,9 +367,10 @@ def signal_figure(windows: Windows, baseline: Prediction, extended: Prediction, 
 
 def residual_figure(windows: Windows, baseline: Prediction, extended: Prediction) -> Figure:
     """Residuals (measured − predicted) of every signal before and after the extension."""
-    same = _same_prediction(baseline, extended, SIGNALS)
-    fig = Figure(figsize=(10, 9), layout="constrained")
-    for ax, s in zip(fig.subplots(len(SIGNALS), 1, sharex=True)[:], SIGNALS, strict=True):
+    signals = measured_signals(windows)
+    same = _same_prediction(baseline, extended, signals)
+    fig = Figure(figsize=(10, 2.25 * len(signals)), layout="constrained")
+    for ax, s in zip(fig.subplots(len(signals), 1, sharex=True)[:], signals, strict=True):
         angle = UNITS[s] == "rad"  # a heading residual, wrapped to ±π: broken where it wraps
         if same:
             ax.plot(*window_series(windows, residual(s, windows.measured[s], baseline.signals[s]), angle), lw=0.6,
@@ -419,7 +423,7 @@ def concerned_signals(result: DiagnosisResult) -> list[str]:
     """Signals the named effects improved by ≥ 5 % (all when none did)."""
     gains = [v["gain"] for v in result["verdict"]]
     concerned = [s for s in SIGNALS if any(g.get(s, 0.0) >= 0.05 for g in gains)]
-    return concerned or list(SIGNALS)
+    return concerned or [s for s in SIGNALS if s in result["noise"]]
 
 
 def table_text(result: dict[str, Any], diag: TableDiagnosis) -> str:

@@ -263,7 +263,7 @@ class Diagnosis:
 
 def delta_bic(new: Fit, old: Fit) -> float:
     """BIC(new) − BIC(old) with the new model's effective sample sizes (see the module docstring)."""
-    n_eff = np.maximum(new.n_eff, 1.0)
+    n_eff = np.where(new.n_eff > 0.0, np.maximum(new.n_eff, 1.0), 0.0)  # 0: a signal the trial has not
     ratio = np.maximum(new.sse, 1e-300) / np.maximum(old.sse, 1e-300)
     extra = new.values.size - old.values.size
     return float(np.sum(n_eff * np.log(ratio)) + extra * np.log(np.sum(n_eff)))
@@ -321,7 +321,9 @@ def misfit_share(new: Fit, old: Fit, floor: np.ndarray) -> tuple[tuple[str, ...]
 def misfit_rise(new: Fit, old: Fit, floor: np.ndarray) -> tuple[str, ...]:
     """The signals whose held-out misfit (RMS over the noise floor, ``floor`` as in :func:`misfit_share`)
     ``new`` raises by more than :data:`MAX_MISFIT_RISE` over ``old``'s."""
-    rise = np.sqrt(new.heldout_sse / floor) - np.sqrt(old.heldout_sse / floor)
+    measured = floor > 0  # a signal the trial has not rises nowhere
+    safe = np.where(measured, floor, 1.0)
+    rise = np.where(measured, np.sqrt(new.heldout_sse / safe) - np.sqrt(old.heldout_sse / safe), 0.0)
     return tuple(s for s, r in zip(SIGNALS, rise, strict=True) if r > MAX_MISFIT_RISE)
 
 
@@ -358,6 +360,9 @@ class Candidate:
     outranked: bool = False
     """A candidate of the same round fits better (lower ΔBIC) and fails only the size floor: the data prefer a
     cause too small to name, and this one would stand in for it (:func:`below_floor`)."""
+    pair_share: float = float("nan")
+    """Share of the misfit it and the cause named with it in the next round remove together (NaN: no pair
+    tried; :func:`forward_select`)."""
 
     @property
     def failed_conditions(self) -> list[str]:
@@ -383,7 +388,14 @@ class Candidate:
     @property
     def carries_share(self) -> bool:
         """It carries a substantial share of the misfit it claims (:data:`MIN_MISFIT_SHARE`)."""
-        return self.share >= MIN_MISFIT_SHARE or self.leaves_noise
+        return self.share >= MIN_MISFIT_SHARE or self.leaves_noise or self.pair_share >= MIN_MISFIT_SHARE
+
+    @property
+    def short_of_share(self) -> bool:
+        """It passes every condition of the decision rule but the share of the misfit: a cause that may share
+        its signals with a second one (:func:`forward_select`)."""
+        return (self.plausible and self.heldout_gain > MIN_HELDOUT_GAIN and self.significant
+                and not self.carries_share and not self.worsens)
 
     @property
     def named(self) -> bool:
@@ -470,8 +482,39 @@ def _timing_ambiguity(named: list[Candidate], best: Candidate) -> list[Candidate
     return [best, min(close, key=lambda c: c.delta_bic)] if close else []
 
 
+def _round(diagnosis: Diagnosis, current: Fit, remaining: dict[str, Effect], floor: np.ndarray, number: int
+           ) -> list[Candidate]:
+    """Every effect of ``remaining`` fitted on top of ``current`` and judged by the decision rule."""
+    round_ = []
+    for name, effect in remaining.items():
+        diagnosis.progress(f"round {number}: {name}")
+        start = np.concatenate([current.values, effect.null])
+        fit = diagnosis.fit(current.effects + [effect], start)
+        _, values, _ = fit.split()[-1]
+        round_.append(Candidate(effect, fit, delta_bic(fit, current), effect.magnitude(values),
+                                on_bound(effect, values), takes_over(fit, current)))
+    small = [c.delta_bic for c in round_ if below_floor(c)]
+    for candidate in round_:
+        candidate.outranked = bool(small) and candidate.delta_bic > min(small)
+        effect, fit = candidate.effect, candidate.fit
+        _, values, _ = fit.split()[-1]
+        if candidate.plausible:  # the held-out judgement costs FOLDS more fits: only where it can matter
+            diagnosis.judge(fit)
+            candidate.heldout_gain = heldout_gain(fit, current)
+            candidate.significant = excludes_null(effect, values, fit.split()[-1][2])
+            candidate.claims, candidate.share, candidate.leaves_noise = misfit_share(fit, current, floor)
+            candidate.worsens = misfit_rise(fit, current, floor)
+    return round_
+
+
 def forward_select(diagnosis: Diagnosis, effects: dict[str, Effect]) -> Selection:
-    """Forward selection over ``effects`` with the decision rule of :class:`Candidate`."""
+    """Forward selection over ``effects`` with the decision rule of :class:`Candidate`.
+
+    Two causes in the same signals: when a round names nothing and its best candidate fails only the share of
+    the misfit (:attr:`Candidate.short_of_share`: a second cause is still in its signals), the next round is
+    tried with it in the model; a cause named there that, together with it, removes :data:`MIN_MISFIT_SHARE` of
+    the misfit the model before both left (and worsens no signal against that model) joins with it as a pair
+    (:attr:`Candidate.pair_share`). Otherwise neither joins and the selection stops, as before."""
     baseline = diagnosis.fit([])
     floor = baseline.residuals.counts().sum(axis=1).astype(float)
     one_heading = heading_spread_rad(diagnosis.windows) < ONE_HEADING_SPREAD_RAD
@@ -481,29 +524,33 @@ def forward_select(diagnosis: Diagnosis, effects: dict[str, Effect]) -> Selectio
     ambiguous: list[Candidate] = []
     remaining = dict(effects)
     while remaining and len(current.effects) < MAX_EFFECTS:
-        round_ = []
-        for name, effect in remaining.items():
-            diagnosis.progress(f"round {len(rounds) + 1}: {name}")
-            start = np.concatenate([current.values, effect.null])
-            fit = diagnosis.fit(current.effects + [effect], start)
-            _, values, _ = fit.split()[-1]
-            round_.append(Candidate(effect, fit, delta_bic(fit, current), effect.magnitude(values),
-                                    on_bound(effect, values), takes_over(fit, current)))
-        small = [c.delta_bic for c in round_ if below_floor(c)]
-        for candidate in round_:
-            candidate.outranked = bool(small) and candidate.delta_bic > min(small)
-            effect, fit = candidate.effect, candidate.fit
-            _, values, _ = fit.split()[-1]
-            if candidate.plausible:  # the held-out judgement costs FOLDS more fits: only where it can matter
-                diagnosis.judge(fit)
-                candidate.heldout_gain = heldout_gain(fit, current)
-                candidate.significant = excludes_null(effect, values, fit.split()[-1][2])
-                candidate.claims, candidate.share, candidate.leaves_noise = misfit_share(fit, current, floor)
-                candidate.worsens = misfit_rise(fit, current, floor)
+        round_ = _round(diagnosis, current, remaining, floor, len(rounds) + 1)
         rounds.append(round_)
         named = [c for c in round_ if c.named]
         if not named:
-            break
+            short = [c for c in round_ if c.short_of_share]
+            first = min(short, key=lambda c: c.delta_bic) if short else None
+            if (first is None or first.delta_bic > min(c.delta_bic for c in round_)
+                    or len(current.effects) + 2 > MAX_EFFECTS):
+                break
+            rest = {k: e for k, e in remaining.items() if k != first.effect.name}
+            following = _round(diagnosis, first.fit, rest, floor, len(rounds) + 1)
+            named = [c for c in following if c.named]
+            if not named:
+                break
+            second = min(named, key=lambda c: c.delta_bic)
+            if ((one_heading and _wind_ambiguity(named, second)) or _timing_ambiguity(named, second)
+                    or misfit_rise(second.fit, current, floor)):
+                break
+            _, together, _ = misfit_share(second.fit, current, floor)
+            if together < MIN_MISFIT_SHARE:
+                break
+            first.pair_share = second.pair_share = together
+            rounds.append(following)
+            chosen += [first, second]
+            current = second.fit
+            remaining = {k: e for k, e in rest.items() if k != second.effect.name}
+            continue
         best = min(named, key=lambda c: c.delta_bic)
         if one_heading and (ambiguous := _wind_ambiguity(named, best)):
             break

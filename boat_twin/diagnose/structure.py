@@ -92,7 +92,7 @@ def _solve(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def misfit(residuals: dict[str, np.ndarray]) -> dict[str, float]:
     """Per signal, the RMS of the normalized residuals: 1 when only the measured noise is left."""
-    return {s: float(np.sqrt(np.nanmean(residuals[s] ** 2))) for s in SIGNALS}
+    return {s: float(np.sqrt(np.nanmean(residuals[s] ** 2))) for s in SIGNALS if np.isfinite(residuals[s]).any()}
 
 
 def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], prediction: Prediction,
@@ -105,6 +105,8 @@ def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], predi
     for signal in SIGNALS:
         r = residuals[signal]
         ok = np.isfinite(r) & np.all(np.isfinite(x_all), axis=-1)
+        if not ok.any():  # a sensor the trial has not (an IMU without its accelerometer)
+            continue
         mean, std = x_all[ok].mean(axis=0), x_all[ok].std(axis=0)
         std[std == 0] = 1.0
         std[-1], mean[-1] = 1.0, 0.0
@@ -113,12 +115,16 @@ def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], predi
         for k in np.unique(folds):
             train = ok & (folds != k)[None, :]
             test = ok & (folds == k)[None, :]
-            predicted[test] = x[test] @ _solve(x[train], r[train])
-        r2 = 1.0 - np.nansum((r - predicted)[ok] ** 2) / np.sum((r[ok] - r[ok].mean()) ** 2)
+            if train.any():  # (the accelerometer, past its horizon in every other fold, may have none)
+                predicted[test] = x[test] @ _solve(x[train], r[train])
+        held = ok & np.isfinite(predicted)  # a fold without training samples predicts nothing: no evidence
+        r2 = (1.0 - np.sum((r - predicted)[held] ** 2) / np.sum((r[held] - r[held].mean()) ** 2)
+              if held.sum() > 1 else 0.0)
         if r2 > R2_THRESHOLD or ratio[signal] > MISFIT_FACTOR:
             weights = _solve(x[ok], r[ok])[:-1]
             order = np.argsort(-np.abs(weights))[:3]
-            worst = int(np.nanargmax(np.nanmean(r**2, axis=0)))
+            compared = np.sum(np.isfinite(r), axis=0)  # a window may compare none (the accelerometer)
+            worst = int(np.argmax(np.nansum(r**2, axis=0) / np.maximum(compared, 1)))
             middle = float(windows.t_s[windows.t_s.shape[0] // 2, worst])
             found.append(Signature(signal, ratio[signal], float(r2), tuple(names[i] for i in order), middle))
     return found

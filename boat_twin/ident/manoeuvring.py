@@ -49,8 +49,8 @@ from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.twin.replay import (
     HEADING_SMOOTHING_S,
     LATERAL_ACCEL,
+    MOTION_SIGNALS,
     SETTLING_S,
-    SIGNALS,
     SURGE_SMOOTHING_S,
     SWAY_OBSERVER_S,
     Prediction,
@@ -223,9 +223,10 @@ def apply_parameters(base: TwinConfig, values: dict[str, float]) -> TwinConfig:
     return replace(base, vessel=replace(vessel, **changes))
 
 
-FIT_SIGNALS = SIGNALS + (LATERAL_ACCEL,)
-"""Signals fitted: the replay's (GNSS velocity, gyro, IMU heading) and the lateral accelerometer v̇ + u·r, which
-sees the sway transient that separates m22 from the lift damping (used when the trial records it)."""
+FIT_SIGNALS = MOTION_SIGNALS + (LATERAL_ACCEL,)
+"""Signals fitted: the replay's motion signals (GNSS velocity, gyro, IMU heading) and the lateral accelerometer
+v̇ + u·r, which sees the sway transient that separates m22 from the lift damping (used when the trial records it).
+Not the longitudinal accelerometer the diagnosis compares: the turning fit holds the surge model."""
 
 
 @dataclass(frozen=True)
@@ -273,7 +274,7 @@ def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
     except InputError:  # too short to spare the run-in: the first window starts without it
         windows = cut_windows(trial, window_s)
     index = windows.start_index[None, :] + np.arange(windows.t_s.shape[0])[:, None]
-    measured = {**windows.measured, LATERAL_ACCEL: trial.accel_y_mps2[index]}
+    measured = {**{s: windows.measured[s] for s in MOTION_SIGNALS}, LATERAL_ACCEL: trial.accel_y_mps2[index]}
     noise = {}
     for s in FIT_SIGNALS:
         sigma = white_noise_stdev(measured[s])
@@ -763,7 +764,7 @@ def validate(trial: Trial, config: TwinConfig) -> dict[str, Any]:
     values = {"vel_east_mps": trial.vel_east_mps, "vel_north_mps": trial.vel_north_mps,
               "yaw_rate_radps": trial.yaw_rate_radps, "heading_rad": trial.heading_rad}
     window = Windows(t_s=trial.t_s[index], commands=trial.commands[index],
-                     measured={s: values[s][index] for s in SIGNALS},
+                     measured={s: values[s][index] for s in MOTION_SIGNALS},
                      position=np.stack([trial.east_m[index], trial.north_m[index]], axis=-1), trial=trial,
                      start_index=np.array([first]))
     prediction = predict(window, with_measured_wind(config, trial))  # one window: the measured wind's mean

@@ -35,8 +35,19 @@ from boat_twin.vessel.params import VesselParams
 from boat_twin.vessel.tow import tow_drag_table
 from boat_twin.vessel.truth import ground_velocity_enu
 
-SIGNALS = ("vel_east_mps", "vel_north_mps", "yaw_rate_radps", "heading_rad")
-"""Measured signals the diagnosis compares: GNSS velocity over ground (ENU), gyro yaw rate, IMU heading."""
+MOTION_SIGNALS = ("vel_east_mps", "vel_north_mps", "yaw_rate_radps", "heading_rad")
+"""GNSS velocity over ground (ENU), gyro yaw rate, IMU heading: what every window's initial state is read from."""
+LONGITUDINAL_ACCEL = "accel_x_mps2"
+"""The accelerometer's longitudinal reading u̇ − v·r, m/s² (FLU body; a 3-DOF hull has no gravity on x): it sees a
+thrust step when the engines deliver it, not when the GNSS reports its effect, so a GNSS latency, a command delay
+and an engine lag move it differently (:data:`SIGNALS`). NaN where the trial has no accelerometer."""
+SIGNALS = (*MOTION_SIGNALS, LONGITUDINAL_ACCEL)
+"""Measured signals the diagnosis compares: :data:`MOTION_SIGNALS` and the longitudinal accelerometer (a trial
+without one compares the others: its samples are NaN, which every sum leaves out)."""
+BIAS_FREE_SIGNALS = (LONGITUDINAL_ACCEL,)
+"""Signals compared without each window's mean residual: an accelerometer's bias and the hull's trim
+(g·sin θ: 0.17 m/s² per degree on x) are unknown and nearly constant over a window, while the timing of a thrust
+step, which only this signal carries, is not."""
 LATERAL_ACCEL = "accel_y_mps2"
 """The accelerometer's lateral reading v̇ + u·r, m/s² (FLU body), which :func:`predict` also gives (the turning
 identification, boat_twin.ident.manoeuvring, fits it: it sees the sway transient that sets m22)."""
@@ -44,10 +55,24 @@ ANGLE_SIGNALS = ("heading_rad",)
 """Signals that are angles: their residuals are wrapped to [−π, π) (:func:`~boat_twin.frames.wrap_pi`)."""
 
 
+def measured_signals(windows: Windows) -> tuple[str, ...]:
+    """The :data:`SIGNALS` ``windows`` hold at least one measured sample of (a trial without an accelerometer
+    has no :data:`LONGITUDINAL_ACCEL`)."""
+    return tuple(s for s in SIGNALS if np.isfinite(windows.measured[s]).any())
+
+
 def residual(signal: str, measured: np.ndarray, predicted: np.ndarray) -> np.ndarray:
-    """measured − predicted of ``signal``; for an angle, wrapped to [−π, π) (a heading 2π off is no error)."""
+    """measured − predicted of ``signal``; for an angle, wrapped to [−π, π) (a heading 2π off is no error); for
+    one of :data:`BIAS_FREE_SIGNALS` ((T, m) windows), less each window's mean over its finite samples."""
     diff = np.asarray(measured) - np.asarray(predicted)
-    return wrap_pi(diff) if signal in ANGLE_SIGNALS else diff
+    if signal in ANGLE_SIGNALS:
+        return wrap_pi(diff)
+    if signal in BIAS_FREE_SIGNALS:
+        finite = np.isfinite(diff)
+        count = np.sum(finite, axis=0)
+        mean = np.sum(np.where(finite, diff, 0.0), axis=0) / np.maximum(count, 1)
+        return diff - mean
+    return diff
 
 
 HEADING_SMOOTHING_S = 5.0
@@ -218,6 +243,7 @@ def cut_windows(trial: Trial, window_s: float = 20.0, earliest_s: float = 0.0) -
         "vel_east_mps": np.where(measured, trial.vel_east_mps, np.nan),
         "vel_north_mps": np.where(measured, trial.vel_north_mps, np.nan),
         "yaw_rate_radps": trial.yaw_rate_radps, "heading_rad": trial.heading_rad,
+        LONGITUDINAL_ACCEL: trial.accel_x_mps2,
     }
     return Windows(
         t_s=t[index],
@@ -409,7 +435,8 @@ def predict(windows: Windows, config: TwinConfig, motion: MeasuredMotion | None 
     """Run every window's commands through ``config``'s model from its measured initial state; the sensors read
     the path as their expected-measurement functions say (:func:`~boat_twin.sensors.gnss.expected_fix`: velocity
     over ground and position delayed by the GNSS latency; :func:`~boat_twin.sensors.um7.expected_gyro`: yaw rate
-    plus the gyro bias), noise-free; and the lateral accelerometer (:data:`LATERAL_ACCEL`, v̇ + u·r).
+    plus the gyro bias), noise-free; and the accelerometer (:data:`LONGITUDINAL_ACCEL`, u̇ − v·r;
+    :data:`LATERAL_ACCEL`, v̇ + u·r).
     ``motion``: :func:`measured_motion` for ``config``'s sensors and current, when the caller keeps it."""
     return predict_vessels(windows, config, [config.vessel], motion)[0]
 
@@ -454,7 +481,7 @@ def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[Vess
     skip = int(round(SETTLING_S / windows.dt_s))
     signals = {"vel_east_mps": fix.vel_east_mps, "vel_north_mps": fix.vel_north_mps,
                "yaw_rate_radps": expected_gyro(config.um7, r)[..., 2], "heading_rad": expected_yaw(config.um7, yaw),
-               LATERAL_ACCEL: rates[..., 4] + r * u}
+               LONGITUDINAL_ACCEL: rates[..., 3] - r * v, LATERAL_ACCEL: rates[..., 4] + r * u}
     position = np.stack([fix.east_m, fix.north_m], axis=-1)
     for values in (*signals.values(), position):
         values[:skip] = np.nan
