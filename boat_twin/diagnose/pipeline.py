@@ -32,7 +32,7 @@ from boat_twin.diagnose.structure import residual_structure
 from boat_twin.diagnose.table import TableDiagnosis, diagnose_table, table_result
 from boat_twin.errors import InputError
 from boat_twin.io.trial import Trial, long_holds, thrust_outliers
-from boat_twin.twin.replay import Prediction, Windows, cut_windows
+from boat_twin.twin.replay import SIGNALS, Prediction, Windows, cut_windows
 from boat_twin.units import KGF_N, KNOT_MPS
 from boat_twin.vessel.params import (
     HELD_COMMAND_TIME_CONSTANTS,
@@ -92,7 +92,8 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
     selection = forward_select(diagnosis, catalogue(base, trial.speed_mps))
     baseline_prediction = selection.baseline.residuals.prediction
     signatures = residual_structure(windows, selection.final.residuals.values,
-                                    selection.final.residuals.prediction, diagnosis.folds)
+                                    selection.final.residuals.prediction, diagnosis.folds,
+                                    {s: base.model_error.of(s).structure_r2 for s in SIGNALS})
     held_back = withheld(selection.named, signatures, misfit)
     extended, extended_prediction = _presented_model(diagnosis, selection, held_back)
     result = result_dict(windows, selection, baseline_prediction, extended_prediction, signatures, None,

@@ -59,6 +59,7 @@ from scipy.stats import t as student_t
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.effects import EFFECTS, Effect
 from boat_twin.diagnose.initial_state import InitialStateProjection, stack_signals
+from boat_twin.diagnose.model_error import yardstick
 from boat_twin.diagnose.structure import MISFIT_FACTOR, Signature
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
@@ -180,7 +181,9 @@ class Diagnosis:
         self.sigma = {s: white_noise_stdev(windows.measured[s]) for s in SIGNALS}
         """White-noise level per signal, from its measured samples only (GNSS samples bridged across a lost
         one are NaN in the windows: an interpolation has less noise than a measurement)."""
-        self.projection = InitialStateProjection.for_model(windows, base, self.sigma)
+        self.scale = yardstick(windows, self.sigma, base.model_error)
+        """What residuals are divided by: the noise, with the twin's own model error where it has one."""
+        self.projection = InitialStateProjection.for_model(windows, base, self.sigma, self.scale)
         m = windows.t_s.shape[1]
         self.folds = np.arange(m) % FOLDS
         self.progress = progress or (lambda _msg: None)
@@ -203,7 +206,7 @@ class Diagnosis:
             infeasible = {s: np.full(self.windows.t_s.shape, INFEASIBLE_RESIDUAL) for s in SIGNALS}
             return Residuals(infeasible, Prediction(infeasible, np.zeros(self.windows.position.shape)),
                              np.zeros((self.projection.stdev.size, self.windows.t_s.shape[1])))
-        corrected, prior = self.projection.apply(stack_signals(self.windows, prediction.signals, self.sigma))
+        corrected, prior = self.projection.apply(stack_signals(self.windows, prediction.signals, self.scale))
         values = dict(zip(SIGNALS, np.split(corrected, len(SIGNALS)), strict=True))
         return Residuals(values, prediction, prior)
 

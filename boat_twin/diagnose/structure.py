@@ -95,27 +95,44 @@ def misfit(residuals: dict[str, np.ndarray]) -> dict[str, float]:
     return {s: float(np.sqrt(np.nanmean(residuals[s] ** 2))) for s in SIGNALS}
 
 
+def _heldout_r2(x_all: np.ndarray, r: np.ndarray, folds: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Held-out R² of the residual ``r`` (T, m) on the regressors ``x_all`` (T, m, k), the standardized
+    regressors and the samples used."""
+    ok = np.isfinite(r) & np.all(np.isfinite(x_all), axis=-1)
+    mean, std = x_all[ok].mean(axis=0), x_all[ok].std(axis=0)
+    std[std == 0] = 1.0
+    std[-1], mean[-1] = 1.0, 0.0
+    x = (x_all - mean) / std
+    predicted = np.full(r.shape, np.nan)
+    for k in np.unique(folds):
+        train = ok & (folds != k)[None, :]
+        test = ok & (folds == k)[None, :]
+        predicted[test] = x[test] @ _solve(x[train], r[train])
+    r2 = 1.0 - np.nansum((r - predicted)[ok] ** 2) / np.sum((r[ok] - r[ok].mean()) ** 2)
+    return float(r2), x, ok
+
+
+def structure_r2(windows: Windows, residuals: dict[str, np.ndarray], prediction: Prediction,
+                 folds: np.ndarray) -> dict[str, float]:
+    """Per signal, the held-out R² of its residual on the situation (what :func:`residual_structure` tests)."""
+    x_all, _ = regressors(windows, prediction)
+    return {s: _heldout_r2(x_all, residuals[s], folds)[0] for s in SIGNALS}
+
+
 def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], prediction: Prediction,
-                       folds: np.ndarray) -> list[Signature]:
-    """Signals left unexplained: the situation predicts their residual on held-out folds (held-out R² >
-    R2_THRESHOLD), or their residual stays above MISFIT_FACTOR times the noise floor."""
+                       folds: np.ndarray, normal_r2: dict[str, float] | None = None) -> list[Signature]:
+    """Signals left unexplained: the situation predicts their residual on held-out folds (held-out R² above
+    R2_THRESHOLD plus ``normal_r2``, the R² the twin's residual shows on its clean training recordings: the
+    structure it normally leaves, none by default), or their residual stays above MISFIT_FACTOR times the noise
+    floor (with the twin's model error where it has one: :mod:`~boat_twin.diagnose.model_error`)."""
     ratio = misfit(residuals)
     x_all, names = regressors(windows, prediction)
+    normal_r2 = normal_r2 or {}
     found = []
     for signal in SIGNALS:
         r = residuals[signal]
-        ok = np.isfinite(r) & np.all(np.isfinite(x_all), axis=-1)
-        mean, std = x_all[ok].mean(axis=0), x_all[ok].std(axis=0)
-        std[std == 0] = 1.0
-        std[-1], mean[-1] = 1.0, 0.0
-        x = (x_all - mean) / std
-        predicted = np.full(r.shape, np.nan)
-        for k in np.unique(folds):
-            train = ok & (folds != k)[None, :]
-            test = ok & (folds == k)[None, :]
-            predicted[test] = x[test] @ _solve(x[train], r[train])
-        r2 = 1.0 - np.nansum((r - predicted)[ok] ** 2) / np.sum((r[ok] - r[ok].mean()) ** 2)
-        if r2 > R2_THRESHOLD or ratio[signal] > MISFIT_FACTOR:
+        r2, x, ok = _heldout_r2(x_all, r, folds)
+        if r2 > R2_THRESHOLD + normal_r2.get(signal, 0.0) or ratio[signal] > MISFIT_FACTOR:
             weights = _solve(x[ok], r[ok])[:-1]
             order = np.argsort(-np.abs(weights))[:3]
             worst = int(np.nanargmax(np.nanmean(r**2, axis=0)))
