@@ -102,3 +102,23 @@ def _signal_error(samples: np.ndarray, correlation_time_s: float, r2: float) -> 
     floor, per_speed, per_rate = np.sqrt(coef / scale)
     return SignalError(floor=float(floor), per_speed=float(per_speed), per_yaw_rate=float(per_rate),
                        correlation_time_s=correlation_time_s, structure_r2=float(np.clip(r2, 0.0, 1.0)))
+
+
+NORMAL_Z = 3.0
+"""How many standard errors above the twin's normal misfit a recording's misfit must lie before a cause may be
+named for it (:func:`normal_misfit`)."""
+
+
+def normal_misfit(windows: Windows, error: ModelError) -> np.ndarray:
+    """(n_signals,) per signal of the replay, the largest mean squared residual over the yardstick (m²) that is
+    still the twin's normal misfit on these windows: 1 + :data:`NORMAL_Z`·√(2τ/D), with τ the model error's
+    correlation time and D the signal's measured time in the windows (the chance spread of a mean square of
+    residuals correlated over τ). A signal without model error: 1, and the condition it sets is void (the
+    sensors' white noise is known exactly: today's rule)."""
+    out = np.ones(len(SIGNALS))
+    for i, s in enumerate(SIGNALS):
+        tau_s = error.of(s).correlation_time_s
+        duration_s = float(np.sum(np.isfinite(windows.measured[s]))) * windows.dt_s
+        if tau_s > 0.0 and duration_s > 0.0 and not error.of(s).zero:
+            out[i] = 1.0 + NORMAL_Z * np.sqrt(2.0 * tau_s / duration_s)
+    return out

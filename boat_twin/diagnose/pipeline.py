@@ -102,6 +102,8 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
     if wind is not None and unaware is not None:
         result["measured_wind"] = measured_wind_dict(wind, delta_bic(selection.baseline, unaware))
     result["evaluations"] = diagnosis.evaluations
+    if not base.model_error.zero:  # the yardstick held the twin's own error (docs/diagnosis.md)
+        result["model_error"] = base.model_error.to_dict()
     result["warnings"] = ([f"{trial.metadata.source}: {w}" for w in command_warnings(trial, base.vessel)]
                           + trial.metadata.warnings())
     return TrialDiagnosis(windows, selection, base, extended, baseline_prediction, extended_prediction, result,
