@@ -1,9 +1,9 @@
 """Diagnosis on real-like data (issue 42): a boat the twin does not model, identified and diagnosed as a user would.
 
-The boat here is written apart from the twin (its own equations and RK4 integrator, numpy only): a 5.5 m,
-950 kg outboard boat whose hull has a planing hump in its resistance, cubic sway and yaw damping, a Munk moment
-and an engine lag, driven through waves (Ornstein-Uhlenbeck surge, sway and yaw disturbances) — none of them in
-the twin's 3-DOF model. Its sensors: GNSS velocity (0.05 m/s, 0.1 s late), IMU heading (3°) and gyro (0.06°/s).
+The boat (test/real_like.py) is written apart from the twin (its own equations and RK4 integrator, numpy
+only): a 5.5 m, 950 kg outboard boat whose hull has a planing hump in its resistance, cubic sway and yaw damping, a
+Munk moment and an engine lag, driven through waves (Ornstein-Uhlenbeck surge, sway and yaw disturbances) — none of
+them in the twin's 3-DOF model. Its sensors: GNSS velocity (0.05 m/s, 0.1 s late), IMU heading (3°), gyro (0.06°/s).
 
 1. Clean training recordings (random commands, ``--train`` of them, 300 s) → ``identify`` (resistance and
    mass, the boat's stated dimensions as ``--boat`` facts) → the turning coefficients (``identify
@@ -30,7 +30,7 @@ import json
 import math
 import sys
 import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -43,13 +43,15 @@ from boat_twin.diagnose.pipeline import diagnose_trial
 from boat_twin.fleet.reports import identified_twin
 from boat_twin.ident.manoeuvring import fit_manoeuvring
 from boat_twin.ident.pipeline import identify_and_resimulate
-from boat_twin.io.trial import Trial, TrialMetadata
+from boat_twin.io.trial import Trial
 from boat_twin.model_error import ModelError
 
-DT_S = 0.1
-"""Log period, s (10 Hz); the boat is integrated at 100 Hz."""
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "test"))
+from real_like import Boat, Hidden, simulate  # noqa: E402  (run as a script)
+
 BOAT_FACTS = {"length_m": 5.5, "beam_m": 2.3, "engine_x_m": -2.4, "max_steering_rad": math.radians(30.0),
-              "steering_rate_radps": math.radians(20.0), "bollard_thrust_N": 1800.0}
+              "steering_rate_radps": math.radians(20.0), "bollard_thrust_N": 1800.0,
+              "engine_power_W": 80000.0}
 """What the user states of the boat (``identify --boat``): its dimensions and engines, not its hydrodynamics."""
 EFFECT_NAMES = ("command_delay", "one_side", "both_sides", "current", "heading_offset")
 """The hidden catalogue effects, each on ``--seeds`` held-out recordings."""
@@ -57,128 +59,9 @@ PROBE = "gyro_scale"
 """The hidden effect outside the catalogue: the gyro reads 1.1× the yaw rate."""
 
 
-@dataclass(frozen=True)
-class Boat:
-    """The independent boat (SI). Not the twin's equations: see the module docstring."""
-
-    mass_kg: float = 950.0
-    surge_added_kg: float = 70.0
-    sway_added_kg: float = 600.0
-    yaw_inertia_kgm2: float = 2600.0
-    linear_drag_Nspm: float = 45.0
-    quadratic_drag_Ns2pm2: float = 16.0
-    hump_N: float = 260.0
-    """Planing hump: an extra resistance hump_N·exp(−((u − 4.5)/1.4)²) around 4.5 m/s."""
-    sway_linear_Nspm2: float = 380.0
-    sway_cubic_Ns3pm3: float = 900.0
-    yaw_linear_Nms: float = 1100.0
-    yaw_cubic_Nms3: float = 2.0e4
-    engine_x_m: float = -2.4
-    engine_lag_s: float = 0.35
-    max_steering_rad: float = math.radians(30.0)
-    steering_rate_radps: float = math.radians(20.0)
-    wave_force_N: float = 45.0
-    wave_moment_Nm: float = 90.0
-    wave_time_s: float = 2.5
-
-
-@dataclass(frozen=True)
-class Hidden:
-    """What a recording hides (defaults: nothing)."""
-
-    delay_s: float = 0.0
-    left_factor: float = 1.0
-    right_factor: float = 1.0
-    current_mps: tuple[float, float] = (0.0, 0.0)
-    heading_offset_rad: float = 0.0
-    gyro_scale: float = 1.0
-
-
 HIDDEN = {"clean": Hidden(), "command_delay": Hidden(delay_s=0.5), "one_side": Hidden(left_factor=0.8),
           "both_sides": Hidden(left_factor=0.85, right_factor=0.85), "current": Hidden(current_mps=(0.25, -0.25)),
           "heading_offset": Hidden(heading_offset_rad=math.radians(8.0)), PROBE: Hidden(gyro_scale=1.1)}
-
-
-def commands(rng: np.random.Generator, n: int, boat: Boat) -> np.ndarray:
-    """(n, 2) random commands on the log grid: thrust per engine (N, both alike, 20-100 % of 1800 N held
-    8-25 s) and steering (rad, within ±60 % of the limit, held 4-15 s)."""
-    out = np.zeros((n, 2))
-    for column, (low, high, hold) in enumerate(((0.2, 1.0, (8.0, 25.0)), (-0.6, 0.6, (4.0, 15.0)))):
-        i = 0
-        while i < n:
-            span = int(rng.uniform(*hold) / DT_S)
-            level = rng.uniform(low, high)
-            out[i:i + span, column] = level * (1800.0 if column == 0 else boat.max_steering_rad)
-            i += span
-    return out
-
-
-def simulate(boat: Boat, hidden: Hidden, duration_s: float, seed: int) -> Trial:
-    """One recording of ``boat`` with ``hidden``, random commands of ``seed``."""
-    rng = np.random.default_rng(seed)
-    n = int(round(duration_s / DT_S)) + 1
-    cmd = commands(rng, n, boat)
-    delay = int(round(hidden.delay_s / DT_S))
-    acting = np.vstack([np.repeat(cmd[:1], delay, axis=0), cmd])[:n]
-    m11, m22 = boat.mass_kg + boat.surge_added_kg, boat.mass_kg + boat.sway_added_kg
-    substeps, h = 10, DT_S / 10
-    wave = np.zeros(3)
-    wave_scale = np.array([boat.wave_force_N, boat.wave_force_N, boat.wave_moment_Nm])
-    decay = math.exp(-h / boat.wave_time_s)
-    # state: x, y, psi, u, v, r, thrust_left, thrust_right, steering
-    s = np.array([0.0, 0.0, 0.4, 4.0, 0.0, 0.0, cmd[0, 0], cmd[0, 0], cmd[0, 1]])
-
-    def rates(s: np.ndarray, target: np.ndarray, wave: np.ndarray) -> np.ndarray:
-        psi, u, v, r, tl, tr, d = s[2:]
-        thrust = hidden.left_factor * tl + hidden.right_factor * tr
-        fx, fy = thrust * math.cos(d), thrust * math.sin(d)
-        drag = (boat.linear_drag_Nspm * u + boat.quadratic_drag_Ns2pm2 * u * abs(u)
-                + boat.hump_N * math.exp(-((abs(u) - 4.5) / 1.4) ** 2) * math.copysign(1.0, u))
-        du = (fx + m22 * v * r - drag + wave[0]) / m11
-        dv = (fy - m11 * u * r - boat.sway_linear_Nspm2 * abs(u) * v - boat.sway_cubic_Ns3pm3 * v**3 + wave[1]) / m22
-        munk = (m22 - m11) * u * v
-        dr = (boat.engine_x_m * fy - munk - boat.yaw_linear_Nms * abs(u) * r - boat.yaw_cubic_Nms3 * r**3
-              + wave[2]) / boat.yaw_inertia_kgm2
-        dt_thrust = (target[0] - np.array([tl, tr])) / boat.engine_lag_s
-        dd = float(np.clip((target[1] - d) / h, -boat.steering_rate_radps, boat.steering_rate_radps))
-        east, north = hidden.current_mps
-        return np.array([u * math.cos(psi) - v * math.sin(psi) + east, u * math.sin(psi) + v * math.cos(psi) + north,
-                         r, du, dv, dr, dt_thrust[0], dt_thrust[1], dd])
-
-    states = np.zeros((n, s.size))
-    for i in range(n):
-        states[i] = s
-        for _ in range(substeps):
-            wave = wave * decay + wave_scale * math.sqrt(1 - decay**2) * rng.standard_normal(3)
-            k1 = rates(s, acting[i], wave)
-            k2 = rates(s + 0.5 * h * k1, acting[i], wave)
-            k3 = rates(s + 0.5 * h * k2, acting[i], wave)
-            k4 = rates(s + h * k3, acting[i], wave)
-            s = s + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return _recorded(states, cmd, hidden, rng, f"real-like seed {seed}")
-
-
-def _recorded(states: np.ndarray, cmd: np.ndarray, hidden: Hidden, rng: np.random.Generator, source: str) -> Trial:
-    """The sensors' record of ``states`` (a Trial as the bag reader gives it)."""
-    n = len(states)
-    psi, u, v, r = states[:, 2], states[:, 3], states[:, 4], states[:, 5]
-    east, north = hidden.current_mps
-    vel_e = u * np.cos(psi) - v * np.sin(psi) + east
-    vel_n = u * np.sin(psi) + v * np.cos(psi) + north
-    late = np.maximum(np.arange(n) - 1, 0)  # GNSS 0.1 s late
-
-    def noisy(x: np.ndarray, sigma: float) -> np.ndarray:
-        return x + rng.normal(0.0, sigma, n)
-
-    heading = noisy(psi + hidden.heading_offset_rad, math.radians(3.0))
-    return Trial(
-        t_s=np.arange(n) * DT_S, thrust_left_N=cmd[:, 0].copy(), thrust_right_N=cmd[:, 0].copy(),
-        angle_left_rad=cmd[:, 1].copy(), angle_right_rad=cmd[:, 1].copy(), lat_deg=np.full(n, np.nan),
-        lon_deg=np.full(n, np.nan), heading_rad=np.angle(np.exp(1j * heading)),
-        yaw_rate_radps=noisy(hidden.gyro_scale * r, math.radians(0.06)), accel_x_mps2=np.full(n, np.nan),
-        accel_y_mps2=np.full(n, np.nan), east_m=noisy(states[late, 0], 2.1), north_m=noisy(states[late, 1], 2.1),
-        vel_east_mps=noisy(vel_e[late], 0.05), vel_north_mps=noisy(vel_n[late], 0.05),
-        metadata=TrialMetadata(source=source))
 
 
 def identified(trials: list[Trial]) -> TwinConfig:

@@ -1,0 +1,123 @@
+"""The diagnosis against the twin's own error (issue 42): twin.yaml's ``model_error`` section, its measurement on
+clean recordings, and the diagnosis that compares a recording's misfit with it — on a boat written apart from the
+twin (test/real_like.py: its own equations, integrator and waves)."""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from boat_twin.config import TwinConfig, config_from_dict, config_to_dict, load_config
+from boat_twin.diagnose.model_error import measure_model_error, normal_misfit, yardstick
+from boat_twin.diagnose.pipeline import diagnose_trial
+from boat_twin.errors import InputError
+from boat_twin.model_error import ModelError, SignalError
+from boat_twin.twin.replay import SIGNALS, cut_windows
+from boat_twin.vessel.params import vessel_with_facts
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from real_like import Boat, Hidden, simulate  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+FACTS = {"length_m": 5.5, "beam_m": 2.3, "engine_x_m": -2.4, "max_steering_rad": math.radians(30.0),
+         "steering_rate_radps": math.radians(20.0), "bollard_thrust_N": 1800.0, "engine_power_W": 80000.0,
+         "mass_kg": 950.0}
+"""The real-like boat as its user states it: dimensions, engines and mass, not its hydrodynamics."""
+
+
+def test_a_twin_yaml_without_the_section_has_zero_model_error_and_writes_none() -> None:
+    config = load_config(ROOT / "config" / "boat.yaml")
+    assert config.model_error.zero and config.model_error == ModelError()
+    assert "model_error" not in config_to_dict(config)
+
+
+def test_the_section_round_trips() -> None:
+    error = ModelError((("vel_east_mps", SignalError(0.1, 0.02, 0.5, 4.0, 0.1)),
+                        ("heading_rad", SignalError(0.03, 0.0, 0.2, 6.0, 0.0))), 3, True)
+    config = replace(TwinConfig(), model_error=error)
+    data = config_to_dict(config)
+    assert data["model_error"]["signals"]["vel_east_mps"]["per_speed"] == 0.02
+    assert config_from_dict(data, "t.yaml") == config
+    assert error.of("yaw_rate_radps").zero  # a signal not described has none
+
+
+@pytest.mark.parametrize(("section", "message"), [
+    ([1], "t.yaml: 'model_error' must be a mapping"),
+    ({"signals": {"speed": {}}}, "t.yaml: model_error.signals: unknown signal 'speed'"),
+    ({"signals": {"heading_rad": {"floor": -1.0}}}, "t.yaml: model_error.signals.heading_rad.floor must be"),
+    ({"signals": {"heading_rad": {"spread": 1.0}}}, "t.yaml: model_error.signals.heading_rad: unknown field 'spread'"),
+    ({"recordings": "3"}, "t.yaml: model_error.recordings must be a count"),
+    ({"sigma": 1}, "t.yaml: unknown model_error field 'sigma'"),
+])
+def test_a_bad_section_is_named(section: object, message: str) -> None:
+    with pytest.raises(InputError, match="^" + message.replace("(", r"\(").replace(")", r"\)")):
+        config_from_dict({"model_error": section}, "t.yaml")
+
+
+def test_a_bad_section_in_twin_yaml_is_one_line_exit_2(tmp_path: Path) -> None:
+    from processes import BOAT_TWIN, one_error_line, run_as_from_a_shell
+
+    path = tmp_path / "twin.yaml"
+    path.write_text("model_error:\n  signals:\n    heading_rad: {floor: .nan}\n")
+    done = run_as_from_a_shell([BOAT_TWIN, "simulate", "thrust-steps", "--duration", "1", "--config", str(path)], 120)
+    assert done.returncode == 2
+    assert f"{path}: model_error.signals.heading_rad.floor must be a finite number" in one_error_line(done.stderr)
+
+
+def _twin() -> TwinConfig:
+    """The twin a user of the real-like boat has without identifying its hydrodynamics: the default boat carried
+    to the stated facts (its turning and resistance are not the boat's: a large, ordinary model error)."""
+    return replace(TwinConfig(), vessel=vessel_with_facts(TwinConfig().vessel, FACTS))
+
+
+def test_zero_model_error_keeps_the_noise_as_the_yardstick() -> None:
+    trial = simulate(Boat(), Hidden(), 130.0, 7)
+    windows = cut_windows(trial)
+    sigma = {s: 0.1 * (i + 1) for i, s in enumerate(SIGNALS)}
+    assert yardstick(windows, sigma, ModelError()) == sigma
+    assert np.all(normal_misfit(windows, ModelError()) == 1.0)
+
+
+@pytest.fixture(scope="module")
+def described() -> TwinConfig:
+    """The twin with its model error measured on two clean recordings of the real-like boat."""
+    trials = [simulate(Boat(), Hidden(), 180.0, seed) for seed in (11, 12)]
+    twin = _twin()
+    return replace(twin, model_error=measure_model_error(trials, [twin, twin], heldout=False))
+
+
+def test_the_measured_error_is_many_times_the_noise_and_grows_with_speed(described: TwinConfig) -> None:
+    error = described.model_error
+    assert error.recordings == 2 and not error.heldout
+    windows = cut_windows(simulate(Boat(), Hidden(), 130.0, 13))
+    speed = np.array([4.0, 8.0])
+    for signal in ("vel_east_mps", "yaw_rate_radps"):
+        spread = error.of(signal).stdev(speed, np.zeros(2))
+        assert spread[1] >= spread[0] > 0.0
+        assert error.of(signal).correlation_time_s > 1.0  # an error over seconds, not white noise
+    assert error.of("vel_east_mps").stdev(speed, np.zeros(2))[1] > 3 * 0.05  # the GNSS velocity noise
+    assert np.all(normal_misfit(windows, error) > 1.0)
+
+
+def test_a_clean_recording_is_silent_against_the_twins_own_error(described: TwinConfig) -> None:
+    trial = simulate(Boat(), Hidden(), 180.0, 21)
+    against_noise = diagnose_trial(trial, replace(described, model_error=ModelError())).result
+    assert against_noise["verdict"] or against_noise["unexplained"]  # the rule before issue 42 alarms
+    result = diagnose_trial(trial, described).result
+    assert result["verdict"] == [] and result["ambiguous"] is None and not result["unexplained"]
+    assert result["model_error"]["recordings"] == 2
+
+
+def test_a_hidden_heading_offset_is_named_and_sized_against_the_twins_own_error(described: TwinConfig) -> None:
+    trial = simulate(Boat(), Hidden(heading_offset_rad=math.radians(8.0)), 180.0, 22)
+    result = diagnose_trial(trial, described).result
+    assert [v["effect"] for v in result["verdict"]] == ["heading_offset"]
+    offset = result["verdict"][0]["parameters"]["offset_rad"]
+    low, high = result["verdict"][0]["ci95"]["offset_rad"]
+    assert abs(offset - math.radians(8.0)) < 0.25 * math.radians(8.0)
+    assert low < offset < high
