@@ -49,7 +49,8 @@ from boat_twin.model_error import ModelError
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "test"))
 from real_like import Boat, Hidden, simulate  # noqa: E402  (run as a script)
 
-BOAT_FACTS = {"length_m": 5.5, "beam_m": 2.3, "engine_x_m": -2.4, "max_steering_rad": math.radians(30.0),
+BOAT_FACTS = {"length_m": 5.5, "beam_m": 2.3, "engine_x_m": -2.4, "engine_y_m": 0.5,
+              "max_steering_rad": math.radians(30.0),
               "steering_rate_radps": math.radians(20.0), "bollard_thrust_N": 1800.0,
               "engine_power_W": 80000.0}
 """What the user states of the boat (``identify --boat``): its dimensions and engines, not its hydrodynamics."""

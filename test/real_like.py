@@ -34,6 +34,8 @@ class Boat:
     yaw_linear_Nms: float = 2600.0
     yaw_cubic_Nms3: float = 1.5e4
     engine_x_m: float = -2.4
+    engine_y_m: float = 0.5
+    """The outboards at (engine_x_m, ±engine_y_m): a thrust difference turns the boat."""
     engine_lag_s: float = 0.35
     max_steering_rad: float = math.radians(30.0)
     steering_rate_radps: float = math.radians(20.0)
@@ -85,14 +87,16 @@ def simulate(boat: Boat, hidden: Hidden, duration_s: float, seed: int) -> Trial:
 
     def rates(s: np.ndarray, target: np.ndarray, wave: np.ndarray) -> np.ndarray:
         psi, u, v, r, tl, tr, d = s[2:]
-        thrust = hidden.left_factor * tl + hidden.right_factor * tr
+        left, right = hidden.left_factor * tl, hidden.right_factor * tr
+        thrust = left + right
         fx, fy = thrust * math.cos(d), thrust * math.sin(d)
         drag = (boat.linear_drag_Nspm * u + boat.quadratic_drag_Ns2pm2 * u * abs(u)
                 + boat.hump_N * math.exp(-((abs(u) - 4.5) / 1.4) ** 2) * math.copysign(1.0, u))
         du = (fx + m22 * v * r - drag + wave[0]) / m11
         dv = (fy - m11 * u * r - boat.sway_linear_Nspm2 * abs(u) * v - boat.sway_cubic_Ns3pm3 * v**3 + wave[1]) / m22
         munk = (m22 - m11) * u * v
-        dr = (boat.engine_x_m * fy - munk - boat.yaw_linear_Nms * abs(u) * r - boat.yaw_cubic_Nms3 * r**3
+        moment = boat.engine_x_m * fy + boat.engine_y_m * (right - left) * math.cos(d)
+        dr = (moment - munk - boat.yaw_linear_Nms * abs(u) * r - boat.yaw_cubic_Nms3 * r**3
               + wave[2]) / boat.yaw_inertia_kgm2
         dt_thrust = (target[0] - np.array([tl, tr])) / boat.engine_lag_s
         dd = float(np.clip((target[1] - d) / h, -boat.steering_rate_radps, boat.steering_rate_radps))
@@ -125,11 +129,11 @@ def _recorded(states: np.ndarray, cmd: np.ndarray, hidden: Hidden, rng: np.rando
     def noisy(x: np.ndarray, sigma: float) -> np.ndarray:
         return x + rng.normal(0.0, sigma, n)
 
-    heading = noisy(psi + hidden.heading_offset_rad, math.radians(3.0))
+    heading = noisy(psi + hidden.heading_offset_rad, math.radians(3.0))  # unwrapped, as a Trial holds it
     return Trial(
         t_s=np.arange(n) * DT_S, thrust_left_N=cmd[:, 0].copy(), thrust_right_N=cmd[:, 0].copy(),
         angle_left_rad=cmd[:, 1].copy(), angle_right_rad=cmd[:, 1].copy(), lat_deg=np.full(n, np.nan),
-        lon_deg=np.full(n, np.nan), heading_rad=np.angle(np.exp(1j * heading)),
+        lon_deg=np.full(n, np.nan), heading_rad=heading,
         yaw_rate_radps=noisy(hidden.gyro_scale * r, math.radians(0.06)), accel_x_mps2=np.full(n, np.nan),
         accel_y_mps2=np.full(n, np.nan), east_m=noisy(states[late, 0], 2.1), north_m=noisy(states[late, 1], 2.1),
         vel_east_mps=noisy(vel_e[late], 0.05), vel_north_mps=noisy(vel_n[late], 0.05),

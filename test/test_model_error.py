@@ -24,7 +24,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from real_like import Boat, Hidden, simulate  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-FACTS = {"length_m": 5.5, "beam_m": 2.3, "engine_x_m": -2.4, "max_steering_rad": math.radians(30.0),
+FACTS = {"length_m": 5.5, "beam_m": 2.3, "engine_x_m": -2.4, "engine_y_m": 0.5,
+         "max_steering_rad": math.radians(30.0),
          "steering_rate_radps": math.radians(20.0), "bollard_thrust_N": 1800.0, "engine_power_W": 80000.0,
          "mass_kg": 950.0}
 """The real-like boat as its user states it: dimensions, engines and mass, not its hydrodynamics."""
