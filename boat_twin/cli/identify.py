@@ -188,6 +188,11 @@ def rejected_summary(rejected: list[dict[str, Any]]) -> str:
     return f"rejected segments: {counts} (each with its reason in --json / identify.json)"
 
 
+def _say(line: str) -> None:
+    """A progress line on stderr."""
+    sys.stderr.write(line + "\n")
+
+
 def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     """Recorded trials, pooled: replay through the online identifier, batch fits, dynamic mass, re-simulation of
     each with the identified model (closing the loop), report (into --out, claimed by the caller)."""
@@ -211,8 +216,8 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     if out is not None:
         from boat_twin.fleet.twin_error import identified_model_error
 
-        model_error, how = identified_model_error(trials, found, options, lambda line: sys.stderr.write(line + "\n"))
-        sys.stderr.write(how + "\n")
+        model_error, how = identified_model_error(trials, found, options, _say)
+        _say(how)
         write_identify_report(out, result, found, ", ".join(map(str, args.trial)),
                               str(args.boat) if args.boat is not None else None, args.out, model_error=model_error)
     if args.json:
