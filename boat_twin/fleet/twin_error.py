@@ -38,7 +38,10 @@ def identified_model_error(trials: list[Trial], found: TrialsIdentification, opt
         others = identify_and_resimulate(usable[:i] + usable[i + 1:], **options)
         twins.append(identified_twin(others) or identified_twin(found))
     say("model error: replaying each recording through its twin ...")
-    error = measure_model_error(usable, [t for t in twins if t is not None], heldout)
+    try:
+        error = measure_model_error(usable, [t for t in twins if t is not None], heldout)
+    except InputError as err:  # a recording the diagnosis' replay cannot read: the twin is written without
+        return None, f"no model error measured: {err}"
     how = (f"each of {len(usable)} recordings predicted by the twin identified from the others" if heldout else
            "one recording, predicted by the twin identified from it (in-sample: give two or more for a held-out "
            "error)")
