@@ -83,7 +83,8 @@ def train(boat: Boat, count: int, duration_s: float) -> TwinConfig:
 
 
 def score(kind: str, result: dict[str, Any]) -> str:
-    """'named', 'wrong', 'missed', 'unexplained' or, on a clean file, 'silent' / 'alarm'."""
+    """'named' (sized within 25 %), 'mis-sized' (the right cause alone, its size further off), 'wrong', 'missed',
+    'unexplained' (the gyro scale) or, on a clean file, 'silent' / 'alarm'."""
     verdict = {v["effect"]: v["parameters"] for v in result["verdict"]}
     if kind == "clean":
         return "silent" if not verdict and not result["ambiguous"] and not result["unexplained"] else "alarm"
@@ -95,7 +96,7 @@ def score(kind: str, result: dict[str, Any]) -> str:
         return "wrong"
     if want not in verdict:
         return "missed"
-    return "named" if sized(kind, verdict[want]) else "missed"
+    return "named" if sized(kind, verdict[want]) else "mis-sized"
 
 
 def sized(kind: str, found: dict[str, float]) -> bool:
