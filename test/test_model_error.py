@@ -143,3 +143,13 @@ def test_against_the_twins_own_error_a_hidden_effect_is_named_and_a_clean_file_i
         found = result["verdict"][0]["parameters"][parameter]
         low, high = result["verdict"][0]["ci95"][parameter]
         assert abs(found - size) < 0.25 * size and low < found < high
+
+
+def test_the_live_rolling_diagnosis_judges_its_window_against_the_same_error(described: TwinConfig) -> None:
+    from boat_twin.shadow.rolling import DiagnosisJob
+
+    window = simulate(Boat(), Hidden(delay_s=0.5), 130.0, 23)
+    causes, withheld, structure_left = DiagnosisJob(130.0, 0.0, window, described).compute()
+    assert [c.name for c in causes] == ["command_delay"] and not withheld and not structure_left
+    outcome = DiagnosisJob(130.0, 0.0, window, replace(described, model_error=ModelError())).compute()
+    assert [c.name for c in outcome[0]] != ["command_delay"] or outcome[2]
