@@ -56,7 +56,7 @@ class ModelError:
     recordings: int = 0
     """How many recordings it was measured on."""
     heldout: bool = False
-    """Each recording was predicted by a twin identified without it (False: one recording, in-sample)."""
+    """Each recording was predicted by a twin identified without it (False: the twin fitted to them, or by hand)."""
 
     def of(self, signal: str) -> SignalError:
         """The error of ``signal`` (zero when not described)."""
