@@ -153,3 +153,20 @@ def test_the_live_rolling_diagnosis_judges_its_window_against_the_same_error(des
     assert [c.name for c in causes] == ["command_delay"] and not withheld and not structure_left
     outcome = DiagnosisJob(130.0, 0.0, window, replace(described, model_error=ModelError())).compute()
     assert [c.name for c in outcome[0]] != ["command_delay"] or outcome[2]
+
+
+def test_identify_out_writes_the_model_error_into_twin_yaml(tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                                            ) -> None:
+    from boat_twin.cli import main
+
+    bags = []
+    for seed in ("1", "2"):
+        bags.append(str(tmp_path / f"random{seed}.mcap"))
+        assert main(["simulate", "random", "--duration", "130", "--seed", seed, "--out", bags[-1]]) == 0
+    assert main(["identify", *bags, "--out", str(tmp_path / "two")]) == 0
+    assert "model error measured: each of 2 recordings" in capsys.readouterr().err
+    error = load_config(tmp_path / "two" / "twin.yaml").model_error
+    assert error.recordings == 2 and error.heldout and not error.zero
+    assert main(["identify", bags[0], "--out", str(tmp_path / "one")]) == 0
+    assert "no model error measured (twin.yaml without one)" in capsys.readouterr().err
+    assert load_config(tmp_path / "one" / "twin.yaml").model_error.zero
