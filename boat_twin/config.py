@@ -10,13 +10,14 @@ import yaml
 
 from boat_twin.errors import InputError
 from boat_twin.files import atomic_write_text, load_yaml
+from boat_twin.model_error import ModelError, model_error_from_dict
 from boat_twin.sensors.gnss import GnssConfig
 from boat_twin.sensors.um7 import Um7Config
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import VesselParams, load_params, params_from_dict, params_to_dict
 from boat_twin.vessel.tow import TowConfig
 
-SECTIONS = ("vessel", "environment", "gnss", "um7", "tow")
+SECTIONS = ("vessel", "environment", "gnss", "um7", "tow", "model_error")
 """Top-level keys of a twin configuration file."""
 
 
@@ -30,6 +31,8 @@ class TwinConfig:
     um7: Um7Config = field(default_factory=Um7Config)
     tow: TowConfig | None = None
     """A towed body (extra surge drag), or None."""
+    model_error: ModelError = field(default_factory=ModelError)
+    """What this twin normally gets wrong (``identify`` measures it; zero when the file has no such section)."""
 
 
 def _environment(data: Any, where: str) -> Environment:
@@ -67,6 +70,8 @@ def config_from_dict(data: Any, where: str, base: TwinConfig | None = None) -> T
             gnss=GnssConfig.from_dict(data["gnss"]) if "gnss" in data else base.gnss,
             um7=Um7Config.from_dict(data["um7"]) if "um7" in data else base.um7,
             tow=TowConfig.from_dict(data["tow"], where) if data.get("tow") is not None else base.tow,
+            model_error=model_error_from_dict(data["model_error"], where) if "model_error" in data
+            else base.model_error,
         )
     except InputError as err:
         text = str(err)
@@ -88,6 +93,8 @@ def config_to_dict(config: TwinConfig) -> dict[str, Any]:
     }
     if config.tow is not None:
         data["tow"] = config.tow.to_dict()
+    if not config.model_error.zero:
+        data["model_error"] = config.model_error.to_dict()
     return data
 
 

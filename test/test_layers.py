@@ -16,7 +16,7 @@ LAYERS = (
     ("cable",),  # towed body + cable (the vessel's tow load uses it)
     ("vessel",),  # params, resistance, dynamics, environment, scenarios
     ("sensors",),  # observation models: truth -> measurements
-    ("config",),  # the twin's configuration: vessel + environment + sensors (+ tow)
+    ("config", "model_error"),  # the twin's configuration: vessel + environment + sensors (+ tow, model error)
     ("io",),  # formats: ROS 2 messages, bags, MAVLink logs -> Trial
     ("twin",),  # the twin run batch (sea trial) or tick by tick (live)
     ("ident", "diagnose", "plots"),  # analyses of trials: siblings over one core (SIBLINGS)

@@ -188,6 +188,11 @@ def rejected_summary(rejected: list[dict[str, Any]]) -> str:
     return f"rejected segments: {counts} (each with its reason in --json / identify.json)"
 
 
+def _say(line: str) -> None:
+    """A progress line on stderr."""
+    sys.stderr.write(line + "\n")
+
+
 def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     """Recorded trials, pooled: replay through the online identifier, batch fits, dynamic mass, re-simulation of
     each with the identified model (closing the loop), report (into --out, claimed by the caller)."""
@@ -203,13 +208,18 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
         trials.append(trial_from_args(path, args))
         sys.stderr.write(trials[-1].metadata.summary_line() + "\n")
     sys.stderr.write("identifying, then re-simulating the trial's commands with the identified model ...\n")
-    result, found = identify_trials(trials, order=args.order, max_order=min(args.max_order, 6),
-                                    monotone=args.monotone, window_s=args.steady_window,
-                                    thrust_tolerance_N=args.thrust_tolerance, boat=boat, config=config)
+    options = {"order": args.order, "max_order": min(args.max_order, 6), "monotone": args.monotone,
+               "window_s": args.steady_window, "thrust_tolerance_N": args.thrust_tolerance, "boat": boat,
+               "config": config}
+    result, found = identify_trials(trials, **options)
     vessel = found.vessel
     if out is not None:
+        from boat_twin.fleet.twin_error import identified_model_error
+
+        model_error, how = identified_model_error(trials, found, options, _say)
+        _say(how)
         write_identify_report(out, result, found, ", ".join(map(str, args.trial)),
-                              str(args.boat) if args.boat is not None else None, args.out)
+                              str(args.boat) if args.boat is not None else None, args.out, model_error=model_error)
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0

@@ -44,6 +44,8 @@ from boat_twin.twin.replay import (
     residual,
 )
 
+Scale = float | np.ndarray
+"""A signal's yardstick: one level, or one per sample of the windows ((T, m))."""
 NUISANCES = (("heading_rad", 2, 0.005), ("surge_mps", 3, 0.02), ("sway_mps", 4, 0.02), ("yaw_rate_radps", 5, 0.002))
 """(name, state index, finite-difference step) of every initial-state component a window estimates for itself."""
 NONLINEAR_LIMIT = 1.0
@@ -93,14 +95,17 @@ class InitialStateProjection:
         self.inverse = np.linalg.inv(normal)
 
     @classmethod
-    def for_model(cls, windows: Windows, config: TwinConfig, sigma: dict[str, float]) -> InitialStateProjection:
+    def for_model(cls, windows: Windows, config: TwinConfig, sigma: dict[str, float],
+                  scale: dict[str, Scale] | None = None) -> InitialStateProjection:
         """The projection linearized at ``config`` (one replay with every nuisance stepped in turn), residuals
-        normalized by ``sigma``, each window compared up to its predictability horizon (the same replay has
-        every nuisance also ± its prior standard deviation). Replayed :data:`PROJECTION_WINDOWS` windows at a
-        time (each window's numbers are its own): the 3q + 1 replays of a whole 6-hour trial at once took the
-        process from 250 MB to 1.2 GB."""
+        normalized by ``scale`` (default ``sigma``: the diagnosis' yardstick, the sensors' noise with the twin's
+        model error), the priors from the sensors' noise ``sigma``, each window compared up to its predictability
+        horizon (the same replay has every nuisance also ± its prior standard deviation). Replayed
+        :data:`PROJECTION_WINDOWS` windows at a time (each window's numbers are its own): the 3q + 1 replays of a
+        whole 6-hour trial at once took the process from 250 MB to 1.2 GB."""
         q = len(NUISANCES)
         stdev = prior_stdev(windows, sigma)
+        scale = scale or dict(sigma)
         motion = measured_motion(windows, config)
         least = int(round(SETTLING_S / windows.dt_s)) + 1  # the settling second and one compared sample
         columns, rows = [], []
@@ -113,7 +118,9 @@ class InitialStateProjection:
                 shift[2 * q + 1 + j, :, state] = -stdev[j]
             with np.errstate(all="ignore"):
                 predictions = predict_vessels(part, config, [config.vessel] * (3 * q + 1), motion, shift)
-            stacked = [stack_signals(part, p.signals, sigma) for p in predictions]
+            part_scale = {s: v[:, first:first + PROJECTION_WINDOWS] if isinstance(v, np.ndarray) else v
+                          for s, v in scale.items()}
+            stacked = [stack_signals(part, p.signals, part_scale) for p in predictions]
             base = stacked[0]
             columns.append(np.stack([np.where(np.isfinite(base) & np.isfinite(r), (r - base) / step, 0.0)
                                      for r, (_, _, step) in zip(stacked[1:q + 1], NUISANCES, strict=True)],
@@ -178,10 +185,13 @@ def predictable(base: np.ndarray, plus: list[np.ndarray], minus: list[np.ndarray
     return compared
 
 
-def stack_signals(windows: Windows, predicted: dict[str, np.ndarray], sigma: dict[str, float]) -> np.ndarray:
-    """(len(SIGNALS)·T, m) normalized residuals measured − ``predicted`` of every signal, stacked."""
+def stack_signals(windows: Windows, predicted: dict[str, np.ndarray], sigma: dict[str, Scale]) -> np.ndarray:
+    """(len(SIGNALS)·T, m) normalized residuals measured − ``predicted`` of every signal, stacked; ``sigma`` per
+    signal one level or one per sample ((T, m): the noise with a model error that varies with speed)."""
     return np.concatenate([residual(s, windows.measured[s], predicted[s]) / _scale(sigma[s]) for s in SIGNALS])
 
 
-def _scale(sigma: float) -> float:
+def _scale(sigma: Scale) -> Scale:
+    if isinstance(sigma, np.ndarray):
+        return np.where(np.isfinite(sigma) & (sigma > 0), sigma, 1.0)
     return sigma if np.isfinite(sigma) and sigma > 0 else 1.0

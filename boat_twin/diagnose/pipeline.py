@@ -32,7 +32,7 @@ from boat_twin.diagnose.structure import residual_structure
 from boat_twin.diagnose.table import TableDiagnosis, diagnose_table, table_result
 from boat_twin.errors import InputError
 from boat_twin.io.trial import Trial, long_holds, thrust_outliers
-from boat_twin.twin.replay import Prediction, Windows, cut_windows, measured_wind_mps, with_measured_wind
+from boat_twin.twin.replay import SIGNALS, Prediction, Windows, cut_windows, measured_wind_mps, with_measured_wind
 from boat_twin.units import KGF_N, KNOT_MPS
 from boat_twin.vessel.params import (
     HELD_COMMAND_TIME_CONSTANTS,
@@ -92,7 +92,8 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
     selection = forward_select(diagnosis, catalogue(base, trial.speed_mps))
     baseline_prediction = selection.baseline.residuals.prediction
     signatures = residual_structure(windows, selection.final.residuals.values,
-                                    selection.final.residuals.prediction, diagnosis.folds)
+                                    selection.final.residuals.prediction, diagnosis.folds,
+                                    {s: base.model_error.of(s).structure_r2 for s in SIGNALS})
     held_back = withheld(selection.named, signatures, misfit)
     extended, extended_prediction = _presented_model(diagnosis, selection, held_back)
     result = result_dict(windows, selection, baseline_prediction, extended_prediction, signatures, None,
@@ -101,6 +102,8 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
     if wind is not None and unaware is not None:
         result["measured_wind"] = measured_wind_dict(wind, delta_bic(selection.baseline, unaware))
     result["evaluations"] = diagnosis.evaluations
+    if not base.model_error.zero:  # the yardstick held the twin's own error (docs/diagnosis.md)
+        result["model_error"] = base.model_error.to_dict()
     result["warnings"] = ([f"{trial.metadata.source}: {w}" for w in command_warnings(trial, base.vessel)]
                           + trial.metadata.warnings())
     return TrialDiagnosis(windows, selection, base, extended, baseline_prediction, extended_prediction, result,

@@ -54,6 +54,8 @@ class CandidateResult(TypedDict):
     """Share of those signals' misfit above the noise floor that it removes (the share rule)."""
     worsens: list[str]
     """The signals whose held-out misfit it raises by more than MAX_MISFIT_RISE (not named: a stand-in)."""
+    beyond_normal: bool
+    """The misfit it claims exceeds what the twin normally has (always true without a model error)."""
 
 
 class VerdictResult(TypedDict):
@@ -137,6 +139,9 @@ class DiagnosisResult(_DiagnosisResultBase, total=False):
     """Model replays the search ran."""
     measured_wind: MeasuredWind
     """The recording's measured wind, a known input of the replay (only where it has an anemometer)."""
+    model_error: dict[str, Any]
+    """The twin's model error the misfits were measured with (only where its config holds one: twin.yaml's
+    ``model_error`` section, :class:`~boat_twin.model_error.ModelError`)."""
     warnings: list[str]
     """What the diagnosis did not take from the trial as given (commands not to trust, what reading lost:
     :func:`~boat_twin.diagnose.pipeline.diagnose_trial`); empty: nothing."""
@@ -172,7 +177,7 @@ def _candidate_dict(candidate: Candidate, round_index: int) -> CandidateResult:
             "outranked": candidate.outranked, "not_judged": candidate.failed_conditions,
             # the signals carrying its held-out gain and the share of their excess over the noise it removes
             "claims": list(candidate.claims), "misfit_share": candidate.share if np.isfinite(candidate.share) else None,
-            "worsens": list(candidate.worsens)}
+            "worsens": list(candidate.worsens), "beyond_normal": candidate.beyond_normal}
 
 
 def ambiguity(selection: Selection) -> AmbiguousResult | None:
@@ -315,6 +320,8 @@ def text_report(result: DiagnosisResult) -> str:
             f"not judged: {why}" if why else "not judged")
         if c["worsens"]:
             gain += f" (worsens {', '.join(c['worsens'])})"
+        if not c["beyond_normal"]:
+            gain += " (the twin's normal misfit)"
         lines.append(f"  {c['effect']:18s} {c['delta_bic']:10.1f}  {gain}")
     if result["unexplained"]:
         for sig in result["signature"]:

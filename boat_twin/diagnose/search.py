@@ -59,6 +59,7 @@ from scipy.stats import t as student_t
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.effects import EFFECTS, Effect
 from boat_twin.diagnose.initial_state import InitialStateProjection, stack_signals
+from boat_twin.diagnose.model_error import normal_misfit, yardstick
 from boat_twin.diagnose.structure import MISFIT_FACTOR, Signature
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
@@ -180,7 +181,11 @@ class Diagnosis:
         self.sigma = {s: white_noise_stdev(windows.measured[s]) for s in SIGNALS}
         """White-noise level per signal, from its measured samples only (GNSS samples bridged across a lost
         one are NaN in the windows: an interpolation has less noise than a measurement)."""
-        self.projection = InitialStateProjection.for_model(windows, base, self.sigma)
+        self.scale = yardstick(windows, self.sigma, base.model_error)
+        """What residuals are divided by: the noise, with the twin's own model error where it has one."""
+        self.projection = InitialStateProjection.for_model(windows, base, self.sigma, self.scale)
+        self.normal = normal_misfit(windows, base.model_error)
+        """(n_signals,) the mean square misfit the twin normally has here (1: no model error, no condition)."""
         m = windows.t_s.shape[1]
         self.folds = np.arange(m) % FOLDS
         self.progress = progress or (lambda _msg: None)
@@ -203,7 +208,7 @@ class Diagnosis:
             infeasible = {s: np.full(self.windows.t_s.shape, INFEASIBLE_RESIDUAL) for s in SIGNALS}
             return Residuals(infeasible, Prediction(infeasible, np.zeros(self.windows.position.shape)),
                              np.zeros((self.projection.stdev.size, self.windows.t_s.shape[1])))
-        corrected, prior = self.projection.apply(stack_signals(self.windows, prediction.signals, self.sigma))
+        corrected, prior = self.projection.apply(stack_signals(self.windows, prediction.signals, self.scale))
         values = dict(zip(SIGNALS, np.split(corrected, len(SIGNALS)), strict=True))
         return Residuals(values, prediction, prior)
 
@@ -327,6 +332,19 @@ def misfit_rise(new: Fit, old: Fit, floor: np.ndarray) -> tuple[str, ...]:
     return tuple(s for s, r in zip(SIGNALS, rise, strict=True) if r > MAX_MISFIT_RISE)
 
 
+def beyond_normal(claims: tuple[str, ...], old: Fit, floor: np.ndarray, normal: np.ndarray) -> bool:
+    """True when the held-out misfit of the signals ``claims`` under ``old`` (their pooled mean square over the
+    yardstick, ``floor`` as in :func:`misfit_share`) exceeds what the twin normally has there (``normal``:
+    :func:`~boat_twin.diagnose.model_error.normal_misfit`, pooled the same way): a cause must remove a misfit the
+    twin does not normally have. Always True where the normal misfit is 1 (no model error: today's rule)."""
+    claimed = np.array([s in claims for s in SIGNALS])
+    if not claimed.any():
+        return True
+    n = float(np.sum(floor[claimed]))
+    bound = float(np.sum(normal[claimed] * floor[claimed]) / n)
+    return bound <= 1.0 or float(np.sum(old.heldout_sse[claimed])) / n > bound
+
+
 def excludes_null(effect: Effect, values: np.ndarray, stderr: np.ndarray) -> bool:
     """True when the 95 % interval of at least one parameter leaves out the effect's null value."""
     lo, hi = ci95(values, stderr)
@@ -357,6 +375,9 @@ class Candidate:
     """It leaves its signals within MISFIT_FACTOR of their noise floor (held out)."""
     worsens: tuple[str, ...] = ()
     """The signals whose held-out misfit it raises by more than :data:`MAX_MISFIT_RISE` (:func:`misfit_rise`)."""
+    beyond_normal: bool = True
+    """Its claimed signals' held-out misfit before it lies above the twin's normal misfit
+    (:func:`beyond_normal`; always with a zero model error)."""
     outranked: bool = False
     """A candidate of the same round fits better (lower ΔBIC) and fails only the size floor: the data prefer a
     cause too small to name, and this one would stand in for it (:func:`below_floor`)."""
@@ -395,13 +416,13 @@ class Candidate:
         """It passes every condition of the decision rule but the share of the misfit: a cause that may share
         its signals with a second one (:func:`forward_select`)."""
         return (self.plausible and self.heldout_gain > MIN_HELDOUT_GAIN and self.significant
-                and not self.carries_share and not self.worsens)
+                and not self.carries_share and not self.worsens and self.beyond_normal)
 
     @property
     def named(self) -> bool:
         """The decision rule (before the one-heading ambiguity of :func:`forward_select`)."""
         return (self.plausible and self.heldout_gain > MIN_HELDOUT_GAIN and self.significant and self.carries_share
-                and not self.worsens)
+                and not self.worsens and self.beyond_normal)
 
 
 @dataclass
@@ -504,6 +525,7 @@ def _round(diagnosis: Diagnosis, current: Fit, remaining: dict[str, Effect], flo
             candidate.significant = excludes_null(effect, values, fit.split()[-1][2])
             candidate.claims, candidate.share, candidate.leaves_noise = misfit_share(fit, current, floor)
             candidate.worsens = misfit_rise(fit, current, floor)
+            candidate.beyond_normal = beyond_normal(candidate.claims, current, floor, diagnosis.normal)
     return round_
 
 

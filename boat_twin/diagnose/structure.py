@@ -95,32 +95,56 @@ def misfit(residuals: dict[str, np.ndarray]) -> dict[str, float]:
     return {s: float(np.sqrt(np.nanmean(residuals[s] ** 2))) for s in SIGNALS if np.isfinite(residuals[s]).any()}
 
 
+def _heldout_r2(x_all: np.ndarray, r: np.ndarray, folds: np.ndarray
+                ) -> tuple[float, np.ndarray, np.ndarray] | None:
+    """Held-out R² of the residual ``r`` (T, m) on the regressors ``x_all`` (T, m, k), the standardized
+    regressors and the samples used; None where ``r`` has no sample (a sensor the trial has not). A fold without
+    training samples (the accelerometer, past its horizon in every other fold) predicts nothing: no evidence."""
+    ok = np.isfinite(r) & np.all(np.isfinite(x_all), axis=-1)
+    if not ok.any():
+        return None
+    mean, std = x_all[ok].mean(axis=0), x_all[ok].std(axis=0)
+    std[std == 0] = 1.0
+    std[-1], mean[-1] = 1.0, 0.0
+    x = (x_all - mean) / std
+    predicted = np.full(r.shape, np.nan)
+    for k in np.unique(folds):
+        train = ok & (folds != k)[None, :]
+        test = ok & (folds == k)[None, :]
+        if train.any():
+            predicted[test] = x[test] @ _solve(x[train], r[train])
+    held = ok & np.isfinite(predicted)
+    r2 = (1.0 - np.sum((r - predicted)[held] ** 2) / np.sum((r[held] - r[held].mean()) ** 2)
+          if held.sum() > 1 else 0.0)
+    return float(r2), x, ok
+
+
+def structure_r2(windows: Windows, residuals: dict[str, np.ndarray], prediction: Prediction,
+                 folds: np.ndarray) -> dict[str, float]:
+    """Per signal, the held-out R² of its residual on the situation (what :func:`residual_structure` tests; 0
+    for a signal the windows do not measure)."""
+    x_all, _ = regressors(windows, prediction)
+    held = {s: _heldout_r2(x_all, residuals[s], folds) for s in SIGNALS}
+    return {s: 0.0 if h is None else h[0] for s, h in held.items()}
+
+
 def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], prediction: Prediction,
-                       folds: np.ndarray) -> list[Signature]:
-    """Signals left unexplained: the situation predicts their residual on held-out folds (held-out R² >
-    R2_THRESHOLD), or their residual stays above MISFIT_FACTOR times the noise floor."""
+                       folds: np.ndarray, normal_r2: dict[str, float] | None = None) -> list[Signature]:
+    """Signals left unexplained: the situation predicts their residual on held-out folds (held-out R² above
+    R2_THRESHOLD plus ``normal_r2``, the R² the twin's residual shows on its clean training recordings: the
+    structure it normally leaves, none by default), or their residual stays above MISFIT_FACTOR times the noise
+    floor (with the twin's model error where it has one: :mod:`~boat_twin.diagnose.model_error`)."""
     ratio = misfit(residuals)
     x_all, names = regressors(windows, prediction)
+    normal_r2 = normal_r2 or {}
     found = []
     for signal in SIGNALS:
         r = residuals[signal]
-        ok = np.isfinite(r) & np.all(np.isfinite(x_all), axis=-1)
-        if not ok.any():  # a sensor the trial has not (an IMU without its accelerometer)
+        held = _heldout_r2(x_all, r, folds)
+        if held is None:  # a sensor the trial has not (an IMU without its accelerometer)
             continue
-        mean, std = x_all[ok].mean(axis=0), x_all[ok].std(axis=0)
-        std[std == 0] = 1.0
-        std[-1], mean[-1] = 1.0, 0.0
-        x = (x_all - mean) / std
-        predicted = np.full(r.shape, np.nan)
-        for k in np.unique(folds):
-            train = ok & (folds != k)[None, :]
-            test = ok & (folds == k)[None, :]
-            if train.any():  # (the accelerometer, past its horizon in every other fold, may have none)
-                predicted[test] = x[test] @ _solve(x[train], r[train])
-        held = ok & np.isfinite(predicted)  # a fold without training samples predicts nothing: no evidence
-        r2 = (1.0 - np.sum((r - predicted)[held] ** 2) / np.sum((r[held] - r[held].mean()) ** 2)
-              if held.sum() > 1 else 0.0)
-        if r2 > R2_THRESHOLD or ratio[signal] > MISFIT_FACTOR:
+        r2, x, ok = held
+        if r2 > R2_THRESHOLD + normal_r2.get(signal, 0.0) or ratio[signal] > MISFIT_FACTOR:
             weights = _solve(x[ok], r[ok])[:-1]
             order = np.argsort(-np.abs(weights))[:3]
             compared = np.sum(np.isfinite(r), axis=0)  # a window may compare none (the accelerometer)

@@ -1,0 +1,174 @@
+"""The diagnosis against the twin's own error (issue 42): twin.yaml's ``model_error`` section, its measurement on
+clean recordings, and the diagnosis that compares a recording's misfit with it — on a boat written apart from the
+twin (test/real_like.py: its own equations, integrator and waves)."""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from boat_twin.config import TwinConfig, config_from_dict, config_to_dict, load_config
+from boat_twin.diagnose.model_error import measure_model_error, normal_misfit, yardstick
+from boat_twin.diagnose.pipeline import diagnose_trial
+from boat_twin.errors import InputError
+from boat_twin.fleet.reports import identified_twin
+from boat_twin.fleet.twin_error import identified_model_error
+from boat_twin.ident.manoeuvring import fit_manoeuvring
+from boat_twin.ident.pipeline import identify_trials
+from boat_twin.io.trial import Trial
+from boat_twin.model_error import ModelError, SignalError
+from boat_twin.twin.replay import LONGITUDINAL_ACCEL, MOTION_SIGNALS, SIGNALS, cut_windows
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from real_like import Boat, Hidden, simulate  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+FACTS = {"length_m": 5.5, "beam_m": 2.3, "engine_x_m": -2.4, "engine_y_m": 0.5,
+         "max_steering_rad": math.radians(30.0),
+         "steering_rate_radps": math.radians(20.0), "bollard_thrust_N": 1800.0, "engine_power_W": 80000.0,
+         "mass_kg": 950.0}
+"""The real-like boat as its user states it: dimensions, engines and mass, not its hydrodynamics."""
+
+
+def test_a_twin_yaml_without_the_section_has_zero_model_error_and_writes_none() -> None:
+    config = load_config(ROOT / "config" / "boat.yaml")
+    assert config.model_error.zero and config.model_error == ModelError()
+    assert "model_error" not in config_to_dict(config)
+
+
+def test_the_section_round_trips() -> None:
+    error = ModelError((("vel_east_mps", SignalError(0.1, 0.02, 0.5, 4.0, 0.1)),
+                        ("heading_rad", SignalError(0.03, 0.0, 0.2, 6.0, 0.0))), 3, True)
+    config = replace(TwinConfig(), model_error=error)
+    data = config_to_dict(config)
+    assert data["model_error"]["signals"]["vel_east_mps"]["per_speed"] == 0.02
+    assert config_from_dict(data, "t.yaml") == config
+    assert error.of("yaw_rate_radps").zero  # a signal not described has none
+
+
+@pytest.mark.parametrize(("section", "message"), [
+    ([1], "t.yaml: 'model_error' must be a mapping"),
+    ({"signals": {"speed": {}}}, "t.yaml: model_error.signals: unknown signal 'speed'"),
+    ({"signals": {"heading_rad": {"floor": -1.0}}}, "t.yaml: model_error.signals.heading_rad.floor must be"),
+    ({"signals": {"heading_rad": {"spread": 1.0}}}, "t.yaml: model_error.signals.heading_rad: unknown field 'spread'"),
+    ({"recordings": "3"}, "t.yaml: model_error.recordings must be a count"),
+    ({"sigma": 1}, "t.yaml: unknown model_error field 'sigma'"),
+])
+def test_a_bad_section_is_named(section: object, message: str) -> None:
+    with pytest.raises(InputError, match="^" + message.replace("(", r"\(").replace(")", r"\)")):
+        config_from_dict({"model_error": section}, "t.yaml")
+
+
+def test_a_bad_section_in_twin_yaml_is_one_line_exit_2(tmp_path: Path) -> None:
+    from processes import BOAT_TWIN, one_error_line, run_as_from_a_shell
+
+    path = tmp_path / "twin.yaml"
+    path.write_text("model_error:\n  signals:\n    heading_rad: {floor: .nan}\n")
+    done = run_as_from_a_shell([BOAT_TWIN, "simulate", "thrust-steps", "--duration", "1", "--config", str(path)], 120)
+    assert done.returncode == 2
+    assert f"{path}: model_error.signals.heading_rad.floor must be a finite number" in one_error_line(done.stderr)
+
+
+def test_zero_model_error_keeps_the_noise_as_the_yardstick() -> None:
+    trial = simulate(Boat(), Hidden(), 130.0, 7)
+    windows = cut_windows(trial)
+    sigma = {s: 0.1 * (i + 1) for i, s in enumerate(SIGNALS)}
+    assert yardstick(windows, sigma, ModelError()) == sigma
+    assert np.all(normal_misfit(windows, ModelError()) == 1.0)
+
+
+def _identified(trials: list[Trial]) -> TwinConfig:
+    """``identify --boat`` (resistance, mass) then ``identify --manoeuvring`` (the turning coefficients)."""
+    _, found = identify_trials(trials, boat=FACTS)
+    twin = identified_twin(found)
+    assert twin is not None
+    return fit_manoeuvring(trials, twin).config
+
+
+@pytest.fixture(scope="module")
+def described() -> TwinConfig:
+    """The twin a user gets from two clean recordings of the real-like boat, with its model error held out (each
+    recording predicted by the twin identified from the other)."""
+    trials = [simulate(Boat(), Hidden(), 180.0, seed) for seed in (11, 12)]
+    folds = [_identified([trials[1]]), _identified([trials[0]])]
+    return replace(_identified(trials), model_error=measure_model_error(trials, folds, heldout=True))
+
+
+def test_identify_measures_the_error_held_out_for_twin_yaml() -> None:
+    trials = [simulate(Boat(), Hidden(), 130.0, seed) for seed in (31, 32)]
+    options = {"boat": FACTS}
+    _, found = identify_trials(trials, **options)
+    error, how = identified_model_error(trials, found, options)
+    assert error is not None and error.recordings == 2 and error.heldout
+    assert "each of 2 recordings predicted by the twin identified from the others" in how
+    assert error.of("vel_east_mps").stdev(np.array([6.0]), np.array([0.1]))[0] > 3 * 0.05  # the GNSS velocity noise
+    twin = identified_twin(found, error)
+    assert twin is not None and config_from_dict(config_to_dict(twin), "twin.yaml").model_error == error
+    one, how = identified_model_error(trials[:1], found, options)
+    assert one is None and "two or more recordings" in how  # one recording: no held-out error, none written
+
+
+def test_the_measured_error_is_many_times_the_noise_and_correlated(described: TwinConfig) -> None:
+    error = described.model_error
+    assert error.recordings == 2 and error.heldout
+    windows = cut_windows(simulate(Boat(), Hidden(), 130.0, 13))
+    speed, rate = np.array([6.0]), np.array([0.1])
+    assert error.of("vel_east_mps").stdev(speed, rate)[0] > 2 * 0.05  # the GNSS velocity noise
+    assert error.of("yaw_rate_radps").stdev(speed, rate)[0] > 3 * math.radians(0.06)  # the gyro's
+    for signal in ("vel_east_mps", "yaw_rate_radps"):
+        assert error.of(signal).correlation_time_s > 1.0  # an error over seconds, not white noise
+    normal = dict(zip(SIGNALS, normal_misfit(windows, error), strict=True))
+    assert all(normal[s] > 1.0 for s in MOTION_SIGNALS)
+    assert normal[LONGITUDINAL_ACCEL] == 1.0  # the recordings log no accelerometer: no error, the noise's rule
+
+
+@pytest.mark.parametrize(("hidden", "effect", "parameter", "size"), [
+    (Hidden(delay_s=0.5), "command_delay", "delay_s", 0.5),
+    (Hidden(heading_offset_rad=math.radians(8.0)), "heading_offset", "offset_rad", math.radians(8.0)),
+    (Hidden(), None, None, 0.0),
+])
+def test_against_the_twins_own_error_a_hidden_effect_is_named_and_a_clean_file_is_silent(
+        described: TwinConfig, hidden: Hidden, effect: str | None, parameter: str | None, size: float) -> None:
+    trial = simulate(Boat(), hidden, 180.0, 22)
+    against_noise = diagnose_trial(trial, replace(described, model_error=ModelError())).result
+    assert against_noise["unexplained"]  # the rule before issue 42: the twin's ordinary error is "unexplained"
+    result = diagnose_trial(trial, described).result
+    assert result["ambiguous"] is None and not result["unexplained"]
+    assert result["model_error"]["recordings"] == 2
+    assert [v["effect"] for v in result["verdict"]] == ([effect] if effect else [])
+    if effect and parameter:
+        found = result["verdict"][0]["parameters"][parameter]
+        low, high = result["verdict"][0]["ci95"][parameter]
+        assert abs(found - size) < 0.25 * size and low < found < high
+
+
+def test_the_live_rolling_diagnosis_judges_its_window_against_the_same_error(described: TwinConfig) -> None:
+    from boat_twin.shadow.rolling import DiagnosisJob
+
+    window = simulate(Boat(), Hidden(delay_s=0.5), 130.0, 23)
+    causes, withheld, structure_left = DiagnosisJob(130.0, 0.0, window, described).compute()
+    assert [c.name for c in causes] == ["command_delay"] and not withheld and not structure_left
+    outcome = DiagnosisJob(130.0, 0.0, window, replace(described, model_error=ModelError())).compute()
+    assert [c.name for c in outcome[0]] != ["command_delay"] or outcome[2]
+
+
+def test_identify_out_writes_the_model_error_into_twin_yaml(tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                                            ) -> None:
+    from boat_twin.cli import main
+
+    bags = []
+    for seed in ("1", "2"):
+        bags.append(str(tmp_path / f"random{seed}.mcap"))
+        assert main(["simulate", "random", "--duration", "130", "--seed", seed, "--out", bags[-1]]) == 0
+    assert main(["identify", *bags, "--out", str(tmp_path / "two")]) == 0
+    assert "model error measured: each of 2 recordings" in capsys.readouterr().err
+    error = load_config(tmp_path / "two" / "twin.yaml").model_error
+    assert error.recordings == 2 and error.heldout and not error.zero
+    assert main(["identify", bags[0], "--out", str(tmp_path / "one")]) == 0
+    assert "no model error measured (twin.yaml without one)" in capsys.readouterr().err
+    assert load_config(tmp_path / "one" / "twin.yaml").model_error.zero
