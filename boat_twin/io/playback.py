@@ -14,12 +14,12 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.frames import quaternion_xyzw
 from boat_twin.io import messages
+from boat_twin.io.roles import COMMAND_ROLES
 from boat_twin.io.samples import trial_samples
 from boat_twin.io.trial import Trial
 from boat_twin.units import STANDARD_GRAVITY_MPS2
 
-COMMAND_TOPIC = dict(zip(("thrust_left", "thrust_right", "angle_left", "angle_right"), messages.COMMAND_TOPICS,
-                         strict=True))
+COMMAND_TOPIC = dict(zip(COMMAND_ROLES, messages.COMMAND_TOPICS, strict=True))
 """Command kind → its topic."""
 NOT_PROVIDED = np.array([-1.0] + [0.0] * 8)
 """REP-145: a covariance whose element 0 is −1 marks the field as not provided."""

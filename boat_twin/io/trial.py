@@ -152,11 +152,6 @@ class Trial:
         return np.hypot(self.vel_east_mps, self.vel_north_mps)
 
     @property
-    def course_rad(self) -> np.ndarray:
-        """Course over ground as ENU angle (counter-clockwise from east), rad."""
-        return np.arctan2(self.vel_north_mps, self.vel_east_mps)
-
-    @property
     def surge_thrust_N(self) -> np.ndarray:
         """Thrust along the hull: Σ T_i·cos δ_i, N."""
         return self.thrust_left_N * np.cos(self.angle_left_rad) + self.thrust_right_N * np.cos(self.angle_right_rad)

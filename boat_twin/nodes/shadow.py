@@ -53,13 +53,14 @@ from boat_twin.errors import InputError
 from boat_twin.frames import quaternion_xyzw
 from boat_twin.io.bags import EXTRACTORS, resolve_topics
 from boat_twin.io.messages import FRAME_BASE, FRAME_MAP
+from boat_twin.io.roles import COMMAND_ROLES
 from boat_twin.nodes import conventions, parameters
 from boat_twin.nodes.diagnostics import OK, WARN, Diagnostics, Status
 from boat_twin.nodes.identifier import default_model_path
 from boat_twin.nodes.simulator import message_class
 from boat_twin.nodes.spin import run_node
 from boat_twin.shadow.session import Shadow, ShadowSettings
-from boat_twin.shadow.sync import COMMAND_KINDS, Innovation, SyncSettings
+from boat_twin.shadow.sync import Innovation, SyncSettings
 from boat_twin.shadow.turning import LIVE_KEYS
 from boat_twin.view.observer import ShadowView
 
@@ -140,7 +141,7 @@ class ShadowNode(Node):
             cls = message_class(available[topic])
             if cls is None:
                 continue
-            qos = conventions.COMMAND_QOS if role in COMMAND_KINDS else SENSOR_QOS
+            qos = conventions.COMMAND_QOS if role in COMMAND_ROLES else SENSOR_QOS
             self.create_subscription(cls, topic, partial(self.on_message, role), qos)
             self.subscribed[role] = topic
             self.get_logger().info(f"{role}: subscribed to {topic} ({available[topic]})")
