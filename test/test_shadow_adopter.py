@@ -68,3 +68,20 @@ def test_hotelling_rejects_a_distant_model_only_with_enough_clusters():
     assert not hotelling_rejects(np.array([0.01, 0.0]), cov, clusters=20)
     assert not hotelling_rejects(np.array([1.0, 1.0]), cov, clusters=3)  # g <= q + 1: cannot be judged
     assert not hotelling_rejects(np.array([1.0, 1.0]), np.full((2, 2), np.nan), clusters=20)
+
+
+def test_the_adapters_models_are_keyword_only_and_frozen():
+    import dataclasses
+
+    import pytest
+
+    from boat_twin.shadow.adapt import SurgeModel
+    from boat_twin.shadow.turning import TurningModel
+
+    with pytest.raises(TypeError):
+        SurgeModel(1300.0, 1.0)  # type: ignore[misc]  # a reordered field would silently mis-assign
+    with pytest.raises(TypeError):
+        TurningModel({"m22_kg": 1.0})  # type: ignore[misc]
+    model = SurgeModel(mass_kg=1300.0, resistance_factor=1.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        model.mass_kg = 1.0  # type: ignore[misc]

@@ -123,7 +123,7 @@ COUPLING_PRIOR_LEVEL = 0.99
 (:func:`coupling_conflict`), -."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SurgeModel:
     """The twin's surge model: mass and resistance on the configured boat, with 95 % intervals."""
 
@@ -298,12 +298,12 @@ def with_basis_spread(model: SurgeModel, base: VesselParams, current: SurgeModel
     if fit is None or record is None or fit.reference is not None:
         return model
     try:
-        fit.reference = output_error.fit_surge([record], basis_for(record, RICHER_SPLINES),
-                                               mass_kg=fit.mass_kg if fit.mass_fixed else None,
-                                               coupling_sd=fit.coupling_prior_sd or None)
+        reference = output_error.fit_surge([record], basis_for(record, RICHER_SPLINES),
+                                           mass_kg=fit.mass_kg if fit.mass_fixed else None,
+                                           coupling_sd=fit.coupling_prior_sd or None)
     except (InputError, ValueError, np.linalg.LinAlgError):
         return model
-    return _model(fit, record, base, current, model.mass_held)
+    return _model(replace(fit, reference=reference), record, base, current, model.mass_held)
 
 
 def _model(fit: SurgeFit, record: SurgeRecord, base: VesselParams, current: SurgeModel, held: bool) -> SurgeModel:
@@ -330,9 +330,10 @@ def _model(fit: SurgeFit, record: SurgeRecord, base: VesselParams, current: Surg
     mass = current.mass_kg if held else fit.mass_kg / added
     mass_ci = current.mass_ci95_kg if held else (fit.mass_ci95_kg[0] / added, fit.mass_ci95_kg[1] / added)
     resistance = over_configured(fit.resistance_model(), speeds, base, factor)
-    return SurgeModel(mass, factor, mass_ci, (factor - half, factor + half), int(record.t_s.size),
-                      resistance, fit.basis.name, held, tuple(float(s) for s in speeds),
-                      (var_mass, cov_mass, var_factor), fit.clusters, fit, record)
+    return SurgeModel(mass_kg=mass, resistance_factor=factor, mass_ci95_kg=mass_ci,
+                      factor_ci95=(factor - half, factor + half), samples=int(record.t_s.size), resistance=resistance,
+                      curve=fit.basis.name, mass_held=held, speeds_mps=tuple(float(s) for s in speeds),
+                      covariance=(var_mass, cov_mass, var_factor), clusters=fit.clusters, fit=fit, record=record)
 
 
 def coupling_conflict(model: SurgeModel, level: float = COUPLING_PRIOR_LEVEL) -> bool:
@@ -382,7 +383,8 @@ class SurgeAdapter(Adopter[SurgeModel]):
 
     def __init__(self, base: VesselParams, *, horizon_s: float = 600.0, holdout_s: float = 120.0,
                  period_s: float = 30.0, latency_s: float = 0.0, log: Log | None = None) -> None:
-        super().__init__(SurgeModel(base.mass_kg, 1.0), period_s=period_s, margin=ADOPT_MARGIN, log=log)
+        super().__init__(SurgeModel(mass_kg=base.mass_kg, resistance_factor=1.0), period_s=period_s,
+                         margin=ADOPT_MARGIN, log=log)
         self.base = base
         self.horizon_s, self.holdout_s = horizon_s, holdout_s
         self.latency_s = latency_s

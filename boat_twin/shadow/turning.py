@@ -112,7 +112,7 @@ def coefficients(vessel: VesselParams) -> dict[str, float]:
     return {key: float(getattr(derived, key)) for key in LIVE_KEYS}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TurningModel:
     """Turning coefficients (:data:`LIVE_KEYS`) with their 95 % intervals; empty ``values``: the configured boat's
     (derived from its mass and reference turn as the mass changes)."""
@@ -138,11 +138,12 @@ class TurningModel:
         index = [fit.fitted.index(k) for k in LIVE_KEYS]
         stderr = np.array([fit.stderr[k] for k in LIVE_KEYS])
         cov = fit.correlation[np.ix_(index, index)] * np.outer(stderr, stderr)
-        return cls({k: fit.values[k] for k in LIVE_KEYS}, {k: fit.ci95[k] for k in LIVE_KEYS},
-                   tuple(tuple(float(x) for x in row) for row in cov), fit.windows, dict(fit.residual_to_noise),
-                   tuple(k for k in LIVE_KEYS if k in fit.not_identified),
-                   any(r > LIVE_MISFIT_RATIO[s] for s, r in fit.residual_to_noise.items()),
-                   {k: (fit.values[k], *fit.ci95[k]) for k in SURGE_FACTOR_KEYS if k in fit.fitted})
+        return cls(values={k: fit.values[k] for k in LIVE_KEYS}, ci95={k: fit.ci95[k] for k in LIVE_KEYS},
+                   covariance=tuple(tuple(float(x) for x in row) for row in cov), windows=fit.windows,
+                   residual_to_noise=dict(fit.residual_to_noise),
+                   not_identified=tuple(k for k in LIVE_KEYS if k in fit.not_identified),
+                   misfit=any(r > LIVE_MISFIT_RATIO[s] for s, r in fit.residual_to_noise.items()),
+                   surge_factors={k: (fit.values[k], *fit.ci95[k]) for k in SURGE_FACTOR_KEYS if k in fit.fitted})
 
     def config(self, base: TwinConfig) -> TwinConfig:
         """``base`` turning with these coefficients (unchanged for the configured ones)."""
