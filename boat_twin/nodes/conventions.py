@@ -1,4 +1,5 @@
-"""What every boat_twin node does the same way: command QoS, frame prefixes, and the clock (use_sim_time).
+"""What every boat_twin node does the same way: command QoS, frame prefixes, the clock (use_sim_time), topic
+remaps, message classes and stamps.
 
 - Commands are subscribed best effort: a best-effort subscription matches reliable and best-effort publishers
   alike (a reliable one refuses best-effort publishers: "incompatible QoS", and the boat would not move). On
@@ -12,8 +13,10 @@
 
 from __future__ import annotations
 
+import importlib
 from typing import TYPE_CHECKING
 
+from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -31,6 +34,29 @@ COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=
 CLOCK_WAIT_S = 5.0
 """Wall time a node on simulated time waits for its first /clock before it warns, s: a simulator needs 2-4 s
 to start on a loaded 2-core machine (tests/test_node_*.py), so 5 s is a silent start-up, not a slow one."""
+
+
+def topic_remap(text: str) -> dict[str, str]:
+    """The ``topics`` parameter (``ROLE=TOPIC,ROLE=TOPIC``) as a role → topic map; a bad item is refused naming
+    the parameter."""
+    from boat_twin.cli.options import parse_remap
+
+    return parse_remap([item for item in text.split(",") if item.strip()], source="parameter topics:")
+
+
+def message_class(msgtype: str) -> type | None:
+    """The rclpy message class of a ROS type name (``sensor_msgs/msg/Imu``); None if its package is absent."""
+    package, _, name = msgtype.split("/")
+    try:
+        return getattr(importlib.import_module(f"{package}.msg"), name)
+    except ImportError:
+        return None
+
+
+def ros_time(stamp_ns: int) -> Time:
+    """builtin_interfaces/Time (rclpy) from integer nanoseconds."""
+    sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+    return Time(sec=sec, nanosec=nanosec)
 
 
 def steady_clock() -> Clock:
