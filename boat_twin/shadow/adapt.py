@@ -1,55 +1,14 @@
-"""Online adaptation of the twin's surge model: re-identified over a moving horizon, adopted only when the data
-reject the current model and the new one predicts held-out recent data better (a hot swap, logged, reversible).
+"""Online adaptation of the twin's surge model: re-identified over a moving horizon by the output-error fit
+of :mod:`boat_twin.ident.output_error` (m₁₁·du/dt = X − Fc(u) with a non-decreasing resistance of :data:`SPLINES`
+I-splines, cluster-robust 95 % intervals; the one offline ``identify`` runs) and adopted by the rule of
+:mod:`~boat_twin.shadow.adopter`: only when its intervals reject the current model and it predicts the held-out
+tail better, reversibly.
 
-The identification is the output-error surge fit of :mod:`boat_twin.ident.output_error` (the one the offline
-``identify`` runs; nothing of it is copied here): m₁₁·du/dt = X − Fc(u), the effective surge mass m₁₁ and a
-resistance curve that never decreases (a·|u| + b·u² + non-negative I-splines), simulated through every sample of
-the horizon and fitted to the measured surge, with cluster-robust 95 % intervals. X is the surge force besides
-resistance and the surge the caller computes (:class:`~boat_twin.shadow.session.Shadow`: the delivered thrust
-along the hull at the outboards' real angles, the twin's mean over the interval since the previous sample, plus
-c times the sway-yaw coupling m₂₂·v·r, which in a turn is as large as a resistance error, of the twin's state
-when the velocity was measured (its yaw rate held to the gyro, its sway to the GNSS velocity); the GNSS velocity
-through the water along the twin's heading when it was measured, not its magnitude, which holds the sway too).
-The coupling's scale c is fitted too: the twin's m₂₂ and sway give v·r a few per cent off (while the twin's
-turning is known wrong its sway is far off, and the session feeds no samples:
-:meth:`~boat_twin.shadow.session.Shadow.sway_doubted`). It is fitted under a
-Gaussian prior c ~ N(1, σ_c²) whose σ_c is the turning model's own uncertainty of m₂₂/a_v and the sway state's
-(:data:`COUPLING_STATE_SD`; the caller's, :meth:`~boat_twin.shadow.turning.TurningAdapter.coupling_sd`;
-:data:`COUPLING_SCALE_SD` while the twin turns as configured): on constant-thrust zigzags the mass is seen only
-in the speed each turn costs, where the coupling acts, and with c free the two were confounded (the mass held on
-most full horizons). The speed measured at t describes the boat at t − GNSS latency; the fit takes it there (on
-the 6 m boat, ignoring the 0.1 s shifted the mass by +1.3 %).
-
-Cost decides the curve's size: the offline cross-validation (baseline and 3, 5, 8, 12 I-splines, four folds:
-22 fits) costs 2 s of CPU on a 470 s horizon with one BLAS thread, 20 s with OpenBLAS's threads on the loaded
-2-core machine — too much every ``period_s``, and its choice (the smallest curve predicting within 1 % of the
-best) is made for prediction, not for the mass: run once on the first full horizon it chose the baseline on 2 of
-5 boats, and on one of them the mass came out 2.4 % high, outside its interval. So every fit uses the fixed
-candidate of :data:`SPLINES` I-splines (knots at the horizon's own speed quantiles): one fit per update.
-A horizon that does not fix the mass (95 % interval wider than ± :data:`MASS_RELATIVE_LIMIT`) is
-refitted with the current mass held.
-
-The adapted model's *resistance factor* is a summary for the timeline and the node: the least-squares ratio of
-its Fc to the configured boat's Fc₀ over :data:`FACTOR_POINTS` quantiles of the fitted speeds (linear in the
-coefficients, so its interval is exact from their covariance).
-
-Adoption (:class:`SurgeAdapter`): every ``period_s`` (doubling, up to :data:`MAX_WAIT_PERIODS` periods, while
-the fits confirm the current model), a candidate is fitted on the horizon without its last ``holdout_s``. It
-replaces the current model only when
-
-1. its own intervals reject the current model: the Wald (Hotelling T²) statistic of the difference in
-   (m₁₁, resistance factor), with the candidate's cluster-robust covariance, exceeds its 95 % point — a candidate
-   that differs from the current model by no more than its noise is not a new model (without this gate a twin
-   started at the truth swapped between fits ±2-3 % apart); and
-2. it predicts the held-out seconds better by a score given by the caller (the session replays them through the
-   whole 3-DOF twin and its sensor models, open loop in windows started from the measurements, as the diagnosis
-   does: :func:`boat_twin.twin.replay.predict`): held-out error below (1 − :data:`ADOPT_MARGIN`) × the current's
-   — or merely below it when the candidate identifies a mass the current model only kept (a light boat's mass
-   hardly changes the held-out error: the margin kept a mass held from an early horizon 37 % off for good).
-
-The previous model is kept, and reinstated when it predicts the newest held-out data better by the same margin
-and the newest fit does not reject it (the same test): the held-out score replays the whole 3-DOF twin, whose
-turning follows the mass too, and alone it reinstated a held 1,300 kg over a fitted 954 kg on a 948 kg boat.
+X is the caller's (:class:`~boat_twin.shadow.session.Shadow`): the delivered thrust along the hull plus c times
+the sway-yaw coupling m₂₂·v·r, c fitted under a prior as wide as the turning model's uncertainty
+(:meth:`~boat_twin.shadow.turning.TurningAdapter.coupling_sd`); the speed is taken at t − GNSS latency. A horizon
+that does not fix the mass is refitted with the current mass held. Why each choice, with the measurements:
+docs/live-twin.md (online adaptation) and docs/studies/live-twin.md ("how we got here").
 """
 
 from __future__ import annotations
