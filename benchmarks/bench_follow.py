@@ -104,7 +104,7 @@ def current_switched_on(switch_s: float, duration_s: float, seed: int) -> Trial:
     drifts through still air, an apparent wind on its windage (:mod:`boat_twin.vessel.dynamics`), so its motion
     through the water is not the calm run's — by the switch on seed 25 its heading differed by up to 2.9°, and a
     trial joining the calm run's IMU to the current run's GNSS velocities showed the live diagnosis a heading
-    offset of 0.019 rad beside the current (docs/live-twin.md)."""
+    offset of 0.019 rad beside the current (docs/studies/live-twin.md)."""
     calm = TwinConfig()
     with_current = replace(calm, environment=Environment(*CURRENT_MPS))
     commands = scenario("random", calm.vessel, np.random.default_rng(seed), duration_s)

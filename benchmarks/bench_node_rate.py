@@ -28,7 +28,7 @@ from rosgraph_msgs.msg import Clock  # noqa: E402
 
 from boat_twin.config import TwinConfig  # noqa: E402
 from boat_twin.io import messages  # noqa: E402
-from boat_twin.nodes.simulator import message_class  # noqa: E402
+from boat_twin.nodes.conventions import message_class  # noqa: E402
 from boat_twin.twin.live import LiveTwin  # noqa: E402
 
 FACTORS = (10.0, 50.0, 100.0)

@@ -40,9 +40,9 @@ from scipy.stats import beta
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.model_error import measure_model_error
 from boat_twin.diagnose.pipeline import diagnose_trial
-from boat_twin.fleet.reports import identified_twin
 from boat_twin.ident.manoeuvring import fit_manoeuvring
 from boat_twin.ident.pipeline import identify_and_resimulate
+from boat_twin.ident.report import identified_twin
 from boat_twin.io.trial import Trial
 from boat_twin.model_error import ModelError
 

@@ -4,7 +4,8 @@ the output-error fit (boat_twin.ident.manoeuvring) on the same hidden boats.
 Needs scikit-learn (the ``bench`` extra, not a runtime dependency): ``.venv/bin/pip install scikit-learn``.
 Run: .venv/bin/python benchmarks/bench_zigzag_inverse.py [--samples 600] [--large 10000] [--fit-boats 5] [--seed 0]
 [--noise-draws 1] [--max-iterations 4000] [--large-nets 64 64x64]
-Nothing is asserted: the script prints Markdown tables for docs/identification.md and the command that made them.
+Nothing is asserted: the script prints Markdown tables for docs/studies/identification.md and the command that
+made them.
 
 Training sets (the paper's recipe on this boat): every manoeuvring coefficient (m22, m33, a_v, a_r, Y_vv, N_rr
 and x_c) drawn normally around the twin's with a standard deviation of 10 % (z clipped to ±3) and the steering

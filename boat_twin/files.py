@@ -624,6 +624,21 @@ def load_yaml(path: Path) -> Any:
         raise InputError(f"{path}: malformed YAML{where}{reason}") from None
 
 
+def check_trial_path(path: Path) -> None:
+    """A trial is a regular file, or a directory (a rosbag2) of regular files: a FIFO, a device or a socket,
+    itself or as a bag's metadata.yaml or storage file, is refused (reading it could block forever); a bag's
+    metadata.yaml must pass the YAML bounds of :func:`~boat_twin.files.load_yaml` (an alias bomb is refused)."""
+    if not (path.exists() or path.is_symlink()):
+        return  # each reader names a missing file its own way
+    regular_input(path, "trial file")
+    if path.is_dir():
+        for entry in sorted(path.iterdir()):
+            if entry.name == "metadata.yaml" or entry.suffix in (".mcap", ".db3"):
+                regular_input(entry, "bag file")
+        if (path / "metadata.yaml").is_file():
+            load_yaml(path / "metadata.yaml")  # the YAML bounds (size, depth, aliases) before rosbags parses it
+
+
 def to_json(data: Any) -> str:
     """JSON for --json output: numpy scalars and arrays become plain numbers and lists, and a non-finite number
     (an unbounded interval, a value not measurable) becomes null: strict JSON, which every parser reads."""

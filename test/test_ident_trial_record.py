@@ -123,9 +123,9 @@ def _far_from_commanded(trial: Any, record: SurgeRecord) -> bool:
 
 
 def test_the_identify_report_plots_the_record_the_fit_read(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The report writer of identify --out and of the fleet's batches (fleet/reports.py) draws the steered
+    """The report writer of identify --out and of the fleet's batches (ident/report.py) draws the steered
     trial's surge record under the given config, the one the fit read, not the commanded one."""
-    from boat_twin.fleet.reports import write_identify_report
+    from boat_twin.ident.report import write_identify_report
 
     trial, config = _steered(60.0), TwinConfig(vessel=BOAT)
     figures = _captured_figures(monkeypatch)

@@ -16,10 +16,10 @@ from boat_twin.config import TwinConfig, config_from_dict, config_to_dict, load_
 from boat_twin.diagnose.model_error import measure_model_error, normal_misfit, yardstick
 from boat_twin.diagnose.pipeline import diagnose_trial
 from boat_twin.errors import InputError
-from boat_twin.fleet.reports import identified_twin
 from boat_twin.fleet.twin_error import identified_model_error
 from boat_twin.ident.manoeuvring import fit_manoeuvring
 from boat_twin.ident.pipeline import identify_trials
+from boat_twin.ident.report import identified_twin
 from boat_twin.io.trial import Trial
 from boat_twin.model_error import ModelError, SignalError
 from boat_twin.twin.replay import LONGITUDINAL_ACCEL, MOTION_SIGNALS, SIGNALS, cut_windows

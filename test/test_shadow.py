@@ -303,13 +303,13 @@ def test_adoption_and_reversal_follow_the_held_out_score() -> None:
     measured = surge + rng.normal(0.0, 0.05, t.size)
     for sample in zip(t[1:], force[:-1], measured[1:], strict=True):  # each with the force since the previous
         adapter.add(*sample)
-    truth = SurgeModel(1500.0, 1.2)
+    truth = SurgeModel(mass_kg=1500.0, resistance_factor=1.2)
 
     def distance(model: SurgeModel) -> float:  # a score that knows the truth
         return (model.mass_kg / truth.mass_kg - 1) ** 2 + (model.resistance_factor - 1.2) ** 2
 
     assert not adapter.update(lambda m: 10.0 - distance(m))  # a score that prefers the wrong model: no swap
-    assert adapter.current == SurgeModel(base.mass_kg, 1.0)
+    assert adapter.current == SurgeModel(mass_kg=base.mass_kg, resistance_factor=1.0)
     assert adapter.update(distance) and adapter.swaps == 1
     assert adapter.current.mass_kg == pytest.approx(1500.0, rel=0.05)
     assert adapter.current.mass_ci95_kg[0] < adapter.current.mass_kg < adapter.current.mass_ci95_kg[1]
@@ -319,7 +319,7 @@ def test_adoption_and_reversal_follow_the_held_out_score() -> None:
     for sample in zip(*_surge_samples(base.mass_kg, 1.0, 9), strict=True):
         adapter.add(*sample)
     assert adapter.update(favour_old)  # the newest fit does not reject it: reinstated
-    assert adapter.current == SurgeModel(base.mass_kg, 1.0) and not adapter.previous
+    assert adapter.current == SurgeModel(mass_kg=base.mass_kg, resistance_factor=1.0) and not adapter.previous
 
 
 def _independent_trial(seed: int) -> list[tuple[str, float, tuple[float, ...]]]:
@@ -465,7 +465,7 @@ def test_a_fit_whose_coupling_scale_its_prior_rules_out_is_not_adopted(monkeypat
     for seed in range(2):
         lines: list[str] = []
         adapter = follow(seed)
-        assert adapter.current == SurgeModel(base.mass_kg, 1.0) and adapter.swaps == 0
+        assert adapter.current == SurgeModel(mass_kg=base.mass_kg, resistance_factor=1.0) and adapter.swaps == 0
         fit = adapter.candidate  # kept as the latest fit, for the record
         assert fit is not None and fit.fit is not None and coupling_conflict(fit)
         assert fit.fit.coupling_scale < 0.85 and fit.factor_ci95[0] > 1.0  # the cause, reproduced
@@ -507,7 +507,7 @@ def test_a_horizon_at_one_speed_holds_the_mass_and_the_couplings_variation() -> 
     thrust = np.full(t.size, float(base.resistance.force_N(12.6)) + 230.0)
     record = horizon_record(t, thrust, 12.6 + rng.normal(0.0, 0.05, t.size), 0.1, -230.0 + wander)
     assert one_speed(record)
-    current = SurgeModel(base.mass_kg, 1.0)
+    current = SurgeModel(mass_kg=base.mass_kg, resistance_factor=1.0)
     fit = fit_surge(record, base, current, coupling_sd=0.05)
     assert fit is not None and fit.fit is not None and fit.mass_held
     assert fit.factor_ci95[0] < 1.0 < fit.factor_ci95[1] and fit.resistance_factor == pytest.approx(1.0, abs=0.003)

@@ -195,14 +195,15 @@ def test_surge_samples_are_set_aside_only_while_the_turning_is_what_is_wrong() -
     covariance = tuple(tuple(1e-4 if i == j else 0.0 for j in range(len(LIVE_KEYS))) for i in range(len(LIVE_KEYS)))
     surge_right = {"surge_mass_factor": (1.0, 0.99, 1.01), "resistance_factor": (1.002, 0.998, 1.006)}
     shadow.turning.fits = 1
-    shadow.turning.candidate = TurningModel(wrong, {}, covariance, 20, surge_factors=surge_right)
+    shadow.turning.candidate = TurningModel(values=wrong, covariance=covariance, windows=20, surge_factors=surge_right)
     assert shadow.sway_doubted()
-    shadow.turning.candidate = TurningModel(wrong, {}, covariance, 20, surge_factors={
+    shadow.turning.candidate = TurningModel(values=wrong, covariance=covariance, windows=20, surge_factors={
         **surge_right, "resistance_factor": (0.73, 0.72, 0.74)})
     assert not shadow.sway_doubted()
-    shadow.turning.candidate = TurningModel(current, {}, covariance, 20, surge_factors=surge_right)
+    shadow.turning.candidate = TurningModel(values=current, covariance=covariance, windows=20,
+                                            surge_factors=surge_right)
     assert not shadow.sway_doubted()
-    shadow.turning.candidate = TurningModel(wrong, {}, covariance, 20, surge_factors=surge_right)
+    shadow.turning.candidate = TurningModel(values=wrong, covariance=covariance, windows=20, surge_factors=surge_right)
     shadow._squares["yaw_rate_radps"].append((0.0, 0.0, 2.0))  # ratio 4 / 3 under 1.5
     assert not shadow.sway_doubted()
 

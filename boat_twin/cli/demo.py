@@ -119,9 +119,9 @@ def identification_summary(sample: Trial, out: Path, staging: Path | None = None
     fitted into ``staging/identify``, named ``out/identify``; ``staging`` defaults to ``out``; the true curve
     drawn under the identified ones) and reproduce Dyda & Chumakova (2021)."""
     from boat_twin.config import TwinConfig
-    from boat_twin.fleet.reports import write_identify_report
     from boat_twin.ident.paper import reproduce
     from boat_twin.ident.pipeline import identify_trials
+    from boat_twin.ident.report import write_identify_report
 
     result, found = identify_trials([sample])
     write_identify_report((staging or out) / "identify", result, found, str(sample.metadata.source), None,

@@ -196,9 +196,8 @@ def _say(line: str) -> None:
 def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     """Recorded trials, pooled: replay through the online identifier, batch fits, dynamic mass, re-simulation of
     each with the identified model (closing the loop), report (into --out, claimed by the caller)."""
-    from boat_twin.fleet.reports import write_identify_report
     from boat_twin.ident.pipeline import identify_trials
-    from boat_twin.ident.report import count, model_lines, resimulation_line
+    from boat_twin.ident.report import count, model_lines, resimulation_line, write_identify_report
 
     boat = _boat_facts(args)
     config = twin_config_from_args(args)

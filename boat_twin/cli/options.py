@@ -25,16 +25,17 @@ TRIAL_HELP = ("recorded trial: rosbag2 directory (MCAP or sqlite3), bare .mcap f
 """Help text for a verb's TRIAL argument."""
 
 
-def parse_remap(items: list[str] | None) -> dict[str, str]:
-    """``["gnss_vel=/gps/vel", ...]`` (repeated --topic values) → ``{"gnss_vel": "/gps/vel"}``."""
+def parse_remap(items: list[str] | None, source: str = "--topic") -> dict[str, str]:
+    """``["gnss_vel=/gps/vel", ...]`` (repeated --topic values) → ``{"gnss_vel": "/gps/vel"}``; ``source`` names
+    where the items came from in an error (a node: ``parameter topics``)."""
     remap: dict[str, str] = {}
     for item in items or []:
         role, sep, topic = item.partition("=")
         role, topic = role.strip(), topic.strip()
         if not sep or not role or not topic:
-            raise InputError(f"--topic {item!r}: expected ROLE=TOPIC, e.g. gnss_vel=/gps/vel")
+            raise InputError(f"{source} {item!r}: expected ROLE=TOPIC, e.g. gnss_vel=/gps/vel")
         if role not in TRIAL_ROLES:
-            raise InputError(f"--topic {item!r}: unknown role '{role}' (roles: {', '.join(TRIAL_ROLES)})")
+            raise InputError(f"{source} {item!r}: unknown role '{role}' (roles: {', '.join(TRIAL_ROLES)})")
         remap[role] = topic
     return remap
 

@@ -84,8 +84,8 @@ class IdentifyJob:
     def __call__(self, path: Path, out: Path, named: Path | None = None) -> dict[str, Any]:
         """Identify the trial at ``path``, write its report into ``out`` (``named``: the directory its texts
         name, default ``out``); its row's values."""
-        from boat_twin.fleet.reports import write_identify_report
         from boat_twin.ident.pipeline import identify_trials
+        from boat_twin.ident.report import write_identify_report
 
         trial = self.read.read(path)
         result, found = identify_trials([trial], order=self.order, max_order=self.max_order,

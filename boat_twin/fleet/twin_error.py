@@ -9,8 +9,8 @@ from typing import Any
 
 from boat_twin.diagnose.model_error import measure_model_error
 from boat_twin.errors import InputError
-from boat_twin.fleet.reports import identified_twin
 from boat_twin.ident.pipeline import identify_and_resimulate
+from boat_twin.ident.report import identified_twin
 from boat_twin.ident.results import TrialsIdentification
 from boat_twin.io.trial import Trial
 from boat_twin.model_error import ModelError

@@ -9,14 +9,24 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from boat_twin.config import TwinConfig, save_config
 from boat_twin.data import dyda2021_table1
 from boat_twin.data.dyda2021 import PAPER_COEFFICIENTS, PAPER_FISHER, PAPER_ORDERS
 from boat_twin.files import atomic_save_figure, atomic_write_text, ensure_out_dir, to_json
 from boat_twin.ident.output_error import SurgeRecord
 from boat_twin.ident.paper import paper_model_values
 from boat_twin.ident.resimulate import Resimulation, resimulation_figure
-from boat_twin.ident.results import NOT_PHYSICAL_NEXT, IdentifyResult, write_model_yaml
+from boat_twin.ident.results import (
+    NOT_PHYSICAL_NEXT,
+    IdentifyResult,
+    TrialIdentifyResult,
+    TrialsIdentification,
+    write_model_yaml,
+)
 from boat_twin.ident.steady import FitResult
+from boat_twin.model_error import ModelError
+from boat_twin.sensors.gnss import GnssConfig
+from boat_twin.vessel.params import VesselParams
 from boat_twin.vessel.resistance import resistance_from_dict
 
 
@@ -314,3 +324,43 @@ def model_lines(result: IdentifyResult) -> list[str]:
         lines.append(f"steady points' polynomial (a view, not the model): N = {fit['order']}, c0..cN N/(m/s)^i: "
                      + ", ".join(f"{c:.4g}" for c in fit["coefficients"]))
     return lines
+
+
+def antenna_height_m(vessel: VesselParams) -> float:
+    """The twin's GNSS antenna height above the waterline, m: the default boat's (1.5 m on its 6 m) carried to
+    the boat's length (a 1.2 m boat's antenna is not 1.5 m up)."""
+    return GnssConfig.antenna_height_m * vessel.length_m / VesselParams().length_m
+
+
+def identified_twin(found: TrialsIdentification, model_error: ModelError | None = None) -> TwinConfig | None:
+    """The twin ``identify`` writes as twin.yaml (None: no vessel was built): the identified vessel, the GNSS at
+    the first trial's origin and an antenna :func:`antenna_height_m` up, ``model_error`` when measured."""
+    if found.vessel is None:
+        return None
+    lat, lon, alt = found.origin or (GnssConfig.origin_lat_deg, GnssConfig.origin_lon_deg, GnssConfig.origin_alt_m)
+    gnss = GnssConfig(origin_lat_deg=lat, origin_lon_deg=lon, origin_alt_m=alt,
+                      antenna_height_m=antenna_height_m(found.vessel))
+    return TwinConfig(vessel=found.vessel, gnss=gnss, model_error=model_error or ModelError())
+
+
+def write_identify_report(out: Path, result: TrialIdentifyResult, found: TrialsIdentification, sources: str,
+                          boat_file: str | None, named: Path | None = None,
+                          true_resistance_N: Callable[[np.ndarray], np.ndarray] | None = None,
+                          model_error: ModelError | None = None) -> None:
+    """The report of :func:`~boat_twin.ident.pipeline.identify_trials` (``result``, the contract of ``found``) on
+    the trials read from ``sources`` into ``out``: twin.yaml (when a mass is known; geometry from ``boat_file`` or
+    the default boat; the GNSS origin the first trial's), identify.json, model.yaml and the figures of the records
+    the fit read (resimulation.png for a single trial; ``true_resistance_N``, speed m/s → N, drawn when known).
+    ``named``: the directory the texts name (default ``out``; a report set's final name when ``out`` is its
+    staging copy). ``model_error``: the twin's measured model error (twin.yaml's ``model_error`` section)."""
+    ensure_out_dir(out)
+    twin = identified_twin(found, model_error)
+    if twin is not None:
+        save_config(twin, out / "twin.yaml",
+                    f"boat_twin twin of the boat identified from {sources}\n"
+                    f"geometry: {boat_file or 'the default boat carried to the identified mass'}; where each fact "
+                    "came from: identify.json 'twin'\n"
+                    f"load with: boat-twin simulate ... --config {(named or out) / 'twin.yaml'}")
+    write_trial_report(out, result, found.identification.records,
+                       found.trials[0].resimulation if len(found.trials) == 1 else None, true_resistance_N,
+                       title=f"identify {sources}")

@@ -22,10 +22,6 @@ from boat_twin.vessel.resistance import resistance_from_dict
 
 BOAT_FIELDS = tuple(f.name for f in fields(VesselParams) if f.name != "resistance")
 """The vessel facts identify takes from a boat file: any but the resistance (that is what identify measures)."""
-THRUST_LIMITS = ("bollard_thrust_N", "reverse_thrust_ratio", "engine_power_W")
-"""Facts raised to what the trials commanded when the boat file does not state them."""
-
-
 IDENTIFIED = ("resistance", "effective_mass_kg")
 """Vessel fields identify measures: a boat file may state them (a twin config serves as one), they are ignored."""
 

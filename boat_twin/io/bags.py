@@ -21,12 +21,11 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 
 from boat_twin.errors import InputError
-from boat_twin.files import OutputClaim
+from boat_twin.files import OutputClaim, check_trial_path
 from boat_twin.frames import quaternion_yaw_rad
 from boat_twin.io.mcap_crc import check_chunk_crcs, fill_chunk_crcs
 from boat_twin.io.messages import TOPIC_ODOM_TRUTH, TOPIC_WIND, TOPICS, TS, topic_type
-from boat_twin.io.roles import ACTUATOR_TOPIC, actuator_slots
-from boat_twin.io.sources import check_trial_path
+from boat_twin.io.roles import ACTUATOR_TOPIC, COMMAND_ROLES, actuator_slots
 from boat_twin.io.trial import Stream, Trial, build_trial
 
 ROLE_TOPICS = {
@@ -279,7 +278,7 @@ def _actuator_topics(available: dict[str, str], chosen: dict[str, str], namespac
     ``rudders/<name>/angle``; :func:`~boat_twin.io.messages.command_topics`) where the slot topics are absent:
     thrusters in the order of their names (the boat file's slots: list them alphabetically, or remap), rudders
     before steered thrusters. Adds them to ``chosen``; returns a note per role so read."""
-    if any(role in chosen for role in ("thrust_left", "thrust_right", "angle_left", "angle_right")):
+    if any(role in chosen for role in COMMAND_ROLES):
         return []
     prefix = "/" + namespace.strip("/") + "/" if namespace.strip("/") else "/"
     found = sorted(t[len(prefix):] for t, msgtype in available.items()
@@ -329,7 +328,7 @@ def read_trial(
         with _rosbag2_alias(path) as readable, AnyReader([readable], default_typestore=TS) as reader:
             available = {c.topic: c.msgtype for c in reader.connections}
             topics, notes = resolve_topics(available, remap or {}, namespace, source)
-            if not any(role in topics for role in ("thrust_left", "thrust_right", "angle_left", "angle_right")):
+            if not any(role in topics for role in COMMAND_ROLES):
                 raise InputError(f"{source}: no command topic (thrusters/*/thrust or pos, std_msgs/Float64) found; "
                                  f"the bag holds: {holdings(available)}; name them with --topic thrust_left=TOPIC")
             role_of = {topic: role for role, topic in topics.items()}

@@ -14,7 +14,8 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.frames import quaternion_xyzw
 from boat_twin.io import messages
-from boat_twin.io.samples import COMMAND_KINDS, trial_samples
+from boat_twin.io.roles import COMMAND_ROLES
+from boat_twin.io.samples import trial_samples
 from boat_twin.io.trial import Trial
 from boat_twin.units import STANDARD_GRAVITY_MPS2
 
@@ -47,7 +48,7 @@ def playback_messages(trial: Trial, config: TwinConfig, epoch_s: float = 0.0
     accel_cov = messages.diagonal_covariance([u.accel_stdev_mps2**2] * 3)
     for kind, t_s, values in trial_samples(trial):
         stamp_ns = int(round((epoch_s + t_s) * 1e9))
-        if kind in COMMAND_KINDS:
+        if kind in COMMAND_ROLES:
             if kind in command_topic:
                 yield command_topic[kind], stamp_ns, messages.float64(values[0])
         elif kind == "gnss_fix":

@@ -9,14 +9,9 @@ from collections.abc import Iterator
 import numpy as np
 
 from boat_twin.frames import wrap_pi
+from boat_twin.io.roles import COMMAND_ROLES
 from boat_twin.io.trial import Trial
 
-COMMAND_KINDS = ("thrust_left", "thrust_right", "angle_left", "angle_right")
-"""Command streams, in the column order of the dynamics' commands (N, N, rad, rad)."""
-SENSOR_KINDS = ("gnss_fix", "gnss_vel", "imu")
-"""Sensor streams: fix (lat deg, lon deg, alt m), velocity over ground (east, north m/s), IMU (yaw rad, yaw
-rate rad/s, accel x, y m/s²): the roles and columns of :mod:`boat_twin.io.trial`; a measured true wind (east,
-north m/s) as ``wind`` (:data:`~boat_twin.io.roles.MEASURED_INPUT_ROLES`) where the trial has one."""
 COMMAND_HEARTBEAT_S = 1.0
 """A held command is fed again at least this often, s."""
 
@@ -42,7 +37,7 @@ def trial_samples(trial: Trial) -> Iterator[tuple[str, float, tuple[float, ...]]
         commands = []
         for k, value in enumerate(command_row):
             if math.isfinite(value) and (value != held[k] or t - sent[k] >= COMMAND_HEARTBEAT_S):
-                commands.append((COMMAND_KINDS[k], t + float(switch[i]) if value != held[k] else t, (value,)))
+                commands.append((COMMAND_ROLES[k], t + float(switch[i]) if value != held[k] else t, (value,)))
                 held[k], sent[k] = value, t
         commands.sort(key=lambda command: command[1])
         yield from (c for c in commands if c[1] <= t)

@@ -9,27 +9,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from boat_twin.errors import InputError
-from boat_twin.files import load_yaml, regular_input
+from boat_twin.files import check_trial_path
 
 if TYPE_CHECKING:
     from boat_twin.io.mavlink import Calibration
     from boat_twin.io.trial import Trial
-
-
-
-def check_trial_path(path: Path) -> None:
-    """A trial is a regular file, or a directory (a rosbag2) of regular files: a FIFO, a device or a socket,
-    itself or as a bag's metadata.yaml or storage file, is refused (reading it could block forever); a bag's
-    metadata.yaml must pass the YAML bounds of :func:`~boat_twin.files.load_yaml` (an alias bomb is refused)."""
-    if not (path.exists() or path.is_symlink()):
-        return  # each reader names a missing file its own way
-    regular_input(path, "trial file")
-    if path.is_dir():
-        for entry in sorted(path.iterdir()):
-            if entry.name == "metadata.yaml" or entry.suffix in (".mcap", ".db3"):
-                regular_input(entry, "bag file")
-        if (path / "metadata.yaml").is_file():
-            load_yaml(path / "metadata.yaml")  # the YAML bounds (size, depth, aliases) before rosbags parses it
 
 
 def read_trial_file(

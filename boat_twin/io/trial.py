@@ -152,11 +152,6 @@ class Trial:
         return np.hypot(self.vel_east_mps, self.vel_north_mps)
 
     @property
-    def course_rad(self) -> np.ndarray:
-        """Course over ground as ENU angle (counter-clockwise from east), rad."""
-        return np.arctan2(self.vel_north_mps, self.vel_east_mps)
-
-    @property
     def surge_thrust_N(self) -> np.ndarray:
         """Thrust along the hull: Σ T_i·cos δ_i, N."""
         return self.thrust_left_N * np.cos(self.angle_left_rad) + self.thrust_right_N * np.cos(self.angle_right_rad)
@@ -383,7 +378,8 @@ def build_trial(
     release: bool = False,
     derive_velocity: bool = True,
 ) -> Trial:
-    """Put the streams of one trial on a common grid (see the module docstring).
+    """Put the streams of one trial on a common grid (see the module docstring), in five named stages: the
+    streams checked, the grid, the commands held on it, the sensors interpolated, the positions in ENU.
 
     Requires a GNSS fix or velocity stream (it sets the grid) and at least one command overlapping it.
     ``origin`` is the geodetic origin of the local ENU frame (default: the first fix). With ``release`` the
@@ -393,98 +389,17 @@ def build_trial(
     named and is absent: it stays missing).
     """
     meta = TrialMetadata(source=source, topics=dict(topics))
-    data = {}
-    for role in COMMAND_ROLES + SENSOR_ROLES + MEASURED_INPUT_ROLES:
-        stream = streams.get(role)
-        if stream is None or np.asarray(stream.stamps_s).size == 0:
-            if role not in MEASURED_INPUT_ROLES:  # an anemometer is a bonus, not a missing stream
-                meta.missing.append(role)
-            continue
-        _check_values(source, role, stream)
-        data[role] = _monotone_stream(role, stream, meta)
-        if data[role].stamps_s.size == 0:
-            raise InputError(f"{source}: {role}: none of its {np.asarray(stream.stamps_s).size} sample(s) has a "
-                             "finite time stamp")
-        if role in ("gnss_fix", "gnss_vel"):  # an IMU field may be NaN by design (REP-145: not provided)
-            data[role] = _drop_nan_rows(role, data[role], meta)
-        meta.counts[role] = int(np.asarray(stream.stamps_s).size)
-        period = _median_period_s(data[role].stamps_s)
-        meta.rates_hz[role] = 1.0 / period if np.isfinite(period) and period > 0 else 0.0
-    clock = data.get("gnss_vel") or data.get("gnss_fix")
-    if clock is None or clock.stamps_s.size < 2:
-        raise InputError(f"{source}: no GNSS velocity or fix stream (need at least 2 samples)")
-    commands = [data[r] for r in COMMAND_ROLES if r in data]
-    if not commands:
-        raise InputError(f"{source}: no command stream (thrusters/*/thrust or pos)")
-    period = _median_period_s(clock.stamps_s)
-    t0, t1 = float(clock.stamps_s[0]), float(clock.stamps_s[-1])
-    _check_span(source, "gnss_vel" if "gnss_vel" in data else "gnss_fix", clock.stamps_s, period)
-    first_command = min(float(c.stamps_s[0]) for c in commands)
-    del clock, commands
-    if first_command > t1:
-        raise InputError(f"{source}: commands and GNSS do not overlap in time (first command after the last fix)")
-    # The trial starts with the first command, or with GNSS if that comes more than the gap tolerance later.
-    t0 = first_command if t0 - GAP_TOLERANCE_PERIODS * period <= first_command else t0
-    grid_abs = t0 + np.arange(int(np.floor((t1 - t0) / period + 1e-6)) + 1) * period
-    meta.start_time_s = t0
-    columns: dict[str, np.ndarray] = {}
-    offsets = []
-    for role in COMMAND_ROLES:
-        columns[role] = _hold(data[role].stamps_s, data[role].values[:, 0], grid_abs, period) if role in data \
-            else np.full(grid_abs.size, 0.0 if role.startswith("angle") else np.nan)
-        if role in data:
-            offsets.append(_switch_offsets(data[role].stamps_s, data[role].values[:, 0], grid_abs, period))
-        if release:
-            data.pop(role, None)
-            streams.pop(role, None)
-    bridged: np.ndarray | None = None
-    for role, width in (("gnss_fix", 3), ("gnss_vel", 2), ("imu", 4)):
-        if role not in data:
-            columns[role] = np.full((grid_abs.size, width), np.nan)
-            continue
-        stream = data[role]
-        max_gap = GAP_TOLERANCE_PERIODS / max(meta.rates_hz[role], 1e-9)
-        if role == "gnss_vel":
-            bridged = _bridged(stream.stamps_s, grid_abs, 1.0 / max(meta.rates_hz[role], 1e-9))
-        if role == "imu":  # unwrap the heading before interpolating it
-            yaw = stream.values[:, :1].copy()
-            known = np.isfinite(yaw[:, 0])  # a yaw not provided (NaN) must not poison the unwrap after it
-            yaw[known, 0] = np.unwrap(yaw[known, 0])
-            columns[role] = np.empty((grid_abs.size, stream.values.shape[1]))
-            _interpolate(stream.stamps_s, yaw, grid_abs, max_gap, columns[role][:, :1])
-            _interpolate(stream.stamps_s, stream.values[:, 1:], grid_abs, max_gap, columns[role][:, 1:])
-        else:
-            columns[role] = _interpolate(stream.stamps_s, stream.values, grid_abs, max_gap)
-        jumps = np.flatnonzero(np.diff(stream.stamps_s) > max_gap)
-        meta.gaps += [(role, float(stream.stamps_s[j] - t0), float(stream.stamps_s[j + 1] - t0)) for j in jumps]
-        if release:
-            del data[role], streams[role], stream
+    data = _checked_streams(streams, source, meta)
+    grid_abs, period = _grid(data, source, meta)
+    t0 = meta.start_time_s
+    columns, switch = _commands_on_grid(data, streams, grid_abs, period, release)
+    bridged = _sensors_on_grid(data, streams, grid_abs, meta, columns, release)
     wind = None
     if "wind" in data:  # held across the anemometer's own gaps only
         wind = _interpolate(data["wind"].stamps_s, data["wind"].values, grid_abs,
                             GAP_TOLERANCE_PERIODS / max(meta.rates_hz["wind"], 1e-9))
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # no role changed at most samples: an all-NaN mean
-        switch = np.nan_to_num(np.nanmean(np.array(offsets), axis=0), nan=0.0) if offsets else None
     fix = columns["gnss_fix"]
-    if origin is None:
-        valid = np.flatnonzero(np.all(np.isfinite(fix), axis=1))
-        lat, lon, alt = (float(x) for x in fix[valid[0]]) if valid.size else (0.0, 0.0, 0.0)
-        origin = (lat, lon, alt)
-    meta.origin = origin
-    east, north = np.empty(grid_abs.size), np.empty(grid_abs.size)
-    for start in range(0, grid_abs.size, GRID_BLOCK):
-        block = slice(start, start + GRID_BLOCK)
-        east[block], north[block], _ = pymap3d.geodetic2enu(fix[block, 0], fix[block, 1], fix[block, 2], *origin)
-    vel = columns["gnss_vel"]
-    if derive_velocity and "gnss_vel" in meta.missing and "gnss_fix" in meta.counts:
-        vel_east, vel_north, meta.speed_smoothing_s, meta.derived_speed_noise_mps, how = velocity_from_positions(
-            east, north, period)
-        vel = np.column_stack([vel_east, vel_north])
-        meta.missing.remove("gnss_vel")
-        meta.derived["gnss_vel"] = how
-        meta.topics["gnss_vel"] = f"derived from {meta.topics.get('gnss_fix', 'gnss_fix')}"
-        meta.gaps += _nan_runs("gnss_vel", grid_abs - t0, vel_east)
+    east, north, vel = _positions(fix, columns["gnss_vel"], grid_abs, period, origin, meta, derive_velocity)
     imu = columns["imu"]
     return Trial(
         t_s=grid_abs - t0,
@@ -508,6 +423,125 @@ def build_trial(
         wind_east_mps=None if wind is None else wind[:, 0],
         wind_north_mps=None if wind is None else wind[:, 1],
     )
+
+
+def _checked_streams(streams: dict[str, Stream], source: str, meta: TrialMetadata) -> dict[str, Stream]:
+    """Stage 1: each role's stream checked, its stamps monotone, a GNSS row with a NaN dropped; counts, rates and
+    the missing roles into ``meta``."""
+    data = {}
+    for role in COMMAND_ROLES + SENSOR_ROLES + MEASURED_INPUT_ROLES:
+        stream = streams.get(role)
+        if stream is None or np.asarray(stream.stamps_s).size == 0:
+            if role not in MEASURED_INPUT_ROLES:  # an anemometer is a bonus, not a missing stream
+                meta.missing.append(role)
+            continue
+        _check_values(source, role, stream)
+        data[role] = _monotone_stream(role, stream, meta)
+        if data[role].stamps_s.size == 0:
+            raise InputError(f"{source}: {role}: none of its {np.asarray(stream.stamps_s).size} sample(s) has a "
+                             "finite time stamp")
+        if role in ("gnss_fix", "gnss_vel"):  # an IMU field may be NaN by design (REP-145: not provided)
+            data[role] = _drop_nan_rows(role, data[role], meta)
+        meta.counts[role] = int(np.asarray(stream.stamps_s).size)
+        period = _median_period_s(data[role].stamps_s)
+        meta.rates_hz[role] = 1.0 / period if np.isfinite(period) and period > 0 else 0.0
+    return data
+
+
+def _grid(data: dict[str, Stream], source: str, meta: TrialMetadata) -> tuple[np.ndarray, float]:
+    """Stage 2: the grid (absolute stamps, s) at the GNSS period, from the first command (or GNSS, if that comes
+    more than the gap tolerance later) to the last GNSS sample; its start into ``meta``; and the period, s."""
+    clock = data.get("gnss_vel") or data.get("gnss_fix")
+    if clock is None or clock.stamps_s.size < 2:
+        raise InputError(f"{source}: no GNSS velocity or fix stream (need at least 2 samples)")
+    commands = [data[r] for r in COMMAND_ROLES if r in data]
+    if not commands:
+        raise InputError(f"{source}: no command stream (thrusters/*/thrust or pos)")
+    period = _median_period_s(clock.stamps_s)
+    t0, t1 = float(clock.stamps_s[0]), float(clock.stamps_s[-1])
+    _check_span(source, "gnss_vel" if "gnss_vel" in data else "gnss_fix", clock.stamps_s, period)
+    first_command = min(float(c.stamps_s[0]) for c in commands)
+    if first_command > t1:
+        raise InputError(f"{source}: commands and GNSS do not overlap in time (first command after the last fix)")
+    t0 = first_command if t0 - GAP_TOLERANCE_PERIODS * period <= first_command else t0
+    meta.start_time_s = t0
+    return t0 + np.arange(int(np.floor((t1 - t0) / period + 1e-6)) + 1) * period, period
+
+
+def _commands_on_grid(data: dict[str, Stream], streams: dict[str, Stream], grid_abs: np.ndarray, period: float,
+                      release: bool) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
+    """Stage 3: each command held on the grid (an absent angle 0, an absent thrust NaN), and the mean offset of
+    the commands' changes from their grid samples (None: no command)."""
+    columns: dict[str, np.ndarray] = {}
+    offsets = []
+    for role in COMMAND_ROLES:
+        columns[role] = _hold(data[role].stamps_s, data[role].values[:, 0], grid_abs, period) if role in data \
+            else np.full(grid_abs.size, 0.0 if role.startswith("angle") else np.nan)
+        if role in data:
+            offsets.append(_switch_offsets(data[role].stamps_s, data[role].values[:, 0], grid_abs, period))
+        if release:
+            data.pop(role, None)
+            streams.pop(role, None)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # no role changed at most samples: an all-NaN mean
+        switch = np.nan_to_num(np.nanmean(np.array(offsets), axis=0), nan=0.0) if offsets else None
+    return columns, switch
+
+
+def _sensors_on_grid(data: dict[str, Stream], streams: dict[str, Stream], grid_abs: np.ndarray,
+                     meta: TrialMetadata, columns: dict[str, np.ndarray], release: bool) -> np.ndarray | None:
+    """Stage 4: each sensor interpolated on the grid into ``columns`` (NaN across its gaps, recorded in ``meta``;
+    the IMU heading unwrapped first); returns the GNSS velocity's bridged samples (None: no velocity stream)."""
+    t0 = meta.start_time_s
+    bridged: np.ndarray | None = None
+    for role, width in (("gnss_fix", 3), ("gnss_vel", 2), ("imu", 4)):
+        if role not in data:
+            columns[role] = np.full((grid_abs.size, width), np.nan)
+            continue
+        stream = data[role]
+        max_gap = GAP_TOLERANCE_PERIODS / max(meta.rates_hz[role], 1e-9)
+        if role == "gnss_vel":
+            bridged = _bridged(stream.stamps_s, grid_abs, 1.0 / max(meta.rates_hz[role], 1e-9))
+        if role == "imu":  # unwrap the heading before interpolating it
+            yaw = stream.values[:, :1].copy()
+            known = np.isfinite(yaw[:, 0])  # a yaw not provided (NaN) must not poison the unwrap after it
+            yaw[known, 0] = np.unwrap(yaw[known, 0])
+            columns[role] = np.empty((grid_abs.size, stream.values.shape[1]))
+            _interpolate(stream.stamps_s, yaw, grid_abs, max_gap, columns[role][:, :1])
+            _interpolate(stream.stamps_s, stream.values[:, 1:], grid_abs, max_gap, columns[role][:, 1:])
+        else:
+            columns[role] = _interpolate(stream.stamps_s, stream.values, grid_abs, max_gap)
+        jumps = np.flatnonzero(np.diff(stream.stamps_s) > max_gap)
+        meta.gaps += [(role, float(stream.stamps_s[j] - t0), float(stream.stamps_s[j + 1] - t0)) for j in jumps]
+        if release:
+            del data[role], streams[role], stream
+    return bridged
+
+
+def _positions(fix: np.ndarray, vel: np.ndarray, grid_abs: np.ndarray, period: float,
+               origin: tuple[float, float, float] | None, meta: TrialMetadata,
+               derive_velocity: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stage 5: the fixes in the local ENU frame about ``origin`` (default: the first fix; into ``meta``), and the
+    velocity over ground (n, 2), derived from the positions where no velocity was recorded."""
+    t0 = meta.start_time_s
+    if origin is None:
+        valid = np.flatnonzero(np.all(np.isfinite(fix), axis=1))
+        lat, lon, alt = (float(x) for x in fix[valid[0]]) if valid.size else (0.0, 0.0, 0.0)
+        origin = (lat, lon, alt)
+    meta.origin = origin
+    east, north = np.empty(grid_abs.size), np.empty(grid_abs.size)
+    for start in range(0, grid_abs.size, GRID_BLOCK):
+        block = slice(start, start + GRID_BLOCK)
+        east[block], north[block], _ = pymap3d.geodetic2enu(fix[block, 0], fix[block, 1], fix[block, 2], *origin)
+    if derive_velocity and "gnss_vel" in meta.missing and "gnss_fix" in meta.counts:
+        vel_east, vel_north, meta.speed_smoothing_s, meta.derived_speed_noise_mps, how = velocity_from_positions(
+            east, north, period)
+        vel = np.column_stack([vel_east, vel_north])
+        meta.missing.remove("gnss_vel")
+        meta.derived["gnss_vel"] = how
+        meta.topics["gnss_vel"] = f"derived from {meta.topics.get('gnss_fix', 'gnss_fix')}"
+        meta.gaps += _nan_runs("gnss_vel", grid_abs - t0, vel_east)
+    return east, north, vel
 
 
 def thrust_outliers(trial: Trial, bollard_thrust_N: float, factor: float = 5.0) -> str | None:

@@ -40,7 +40,6 @@ from boat_twin.io import messages
 from boat_twin.io.playback import playback_messages, playback_topics
 from boat_twin.io.sources import read_trial_file
 from boat_twin.nodes import conventions, parameters
-from boat_twin.nodes.simulator import _time, message_class
 from boat_twin.nodes.spin import run_node
 
 TICK_S = 0.002
@@ -48,12 +47,6 @@ TICK_S = 0.002
 (a subscriber that stamps a command on arrival, by /clock, sees its time that close)."""
 MAX_RATE = 100.0
 """Upper bound of ``rate``."""
-
-
-def _remap(text: str) -> dict[str, str]:
-    from boat_twin.cli.options import parse_remap
-
-    return parse_remap([item for item in text.split(",") if item.strip()])
 
 
 class BagPlayerNode(Node):
@@ -64,7 +57,7 @@ class BagPlayerNode(Node):
         trial_path = parameters.string(self, "trial", "", "recording to play")
         self.rate = parameters.double(self, "rate", 1.0, "trial seconds per wall second", above=0.0,
                                       maximum=MAX_RATE)
-        remap = _remap(parameters.string(self, "topics", "", "ROLE=TOPIC,... remaps"))
+        remap = conventions.topic_remap(parameters.string(self, "topics", "", "ROLE=TOPIC,... remaps"))
         namespace = parameters.string(self, "namespace", "", "namespace of the recorded topics")
         calibration = parameters.string(self, "calibration", "", "MAVLink calibration YAML")
         columns = parameters.string(self, "columns", "", "CSV column mapping")
@@ -84,7 +77,8 @@ class BagPlayerNode(Node):
         self.pending = next(self.messages, None)
         self.publishers_by_topic = {}
         for topic, kind in playback_topics(config).items():  # the boat file's actuator topics, the wind
-            self.publishers_by_topic[topic] = self.create_publisher(message_class(kind), topic, QoSProfile(depth=100))
+            self.publishers_by_topic[topic] = self.create_publisher(conventions.message_class(kind), topic,
+                                                                    QoSProfile(depth=100))
         self.clock_pub = self.create_publisher(ClockMsg, "/clock", QoSProfile(depth=1))
         self.started_wall: float | None = None
         self.created_wall = time.monotonic()
@@ -108,11 +102,11 @@ class BagPlayerNode(Node):
             if self.frame_prefix:
                 ((topic, stamp_ns, msg),) = messages.restamped([self.pending], stamp_ns, self.frame_prefix)
             if stamp_ns != clock_ns:  # the clock reaches each stamp before its messages go out
-                self.clock_pub.publish(ClockMsg(clock=_time(stamp_ns)))
+                self.clock_pub.publish(ClockMsg(clock=conventions.ros_time(stamp_ns)))
                 clock_ns = stamp_ns
             self.publishers_by_topic[topic].publish(messages.serialize(msg, messages.topic_type(topic)))
             self.pending = next(self.messages, None)
-        self.clock_pub.publish(ClockMsg(clock=_time(played_ns)))
+        self.clock_pub.publish(ClockMsg(clock=conventions.ros_time(played_ns)))
         if self.pending is None:
             self.get_logger().info(f"trial played to its end ({self.duration_s:.0f} s)")
             self.done = True

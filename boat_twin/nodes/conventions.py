@@ -1,4 +1,5 @@
-"""What every boat_twin node does the same way: command QoS, frame prefixes, and the clock (use_sim_time).
+"""What every boat_twin node does the same way: command QoS, frame prefixes, the clock (use_sim_time), topic
+remaps, message classes and stamps.
 
 - Commands are subscribed best effort: a best-effort subscription matches reliable and best-effort publishers
   alike (a reliable one refuses best-effort publishers: "incompatible QoS", and the boat would not move). On
@@ -12,10 +13,12 @@
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
+from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -51,6 +54,29 @@ def subscribe_commands(node: Node, propulsion: Propulsion | None, callback: Call
         if role in topics:
             node.create_subscription(Float64, topics[role], partial(callback, index), COMMAND_QOS)
     return [topics[role] for role in COMMAND_ROLES if role in topics]
+
+
+def topic_remap(text: str) -> dict[str, str]:
+    """The ``topics`` parameter (``ROLE=TOPIC,ROLE=TOPIC``) as a role → topic map; a bad item is refused naming
+    the parameter."""
+    from boat_twin.cli.options import parse_remap
+
+    return parse_remap([item for item in text.split(",") if item.strip()], source="parameter topics:")
+
+
+def message_class(msgtype: str) -> type | None:
+    """The rclpy message class of a ROS type name (``sensor_msgs/msg/Imu``); None if its package is absent."""
+    package, _, name = msgtype.split("/")
+    try:
+        return getattr(importlib.import_module(f"{package}.msg"), name)
+    except ImportError:
+        return None
+
+
+def ros_time(stamp_ns: int) -> Time:
+    """builtin_interfaces/Time (rclpy) from integer nanoseconds."""
+    sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+    return Time(sec=sec, nanosec=nanosec)
 
 
 def steady_clock() -> Clock:

@@ -53,13 +53,13 @@ from boat_twin.errors import InputError
 from boat_twin.frames import quaternion_xyzw
 from boat_twin.io.bags import EXTRACTORS, resolve_topics
 from boat_twin.io.messages import FRAME_BASE, FRAME_MAP
+from boat_twin.io.roles import COMMAND_ROLES
 from boat_twin.nodes import conventions, parameters
 from boat_twin.nodes.diagnostics import OK, WARN, Diagnostics, Status
 from boat_twin.nodes.identifier import default_model_path
-from boat_twin.nodes.simulator import message_class
 from boat_twin.nodes.spin import run_node
 from boat_twin.shadow.session import Shadow, ShadowSettings
-from boat_twin.shadow.sync import COMMAND_KINDS, Innovation, SyncSettings
+from boat_twin.shadow.sync import Innovation, SyncSettings
 from boat_twin.shadow.turning import LIVE_KEYS
 from boat_twin.view.observer import ShadowView
 
@@ -97,9 +97,7 @@ class ShadowNode(Node):
         reorder_s = parameters.double(self, "reorder_s", SyncSettings().reorder_s,
                                       "samples wait this long (node clock) for late siblings, s", above=0.0)
         self.frame_prefix = conventions.frame_prefix(self)
-        from boat_twin.nodes.bag_player import _remap
-
-        self.remap = _remap(topics)
+        self.remap = conventions.topic_remap(topics)
         self.twin_path = Path(twin_path).expanduser() if twin_path else default_model_path().with_name("twin.yaml")
         config = load_config(Path(config_file)) if config_file else TwinConfig()
         self.view = conventions.foxglove_view(self, (config.vessel.length_m, config.vessel.beam_m))
@@ -137,10 +135,10 @@ class ShadowNode(Node):
         for role, topic in chosen.items():
             if role in self.subscribed:
                 continue
-            cls = message_class(available[topic])
+            cls = conventions.message_class(available[topic])
             if cls is None:
                 continue
-            qos = conventions.COMMAND_QOS if role in COMMAND_KINDS else SENSOR_QOS
+            qos = conventions.COMMAND_QOS if role in COMMAND_ROLES else SENSOR_QOS
             self.create_subscription(cls, topic, partial(self.on_message, role), qos)
             self.subscribed[role] = topic
             self.get_logger().info(f"{role}: subscribed to {topic} ({available[topic]})")

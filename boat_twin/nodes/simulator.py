@@ -35,13 +35,11 @@ Parameters (read at start-up)
 
 from __future__ import annotations
 
-import importlib
 import time
 from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from builtin_interfaces.msg import Time
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, QoSProfile
@@ -70,15 +68,6 @@ TICK_NS = round(1e9 / OUTPUT_RATE_HZ)
 THRUST_INDICES = (0, 1)
 """Command indices the watchdog zeroes (thrust left, right); the steering angles stay where they were."""
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-
-
-def message_class(msgtype: str) -> type | None:
-    """The rclpy message class of a ROS type name (``sensor_msgs/msg/Imu``); None if its package is absent."""
-    package, _, name = msgtype.split("/")
-    try:
-        return getattr(importlib.import_module(f"{package}.msg"), name)
-    except ImportError:
-        return None
 
 
 class SimulatorNode(Node):
@@ -170,7 +159,7 @@ class SimulatorNode(Node):
         for topic, msgtype in topics.items():
             if topic in messages.COMMAND_TOPICS or (topic == messages.TOPIC_TF and not truth_tf):
                 continue
-            cls = message_class(msgtype)
+            cls = conventions.message_class(msgtype)
             if cls is None:
                 missing.setdefault(msgtype, []).append(topic)
                 continue
@@ -234,7 +223,7 @@ class SimulatorNode(Node):
         if self.view_sim is not None:
             self._show(tick, stamp_ns)
         if self.clock_pub is not None:
-            self.clock_pub.publish(ClockMsg(clock=_time(stamp_ns + TICK_NS)))
+            self.clock_pub.publish(ClockMsg(clock=conventions.ros_time(stamp_ns + TICK_NS)))
         if time.monotonic() - started > self.schedule.wall_period_s:
             self.overruns += 1
 
@@ -283,12 +272,6 @@ class SimulatorNode(Node):
         if self.view is not None:
             self.view.close()
         super().destroy_node()
-
-
-def _time(stamp_ns: int) -> Time:
-    """builtin_interfaces/Time (rclpy) from integer nanoseconds."""
-    sec, nanosec = divmod(stamp_ns, 1_000_000_000)
-    return Time(sec=sec, nanosec=nanosec)
 
 
 def main(args: list[str] | None = None) -> int:

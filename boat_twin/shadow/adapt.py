@@ -1,55 +1,14 @@
-"""Online adaptation of the twin's surge model: re-identified over a moving horizon, adopted only when the data
-reject the current model and the new one predicts held-out recent data better (a hot swap, logged, reversible).
+"""Online adaptation of the twin's surge model: re-identified over a moving horizon by the output-error fit
+of :mod:`boat_twin.ident.output_error` (m₁₁·du/dt = X − Fc(u) with a non-decreasing resistance of :data:`SPLINES`
+I-splines, cluster-robust 95 % intervals; the one offline ``identify`` runs) and adopted by the rule of
+:mod:`~boat_twin.shadow.adopter`: only when its intervals reject the current model and it predicts the held-out
+tail better, reversibly.
 
-The identification is the output-error surge fit of :mod:`boat_twin.ident.output_error` (the one the offline
-``identify`` runs; nothing of it is copied here): m₁₁·du/dt = X − Fc(u), the effective surge mass m₁₁ and a
-resistance curve that never decreases (a·|u| + b·u² + non-negative I-splines), simulated through every sample of
-the horizon and fitted to the measured surge, with cluster-robust 95 % intervals. X is the surge force besides
-resistance and the surge the caller computes (:class:`~boat_twin.shadow.session.Shadow`: the delivered thrust
-along the hull at the outboards' real angles, the twin's mean over the interval since the previous sample, plus
-c times the sway-yaw coupling m₂₂·v·r, which in a turn is as large as a resistance error, of the twin's state
-when the velocity was measured (its yaw rate held to the gyro, its sway to the GNSS velocity); the GNSS velocity
-through the water along the twin's heading when it was measured, not its magnitude, which holds the sway too).
-The coupling's scale c is fitted too: the twin's m₂₂ and sway give v·r a few per cent off (while the twin's
-turning is known wrong its sway is far off, and the session feeds no samples:
-:meth:`~boat_twin.shadow.session.Shadow.sway_doubted`). It is fitted under a
-Gaussian prior c ~ N(1, σ_c²) whose σ_c is the turning model's own uncertainty of m₂₂/a_v and the sway state's
-(:data:`COUPLING_STATE_SD`; the caller's, :meth:`~boat_twin.shadow.turning.TurningAdapter.coupling_sd`;
-:data:`COUPLING_SCALE_SD` while the twin turns as configured): on constant-thrust zigzags the mass is seen only
-in the speed each turn costs, where the coupling acts, and with c free the two were confounded (the mass held on
-most full horizons). The speed measured at t describes the boat at t − GNSS latency; the fit takes it there (on
-the 6 m boat, ignoring the 0.1 s shifted the mass by +1.3 %).
-
-Cost decides the curve's size: the offline cross-validation (baseline and 3, 5, 8, 12 I-splines, four folds:
-22 fits) costs 2 s of CPU on a 470 s horizon with one BLAS thread, 20 s with OpenBLAS's threads on the loaded
-2-core machine — too much every ``period_s``, and its choice (the smallest curve predicting within 1 % of the
-best) is made for prediction, not for the mass: run once on the first full horizon it chose the baseline on 2 of
-5 boats, and on one of them the mass came out 2.4 % high, outside its interval. So every fit uses the fixed
-candidate of :data:`SPLINES` I-splines (knots at the horizon's own speed quantiles): one fit per update.
-A horizon that does not fix the mass (95 % interval wider than ± :data:`MASS_RELATIVE_LIMIT`) is
-refitted with the current mass held.
-
-The adapted model's *resistance factor* is a summary for the timeline and the node: the least-squares ratio of
-its Fc to the configured boat's Fc₀ over :data:`FACTOR_POINTS` quantiles of the fitted speeds (linear in the
-coefficients, so its interval is exact from their covariance).
-
-Adoption (:class:`SurgeAdapter`): every ``period_s`` (doubling, up to :data:`MAX_WAIT_PERIODS` periods, while
-the fits confirm the current model), a candidate is fitted on the horizon without its last ``holdout_s``. It
-replaces the current model only when
-
-1. its own intervals reject the current model: the Wald (Hotelling T²) statistic of the difference in
-   (m₁₁, resistance factor), with the candidate's cluster-robust covariance, exceeds its 95 % point — a candidate
-   that differs from the current model by no more than its noise is not a new model (without this gate a twin
-   started at the truth swapped between fits ±2-3 % apart); and
-2. it predicts the held-out seconds better by a score given by the caller (the session replays them through the
-   whole 3-DOF twin and its sensor models, open loop in windows started from the measurements, as the diagnosis
-   does: :func:`boat_twin.twin.replay.predict`): held-out error below (1 − :data:`ADOPT_MARGIN`) × the current's
-   — or merely below it when the candidate identifies a mass the current model only kept (a light boat's mass
-   hardly changes the held-out error: the margin kept a mass held from an early horizon 37 % off for good).
-
-The previous model is kept, and reinstated when it predicts the newest held-out data better by the same margin
-and the newest fit does not reject it (the same test): the held-out score replays the whole 3-DOF twin, whose
-turning follows the mass too, and alone it reinstated a held 1,300 kg over a fitted 954 kg on a 948 kg boat.
+X is the caller's (:class:`~boat_twin.shadow.session.Shadow`): the delivered thrust along the hull plus c times
+the sway-yaw coupling m₂₂·v·r, c fitted under a prior as wide as the turning model's uncertainty
+(:meth:`~boat_twin.shadow.turning.TurningAdapter.coupling_sd`); the speed is taken at t − GNSS latency. A horizon
+that does not fix the mass is refitted with the current mass held. Why each choice, with the measurements:
+docs/live-twin.md (online adaptation) and docs/studies/live-twin.md ("how we got here").
 """
 
 from __future__ import annotations
@@ -66,14 +25,13 @@ from scipy import stats
 from boat_twin.errors import InputError
 from boat_twin.ident import output_error
 from boat_twin.ident.output_error import ResistanceBasis, SurgeFit, SurgeRecord, horizon_record, spline_basis
+from boat_twin.shadow.adopter import FACTOR_RANGE, REJECT_LEVEL, Adopter, hotelling_rejects
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.vessel.params import VesselParams, derive_coefficients
 from boat_twin.vessel.resistance import CorrectedResistance, ResistanceModel
 
 ADOPT_MARGIN = 0.05
 """A model replaces another only if its held-out mean squared error is this share lower."""
-REJECT_LEVEL = 0.95
-"""Confidence at which the candidate's intervals must reject the current model before it may replace it."""
 MASS_RELATIVE_LIMIT = 0.2
 """A 95 % mass interval wider than ± this share of the estimate: the horizon does not fix the mass, which is held
 at the current model's, -."""
@@ -90,8 +48,6 @@ MIN_SAMPLES = 100
 """Fewer training samples than this: no fit."""
 MIN_SPAN_S = 60.0
 """A training stretch shorter than this: no fit, s."""
-MAX_WAIT_PERIODS = 4.0
-"""While fits keep confirming the current model, the time between updates doubles up to this many periods."""
 MIN_FACTOR_FORCE_SHARE = 0.02
 """Fitted speeds where the configured resistance is below this share of its largest there (near rest) carry no
 knot of :func:`over_configured`: their ratio of two near-zero forces is noise, -."""
@@ -124,12 +80,9 @@ range (:func:`resolvable`), -."""
 COUPLING_PRIOR_LEVEL = 0.99
 """A fit whose coupling scale c lies outside its prior's central interval of this probability is not adopted
 (:func:`coupling_conflict`), -."""
-FACTOR_RANGE = (0.3, 3.0)
-"""Physical range of the mass and resistance factors relative to the configured boat, -: a fit outside is a
-stand-in for something else (a current, a fault) and is not adopted."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SurgeModel:
     """The twin's surge model: mass and resistance on the configured boat, with 95 % intervals."""
 
@@ -304,12 +257,12 @@ def with_basis_spread(model: SurgeModel, base: VesselParams, current: SurgeModel
     if fit is None or record is None or fit.reference is not None:
         return model
     try:
-        fit.reference = output_error.fit_surge([record], basis_for(record, RICHER_SPLINES),
-                                               mass_kg=fit.mass_kg if fit.mass_fixed else None,
-                                               coupling_sd=fit.coupling_prior_sd or None)
+        reference = output_error.fit_surge([record], basis_for(record, RICHER_SPLINES),
+                                           mass_kg=fit.mass_kg if fit.mass_fixed else None,
+                                           coupling_sd=fit.coupling_prior_sd or None)
     except (InputError, ValueError, np.linalg.LinAlgError):
         return model
-    return _model(fit, record, base, current, model.mass_held)
+    return _model(replace(fit, reference=reference), record, base, current, model.mass_held)
 
 
 def _model(fit: SurgeFit, record: SurgeRecord, base: VesselParams, current: SurgeModel, held: bool) -> SurgeModel:
@@ -336,9 +289,10 @@ def _model(fit: SurgeFit, record: SurgeRecord, base: VesselParams, current: Surg
     mass = current.mass_kg if held else fit.mass_kg / added
     mass_ci = current.mass_ci95_kg if held else (fit.mass_ci95_kg[0] / added, fit.mass_ci95_kg[1] / added)
     resistance = over_configured(fit.resistance_model(), speeds, base, factor)
-    return SurgeModel(mass, factor, mass_ci, (factor - half, factor + half), int(record.t_s.size),
-                      resistance, fit.basis.name, held, tuple(float(s) for s in speeds),
-                      (var_mass, cov_mass, var_factor), fit.clusters, fit, record)
+    return SurgeModel(mass_kg=mass, resistance_factor=factor, mass_ci95_kg=mass_ci,
+                      factor_ci95=(factor - half, factor + half), samples=int(record.t_s.size), resistance=resistance,
+                      curve=fit.basis.name, mass_held=held, speeds_mps=tuple(float(s) for s in speeds),
+                      covariance=(var_mass, cov_mass, var_factor), clusters=fit.clusters, fit=fit, record=record)
 
 
 def coupling_conflict(model: SurgeModel, level: float = COUPLING_PRIOR_LEVEL) -> bool:
@@ -377,49 +331,25 @@ def rejects(candidate: SurgeModel, current: SurgeModel, base: VesselParams, leve
     return hotelling_rejects(diff, cov, candidate.clusters, level)
 
 
-def hotelling_rejects(diff: np.ndarray, cov: np.ndarray, clusters: int, level: float = REJECT_LEVEL) -> bool:
-    """Whether a difference ``diff`` (q,) of a fit's estimates from a model's, with the fit's covariance ``cov``
-    (q, q) from ``clusters`` independent clusters, rejects the model at ``level``: Hotelling's T² against its F
-    bound, q·(g − 1)/(g − q)·F(q, g − q). False where it cannot be judged (too few clusters, a covariance that
-    is not finite or singular)."""
-    q, g = diff.size, clusters
-    if g <= q + 1 or not np.all(np.isfinite(cov)):
-        return False
-    try:
-        t2 = float(diff @ np.linalg.solve(cov, diff))
-    except np.linalg.LinAlgError:
-        return False
-    return t2 > q * (g - 1) / (g - q) * float(stats.f.ppf(level, q, g - q))
-
-
 Log = Callable[[str], None]
 Score = Callable[[SurgeModel], float]
 """A model's error on the held-out tail (lower is better; NaN: cannot be judged)."""
 
 
-class SurgeAdapter:
+class SurgeAdapter(Adopter[SurgeModel]):
     """Collects (t, mean surge force since the previous sample, surge through the water) live and keeps the
-    twin's surge model current."""
+    twin's surge model current by the rule of :mod:`~boat_twin.shadow.adopter`."""
 
     def __init__(self, base: VesselParams, *, horizon_s: float = 600.0, holdout_s: float = 120.0,
                  period_s: float = 30.0, latency_s: float = 0.0, log: Log | None = None) -> None:
+        super().__init__(SurgeModel(mass_kg=base.mass_kg, resistance_factor=1.0), period_s=period_s,
+                         margin=ADOPT_MARGIN, log=log)
         self.base = base
-        self.horizon_s, self.holdout_s, self.period_s = horizon_s, holdout_s, period_s
+        self.horizon_s, self.holdout_s = horizon_s, holdout_s
         self.latency_s = latency_s
         """How late a speed sample describes the boat (the GNSS latency), s."""
-        self.log = log or (lambda _line: None)
-        self.current = SurgeModel(base.mass_kg, 1.0)
-        self.previous: list[SurgeModel] = []
-        """Models replaced, latest last: what :meth:`revert` goes back to."""
-        self.candidate: SurgeModel | None = None
-        """The latest fit, adopted or not (its intervals are what the fit says now)."""
-        self.swaps = 0
         self._conflict = False
         self._samples: deque[tuple[float, float, float, float]] = deque()
-        self._next_s = math.nan
-        self.wait_s = period_s
-        """Time to the next update, s: ``period_s``, doubled after each fit that does not reject the current model
-        up to :data:`MAX_WAIT_PERIODS` × ``period_s`` (fewer refits while the model stands)."""
 
     def add(self, t_s: float, force_N: float, speed_mps: float, coupling_N: float = 0.0) -> None:
         """One sample (time increasing; others are ignored): its stamp, the mean surge force since the previous
@@ -436,17 +366,13 @@ class SurgeAdapter:
             self._next_s = t_s + self.holdout_s + self.period_s
 
     def due(self, t_s: float) -> bool:
-        """True when an update is due at ``t_s`` (then scheduled :attr:`wait_s` on)."""
-        if math.isnan(self._next_s) or t_s < self._next_s:
-            return False
-        self._next_s = t_s + self.wait_s
-        return len(self._samples) > 0
+        """True when an update is due at ``t_s`` (then scheduled :attr:`wait_s` on) and there are samples."""
+        return self._scheduled(t_s) and len(self._samples) > 0
 
     def reset(self) -> None:
         """Forget the samples (a restarted recording); the model is kept."""
         self._samples.clear()
-        self._next_s = math.nan
-        self.wait_s = self.period_s
+        super().reset()
 
     def training(self) -> SurgeRecord | None:
         """The horizon without its held-out tail, as the fit reads it (None: too few samples)."""
@@ -484,32 +410,27 @@ class SurgeAdapter:
             # model with its sampling covariance alone does not with wider intervals either
             candidate = with_basis_spread(candidate, self.base, self.current)
         self.candidate = fitted if conflict else candidate
-        standing = candidate is None or not rejects(candidate, self.current, self.base)
-        self.wait_s = min(2.0 * self.wait_s, MAX_WAIT_PERIODS * self.period_s) if standing else self.period_s
-        if self.previous and (candidate is None or not rejects(candidate, self.previous[-1], self.base)):
-            before = score(self.previous[-1])
-            if before < (1.0 - ADOPT_MARGIN) * now:
-                self.revert(f"it predicts the last {self.holdout_s:.0f} s better (velocity RMS "
-                            f"{math.sqrt(now):.3f} → {math.sqrt(before):.3f} m/s) and the newest fit does not "
-                            "reject it")
-                return True
-        if candidate is None or standing or not self._physical(candidate):
-            return False
-        new = score(candidate)
         # a mass identified replaces one only kept at no worse a prediction: a light boat's mass hardly changes the
         # held-out error, so the margin would keep a mass held from an early horizon for good
-        margin = 0.0 if self.current.mass_held and not candidate.mass_held else ADOPT_MARGIN
-        if not new < (1.0 - margin) * now:
-            return False
-        self.previous.append(self.current)
-        self.current = candidate
-        self.swaps += 1
-        self.log(f"adopted surge model: mass {candidate.mass_kg:.0f} kg [{candidate.mass_ci95_kg[0]:.0f}, "
-                 f"{candidate.mass_ci95_kg[1]:.0f}]{' (held)' if candidate.mass_held else ''}, resistance "
-                 f"{candidate.curve} ×{candidate.resistance_factor:.3f} [{candidate.factor_ci95[0]:.3f}, "
-                 f"{candidate.factor_ci95[1]:.3f}] of the configured: held-out velocity RMS "
-                 f"{math.sqrt(now):.3f} → {math.sqrt(new):.3f} m/s")
-        return True
+        margin = 0.0 if candidate is not None and self.current.mass_held and not candidate.mass_held \
+            else ADOPT_MARGIN
+        outcome = self.cycle(
+            candidate, now, score, rejects=lambda fit, model: rejects(fit, model, self.base), margin=margin,
+            revert_why=lambda score_now, before: f"it predicts the last {self.holdout_s:.0f} s better (velocity "
+                                                 f"RMS {math.sqrt(score_now):.3f} → {math.sqrt(before):.3f} m/s) and "
+                                                 "the newest fit does not reject it")
+        if outcome.standing:
+            self.back_off()
+        else:
+            self.wait_s = self.period_s
+        if outcome.changed == "adopted":
+            adopted = self.current
+            self.log(f"adopted surge model: mass {adopted.mass_kg:.0f} kg [{adopted.mass_ci95_kg[0]:.0f}, "
+                     f"{adopted.mass_ci95_kg[1]:.0f}]{' (held)' if adopted.mass_held else ''}, resistance "
+                     f"{adopted.curve} ×{adopted.resistance_factor:.3f} [{adopted.factor_ci95[0]:.3f}, "
+                     f"{adopted.factor_ci95[1]:.3f}] of the configured: held-out velocity RMS "
+                     f"{math.sqrt(now):.3f} → {math.sqrt(outcome.score):.3f} m/s")
+        return outcome.changed is not None
 
     def _physical(self, model: SurgeModel) -> bool:
         """Within :data:`FACTOR_RANGE` of the configured boat, and a boat whose turning can be derived (the
@@ -525,16 +446,10 @@ class SurgeAdapter:
             return False
         return True
 
-    def revert(self, why: str = "asked") -> bool:
-        """Go back to the model replaced last (logged); False when there is none."""
-        if not self.previous:
-            return False
-        replaced, self.current = self.current, self.previous.pop()
-        self.swaps += 1
-        self.log(f"reverted surge model to mass {self.current.mass_kg:.0f} kg, resistance "
-                 f"×{self.current.resistance_factor:.3f} (from {replaced.mass_kg:.0f} kg, "
-                 f"×{replaced.resistance_factor:.3f}): {why}")
-        return True
+    def _describe(self, back_to: SurgeModel, replaced: SurgeModel) -> str:
+        return (f"reverted surge model to mass {back_to.mass_kg:.0f} kg, resistance "
+                f"×{back_to.resistance_factor:.3f} (from {replaced.mass_kg:.0f} kg, "
+                f"×{replaced.resistance_factor:.3f})")
 
     def vessel(self) -> VesselParams:
         """The configured boat with the current surge model."""

@@ -38,9 +38,8 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.pipeline import TrialDiagnosis, diagnose_trial
 from boat_twin.errors import InputError
-from boat_twin.io.roles import MEASURED_INPUT_ROLES
+from boat_twin.io.roles import COMMAND_ROLES, MEASURED_INPUT_ROLES, SENSOR_ROLES
 from boat_twin.io.trial import Stream, Trial, build_trial
-from boat_twin.shadow.sync import COMMAND_KINDS, SENSOR_KINDS
 
 WINDOW_S = 130.0
 """Recent data each run diagnoses, s: the diagnosis' minimum of 6 replay windows of 20 s, and a margin for a
@@ -114,14 +113,14 @@ class RecentStreams:
     def clear(self) -> None:
         """Forget every sample."""
         self._rows: dict[str, deque[tuple[float, tuple[float, ...]]]] = {
-            kind: deque() for kind in COMMAND_KINDS + SENSOR_KINDS + MEASURED_INPUT_ROLES}
+            kind: deque() for kind in COMMAND_ROLES + SENSOR_ROLES + MEASURED_INPUT_ROLES}
         self.first_s = math.nan
 
     def add(self, kind: str, t_s: float, values: tuple[float, ...]) -> None:
         """One accepted sample (stamp order)."""
         rows = self._rows[kind]
         rows.append((t_s, values))
-        keep_one = kind in COMMAND_KINDS
+        keep_one = kind in COMMAND_ROLES
         while len(rows) > (2 if keep_one else 1) and rows[1 if keep_one else 0][0] < t_s - self.keep_s:
             rows.popleft()
         if math.isnan(self.first_s):
@@ -132,8 +131,8 @@ class RecentStreams:
         InputError when they cannot make one."""
         streams = {}
         for kind, rows in self._rows.items():
-            picked = [r for r in rows if r[0] <= end_s and (r[0] >= start_s or kind in COMMAND_KINDS)]
-            if kind in COMMAND_KINDS:  # only the last command before the start, moved to it
+            picked = [r for r in rows if r[0] <= end_s and (r[0] >= start_s or kind in COMMAND_ROLES)]
+            if kind in COMMAND_ROLES:  # only the last command before the start, moved to it
                 before = [r for r in picked if r[0] < start_s][-1:]
                 picked = [(start_s, r[1]) for r in before] + [r for r in picked if r[0] >= start_s]
             if picked:

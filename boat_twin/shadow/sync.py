@@ -41,7 +41,7 @@ import pymap3d
 
 from boat_twin.config import TwinConfig
 from boat_twin.frames import wrap_pi
-from boat_twin.io.samples import COMMAND_KINDS, SENSOR_KINDS
+from boat_twin.io.roles import COMMAND_ROLES, SENSOR_ROLES
 from boat_twin.io.trial import VALUE_LIMITS
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.params import derive_coefficients
@@ -49,7 +49,7 @@ from boat_twin.vessel.propulsion import surge_thrust_N
 from boat_twin.vessel.tow import tow_drag_table
 from boat_twin.vessel.truth import ground_velocity_enu
 
-KIND_ORDER = {kind: i for i, kind in enumerate(COMMAND_KINDS + SENSOR_KINDS)}
+KIND_ORDER = {kind: i for i, kind in enumerate(COMMAND_ROLES + SENSOR_ROLES)}
 """Samples with one stamp are processed in this order (commands first), whatever order they arrived in."""
 INTEGRATION_STEP_S = 0.05
 """Longest RK4 step of the propagation, s (the diagnosis replays at 20 Hz as well)."""
@@ -210,9 +210,9 @@ class ShadowTwin:
 
     # --- intake ------------------------------------------------------------------------------------------
     def add(self, kind: str, stamp_s: float, values: tuple[float, ...]) -> None:
-        """One sample of stream ``kind`` (:data:`COMMAND_KINDS`: one value; :data:`SENSOR_KINDS`: their
+        """One sample of stream ``kind`` (:data:`COMMAND_ROLES`: one value; :data:`SENSOR_ROLES`: their
         columns; an IMU yaw or acceleration may be NaN, "not provided"), stamped ``stamp_s`` seconds."""
-        if kind not in COMMAND_KINDS + SENSOR_KINDS:
+        if kind not in COMMAND_ROLES + SENSOR_ROLES:
             raise ValueError(f"unknown sample kind {kind!r}")
         needed = values[:2] if kind == "imu" else values
         if not math.isfinite(stamp_s) or not all(math.isfinite(v) for v in needed):
@@ -263,9 +263,9 @@ class ShadowTwin:
     # --- processing --------------------------------------------------------------------------------------
     def _process(self, kind: str, stamp_s: float, values: tuple[float, ...]) -> None:
         self.counts["processed"] += 1
-        if kind in COMMAND_KINDS:
+        if kind in COMMAND_ROLES:
             self._propagate(stamp_s)
-            self.commands[COMMAND_KINDS.index(kind)] = values[0]
+            self.commands[COMMAND_ROLES.index(kind)] = values[0]
             self.sink(kind, stamp_s, values)
             return
         if self.state is not None and stamp_s - self._last_sensor_s > self.settings.gap_s:
@@ -280,7 +280,9 @@ class ShadowTwin:
             self._try_start()
         else:
             self._propagate(stamp_s)
-            getattr(self, f"_correct_{kind}")(stamp_s, values)
+            correct = {"gnss_fix": self._correct_gnss_fix, "gnss_vel": self._correct_gnss_vel,
+                       "imu": self._correct_imu}[kind]
+            correct(stamp_s, values)
         self.sink(kind, stamp_s, values)
 
     def _enu(self, lat_deg: float, lon_deg: float, alt_m: float) -> tuple[float, float]:
@@ -436,11 +438,3 @@ class ShadowTwin:
             commands = np.where(np.isfinite(self.commands), self.commands, 0.0)[None, :]
             return self.dynamics.steering_targets(commands)[0]
         return self._steering[0]
-
-    def ground_velocity(self) -> tuple[float, float]:
-        """The twin's velocity over ground now (east, north), m/s (NaN before synchronisation)."""
-        if self.state is None:
-            return math.nan, math.nan
-        _, _, yaw, u, v, _ = self.state
-        ve, vn = ground_velocity_enu(yaw, u, v, *self._environment[0, :2])
-        return float(ve), float(vn)

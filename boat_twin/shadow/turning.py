@@ -53,14 +53,8 @@ from boat_twin.ident.manoeuvring import (
     fit_manoeuvring,
 )
 from boat_twin.io.trial import Trial
-from boat_twin.shadow.adapt import (
-    COUPLING_SCALE_SD,
-    COUPLING_STATE_SD,
-    FACTOR_RANGE,
-    MAX_WAIT_PERIODS,
-    REJECT_LEVEL,
-    hotelling_rejects,
-)
+from boat_twin.shadow.adapt import COUPLING_SCALE_SD, COUPLING_STATE_SD
+from boat_twin.shadow.adopter import FACTOR_RANGE, REJECT_LEVEL, Adopter, hotelling_rejects
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.vessel.params import VesselParams, derive_coefficients
 
@@ -118,7 +112,7 @@ def coefficients(vessel: VesselParams) -> dict[str, float]:
     return {key: float(getattr(derived, key)) for key in LIVE_KEYS}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TurningModel:
     """Turning coefficients (:data:`LIVE_KEYS`) with their 95 % intervals; empty ``values``: the configured boat's
     (derived from its mass and reference turn as the mass changes)."""
@@ -144,11 +138,12 @@ class TurningModel:
         index = [fit.fitted.index(k) for k in LIVE_KEYS]
         stderr = np.array([fit.stderr[k] for k in LIVE_KEYS])
         cov = fit.correlation[np.ix_(index, index)] * np.outer(stderr, stderr)
-        return cls({k: fit.values[k] for k in LIVE_KEYS}, {k: fit.ci95[k] for k in LIVE_KEYS},
-                   tuple(tuple(float(x) for x in row) for row in cov), fit.windows, dict(fit.residual_to_noise),
-                   tuple(k for k in LIVE_KEYS if k in fit.not_identified),
-                   any(r > LIVE_MISFIT_RATIO[s] for s, r in fit.residual_to_noise.items()),
-                   {k: (fit.values[k], *fit.ci95[k]) for k in SURGE_FACTOR_KEYS if k in fit.fitted})
+        return cls(values={k: fit.values[k] for k in LIVE_KEYS}, ci95={k: fit.ci95[k] for k in LIVE_KEYS},
+                   covariance=tuple(tuple(float(x) for x in row) for row in cov), windows=fit.windows,
+                   residual_to_noise=dict(fit.residual_to_noise),
+                   not_identified=tuple(k for k in LIVE_KEYS if k in fit.not_identified),
+                   misfit=any(r > LIVE_MISFIT_RATIO[s] for s, r in fit.residual_to_noise.items()),
+                   surge_factors={k: (fit.values[k], *fit.ci95[k]) for k in SURGE_FACTOR_KEYS if k in fit.fitted})
 
     def config(self, base: TwinConfig) -> TwinConfig:
         """``base`` turning with these coefficients (unchanged for the configured ones)."""
@@ -190,45 +185,27 @@ Score = Callable[[TurningModel], float]
 """A turning model's error on the held-out tail (lower is better; NaN: cannot be judged)."""
 
 
-class TurningAdapter:
-    """Keeps the twin's turning coefficients current from the steering in the recent stream (module docstring).
+class TurningAdapter(Adopter[TurningModel]):
+    """Keeps the twin's turning coefficients current from the steering in the recent stream, by the rule of
+    :mod:`~boat_twin.shadow.adopter` (module docstring).
 
     The caller (:class:`~boat_twin.shadow.session.Shadow`) says when an update is :meth:`due`, and gives the
     training stretch, the twin's config with the current model (its surge held by the fit) and the held-out
     score."""
 
     def __init__(self, configured: VesselParams, *, period_s: float = 60.0, log: Log | None = None) -> None:
+        super().__init__(TurningModel(), period_s=period_s, margin=ADOPT_MARGIN, log=log)
         self.configured = coefficients(configured)
-        self.period_s = period_s
-        self.log = log or (lambda _line: None)
-        self.current = TurningModel()
-        self.previous: list[TurningModel] = []
-        self.candidate: TurningModel | None = None
-        """The latest fit, adopted or not."""
-        self.swaps = 0
         self.fits = 0
         """Fits made (tries on a horizon that steered enough), -."""
         self.excitation: tuple[float, int] = (0.0, 0)
         """The latest training stretch's :func:`steering_excitation`."""
-        self.wait_s = period_s
-        self._next_s = math.nan
 
     def due(self, t_s: float, first_s: float) -> bool:
         """True when an update is due at ``t_s`` (then scheduled :attr:`wait_s` on); ``first_s``: the earliest."""
         if math.isnan(self._next_s):
             self._next_s = first_s
-        if t_s < self._next_s:
-            return False
-        self._next_s = t_s + self.wait_s
-        return True
-
-    def reset(self) -> None:
-        """A restarted stream: the schedule starts again; the model is kept."""
-        self._next_s = math.nan
-        self.wait_s = self.period_s
-
-    def _back_off(self) -> None:
-        self.wait_s = min(2.0 * self.wait_s, MAX_WAIT_PERIODS * self.period_s)
+        return self._scheduled(t_s)
 
     def update(self, training: Trial, plain: TwinConfig, score: Score) -> bool:
         """Fit a candidate on ``training`` and adopt it, or revert, by the module docstring's rule; ``plain``: the
@@ -239,7 +216,7 @@ class TurningAdapter:
         self.excitation = steering_excitation(training)
         ratio, reversals = self.excitation
         if ratio < YAW_EXCITATION_RATIO or reversals < MIN_REVERSALS:
-            self._back_off()
+            self.back_off()
             return False
         now = score(self.current)
         if not math.isfinite(now):
@@ -253,31 +230,23 @@ class TurningAdapter:
             candidate = None
         self.fits += 1
         self.candidate = candidate
-        standing = candidate is None or not candidate.rejects(coefficients(self.current.config(plain).vessel))
-        self._back_off()  # until the coefficients change: a fit that cannot be adopted is not tried every period
-        if self.previous and (candidate is None
-                              or not candidate.rejects(coefficients(self.previous[-1].config(plain).vessel))):
-            before = score(self.previous[-1])
-            if before < (1.0 - ADOPT_MARGIN) * now:
-                self.revert(f"they predict the held-out tail better (normalized MSE {now:.2f} → {before:.2f}) "
-                            "and the newest fit does not reject them")
-                self.wait_s = self.period_s
-                return True
-        if candidate is None or standing or candidate.misfit or candidate.not_identified \
-                or not self._physical(candidate):
+        self.back_off()  # until the coefficients change: a fit that cannot be adopted is not tried every period
+        outcome = self.cycle(
+            candidate, now, score, margin=ADOPT_MARGIN,
+            rejects=lambda fit, model: fit.rejects(coefficients(model.config(plain).vessel)),
+            revert_why=lambda score_now, before: f"they predict the held-out tail better (normalized MSE "
+                                                 f"{score_now:.2f} → {before:.2f}) and the newest fit does not "
+                                                 "reject them")
+        if outcome.changed is None:
             return False
-        new = score(candidate)
-        if not new < (1.0 - ADOPT_MARGIN) * now:
-            return False
-        self.previous.append(self.current)
-        self.current = candidate
-        self.swaps += 1
         self.wait_s = self.period_s
-        described = ", ".join(f"{k} ×{candidate.values[k] / self.configured[k]:.3f} "
-                              f"[{candidate.ci95[k][0] / self.configured[k]:.3f}, "
-                              f"{candidate.ci95[k][1] / self.configured[k]:.3f}]" for k in LIVE_KEYS)
-        self.log(f"adopted turning coefficients ({described} of the configured): held-out normalized MSE "
-                 f"{now:.2f} → {new:.2f}")
+        if outcome.changed == "adopted":
+            adopted = self.current
+            described = ", ".join(f"{k} ×{adopted.values[k] / self.configured[k]:.3f} "
+                                  f"[{adopted.ci95[k][0] / self.configured[k]:.3f}, "
+                                  f"{adopted.ci95[k][1] / self.configured[k]:.3f}]" for k in LIVE_KEYS)
+            self.log(f"adopted turning coefficients ({described} of the configured): held-out normalized MSE "
+                     f"{now:.2f} → {outcome.score:.2f}")
         return True
 
     def coupling_sd(self, vessel: VesselParams) -> float:
@@ -299,19 +268,16 @@ class TurningAdapter:
         return math.sqrt(max(variance, 0.0) + distance**2 + COUPLING_STATE_SD**2)
 
     def _physical(self, model: TurningModel) -> bool:
+        """A fit that neither misfits nor leaves a coefficient unidentified, each within :data:`FACTOR_RANGE` of
+        the configured boat's."""
         low, high = FACTOR_RANGE
-        return all(low <= model.values[k] / self.configured[k] <= high for k in LIVE_KEYS)
+        return not (model.misfit or model.not_identified) \
+            and all(low <= model.values[k] / self.configured[k] <= high for k in LIVE_KEYS)
 
-    def revert(self, why: str = "asked") -> bool:
-        """Go back to the coefficients replaced last (logged); False when there are none."""
-        if not self.previous:
-            return False
-        self.current = self.previous.pop()
-        self.swaps += 1
-        back = "the configured boat's" if not self.current.values else ", ".join(
-            f"{k} ×{self.current.values[k] / self.configured[k]:.3f}" for k in LIVE_KEYS)
-        self.log(f"reverted turning coefficients to {back}: {why}")
-        return True
+    def _describe(self, back_to: TurningModel, replaced: TurningModel) -> str:
+        back = "the configured boat's" if not back_to.values else ", ".join(
+            f"{k} ×{back_to.values[k] / self.configured[k]:.3f}" for k in LIVE_KEYS)
+        return f"reverted turning coefficients to {back}"
 
     def to_dict(self, vessel: VesselParams) -> dict[str, Any]:
         """The adopted coefficients with intervals, the latest fit and the counters, JSON-ready; ``vessel``: the

@@ -18,6 +18,7 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.frames import quaternion_yaw_rad
 from boat_twin.io import messages
+from boat_twin.io.roles import COMMAND_ROLES
 from boat_twin.io.trial import Stream, Trial, build_trial
 from boat_twin.sensors.gnss import GnssMeasurements, GnssModel
 from boat_twin.sensors.um7 import ImuMeasurements, Um7Model
@@ -182,7 +183,7 @@ def measured_trial(record: SimulationRecord, boat: int, config: TwinConfig, rng:
 
     yaw = quaternion_yaw_rad(*imu.quaternion_xyzw.T)  # as the bag reader takes it from the orientation
     streams = {role: stamped(record.command_stamps_s(boat), commands[:, k])
-               for k, role in enumerate(("thrust_left", "thrust_right", "angle_left", "angle_right"))}
+               for k, role in enumerate(COMMAND_ROLES)}
     streams["gnss_fix"] = stamped(gnss.stamp_s, gnss.lat_deg, gnss.lon_deg, gnss.alt_m)
     streams["gnss_vel"] = stamped(gnss.stamp_s, gnss.vel_east_mps, gnss.vel_north_mps)
     streams["imu"] = stamped(imu.stamp_s, yaw, imu.gyro_radps[:, 2], imu.accel_mps2[:, 0], imu.accel_mps2[:, 1])

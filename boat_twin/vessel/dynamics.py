@@ -2,6 +2,7 @@
 
 State per boat, SI: ``[east_m, north_m, yaw_rad, u_mps, v_mps, r_radps]`` — position in the ENU world frame,
 ENU yaw, and the body-frame (FLU) velocity *through the water* (u forward, v to port) and yaw rate.
+Commands per boat: ``[thrust_left_N, thrust_right_N, angle_left_rad, angle_right_rad]`` (the VRX convention).
 In a constant, irrotational current the rigid-body and added-mass terms can be written in the relative
 velocity alone (Fossen 2011, Property 8.1), so::
 
@@ -49,11 +50,6 @@ from boat_twin.vessel.actuators import (
 from boat_twin.vessel.helms import CompiledHelm, fresh_memory, helm_command
 from boat_twin.vessel.params import WINDAGE_DRAG_COEFFICIENT, VesselParams, derive_coefficients
 from boat_twin.vessel.steering import steering_target
-
-STATE_NAMES = ("east_m", "north_m", "yaw_rad", "u_mps", "v_mps", "r_radps")
-"""Order of the state vector's components."""
-COMMAND_NAMES = ("thrust_left_N", "thrust_right_N", "angle_left_rad", "angle_right_rad")
-"""Order of the command vector's components (per-engine thrust and steering angle, the VRX convention)."""
 
 configure_openmp()  # before the first parallel kernel loads the OpenMP runtime: idle threads sleep, never spin
 
