@@ -50,7 +50,7 @@ Method (docs/diagnosis.md states it with the numbers):
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -131,6 +131,10 @@ class Residuals:
         return np.stack([np.sum(np.isfinite(self.values[s]), axis=0) for s in SIGNALS])
 
 
+RELEASED = Residuals({}, Prediction({}, np.zeros((0, 0, 2))))
+"""The residuals of a released fit (:meth:`Fit.released`): none; reading a signal of them is a KeyError."""
+
+
 @dataclass
 class Fit:
     """A model (effects with parameters) fitted to a trial, with its held-out judgement."""
@@ -146,6 +150,12 @@ class Fit:
     residuals: Residuals
     n_eff: np.ndarray = field(default_factory=lambda: np.zeros(len(SIGNALS)))
     """(n_signals,) effective sample sizes of the residuals."""
+
+    def released(self) -> Fit:
+        """This fit without its residuals (:data:`RELEASED`): a judged candidate that cannot become the model keeps
+        its parameters and sums of squares for the report, not its (T, m) arrays (on a 6-hour trial ~20 MB a fit,
+        ~40 fits a diagnosis)."""
+        return replace(self, residuals=RELEASED)
 
     def split(self) -> list[tuple[Effect, np.ndarray, np.ndarray]]:
         """(effect, values, stderr) per effect."""
@@ -205,7 +215,9 @@ class Diagnosis:
         try:
             prediction = predict(self.windows, config)
         except InputError:  # parameters the boat cannot have (e.g. a reference turn it could not hold)
-            infeasible = {s: np.full(self.windows.t_s.shape, INFEASIBLE_RESIDUAL) for s in SIGNALS}
+            # (a signal the windows do not measure stays unmeasured: NaN, as in every feasible fit)
+            infeasible = {s: np.where(np.isfinite(self.windows.measured[s]), INFEASIBLE_RESIDUAL, np.nan)
+                          for s in SIGNALS}
             return Residuals(infeasible, Prediction(infeasible, np.zeros(self.windows.position.shape)),
                              np.zeros((self.projection.stdev.size, self.windows.t_s.shape[1])))
         corrected, prior = self.projection.apply(stack_signals(self.windows, prediction.signals, self.scale))
@@ -512,8 +524,11 @@ def _round(diagnosis: Diagnosis, current: Fit, remaining: dict[str, Effect], flo
         start = np.concatenate([current.values, effect.null])
         fit = diagnosis.fit(current.effects + [effect], start)
         _, values, _ = fit.split()[-1]
-        round_.append(Candidate(effect, fit, delta_bic(fit, current), effect.magnitude(values),
-                                on_bound(effect, values), takes_over(fit, current)))
+        candidate = Candidate(effect, fit, delta_bic(fit, current), effect.magnitude(values),
+                              on_bound(effect, values), takes_over(fit, current))
+        if candidate.failed_conditions:  # (outranked below only adds a failure)
+            candidate.fit = fit.released()
+        round_.append(candidate)
     small = [c.delta_bic for c in round_ if below_floor(c)]
     for candidate in round_:
         candidate.outranked = bool(small) and candidate.delta_bic > min(small)
@@ -526,6 +541,9 @@ def _round(diagnosis: Diagnosis, current: Fit, remaining: dict[str, Effect], flo
             candidate.claims, candidate.share, candidate.leaves_noise = misfit_share(fit, current, floor)
             candidate.worsens = misfit_rise(fit, current, floor)
             candidate.beyond_normal = beyond_normal(candidate.claims, current, floor, diagnosis.normal)
+    for candidate in round_:
+        if not (candidate.named or candidate.short_of_share):  # it can become neither the model nor a pair's first
+            candidate.fit = candidate.fit.released()
     return round_
 
 
@@ -572,6 +590,7 @@ def forward_select(diagnosis: Diagnosis, effects: dict[str, Effect]) -> Selectio
             chosen += [first, second]
             current = second.fit
             remaining = {k: e for k, e in rest.items() if k != second.effect.name}
+            _release(rounds, current)
             continue
         best = min(named, key=lambda c: c.delta_bic)
         if one_heading and (ambiguous := _wind_ambiguity(named, best)):
@@ -581,4 +600,14 @@ def forward_select(diagnosis: Diagnosis, effects: dict[str, Effect]) -> Selectio
         chosen.append(best)
         current = best.fit
         del remaining[best.effect.name]
+        _release(rounds, current)
+    _release(rounds, current)
     return Selection(baseline, current, rounds, chosen, ambiguous)
+
+
+def _release(rounds: list[list[Candidate]], current: Fit) -> None:
+    """Release every candidate's fit but the ``current`` model's (:meth:`Fit.released`): a selection holds the
+    residuals of its baseline and its final model only, so its memory does not grow with the rounds."""
+    for candidate in (c for round_ in rounds for c in round_):
+        if candidate.fit is not current:
+            candidate.fit = candidate.fit.released()
