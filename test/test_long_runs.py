@@ -68,6 +68,15 @@ def test_identify_imports_neither_the_diagnosis_nor_the_live_twin(tmp_path) -> N
     assert json.loads(run.stdout.strip().splitlines()[-1]) == []
 
 
+def test_diagnose_json_draws_nothing_and_imports_no_plotting(tmp_path) -> None:
+    """``diagnose --json`` writes no figure, so it does not import matplotlib (~0.5 s of a 10-minute trial's CPU;
+    issue 37 asks ≤ 3 s)."""
+    sample = ROOT / "bags" / "thrust_steps_sample"
+    code = (f"import contextlib, io\nfrom boat_twin.cli import main\nwith contextlib.redirect_stdout(io.StringIO()):\n"
+            f"    assert main(['diagnose', {str(sample)!r}, '--json']) == 0")
+    assert "matplotlib" not in _loaded_after(code)
+
+
 BLAS_THREADS = ("import sys\nfrom boat_twin import cli\n"
                 "class Args:\n    @staticmethod\n    def handler(args):\n"
                 "        import numpy, threadpoolctl\n"

@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Any, TypedDict
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from boat_twin.diagnose.search import (
     BIC_THRESHOLD,
@@ -20,6 +19,9 @@ from boat_twin.diagnose.search import (
 from boat_twin.diagnose.structure import MISFIT_FACTOR, Signature, SignatureResult
 from boat_twin.diagnose.table import TableDiagnosis
 from boat_twin.twin.replay import SIGNALS, Prediction, Windows, measured_signals, residual
+
+if TYPE_CHECKING:  # matplotlib is imported by the figures only: `diagnose --json` draws none
+    from matplotlib.figure import Figure
 
 UNITS = {"vel_east_mps": "m/s", "vel_north_mps": "m/s", "yaw_rate_radps": "rad/s", "heading_rad": "rad",
          "accel_x_mps2": "m/s²", "speed_mps": "m/s", "position_m": "m"}
@@ -353,6 +355,8 @@ def _same_prediction(baseline: Prediction, extended: Prediction, signals: list[s
 def signal_figure(windows: Windows, baseline: Prediction, extended: Prediction, signals: list[str]) -> Figure:
     """Measured vs baseline vs extended prediction for each signal concerned (the baseline drawn wide and light
     under the extended model, so that both show where they agree)."""
+    from matplotlib.figure import Figure
+
     same = _same_prediction(baseline, extended, signals)
     fig = Figure(figsize=(10, 2.6 * len(signals)), layout="constrained")
     for ax, s in zip(fig.subplots(len(signals), 1, squeeze=False, sharex=True)[:, 0], signals, strict=True):
@@ -374,6 +378,8 @@ def signal_figure(windows: Windows, baseline: Prediction, extended: Prediction, 
 
 def residual_figure(windows: Windows, baseline: Prediction, extended: Prediction) -> Figure:
     """Residuals (measured − predicted) of every signal before and after the extension."""
+    from matplotlib.figure import Figure
+
     signals = measured_signals(windows)
     same = _same_prediction(baseline, extended, signals)
     fig = Figure(figsize=(10, 2.25 * len(signals)), layout="constrained")
@@ -396,6 +402,8 @@ def residual_figure(windows: Windows, baseline: Prediction, extended: Prediction
 
 def evidence_figure(result: DiagnosisResult) -> Figure:
     """ΔBIC and held-out gain of every candidate in round 1, with the decision thresholds."""
+    from matplotlib.figure import Figure
+
     first = sorted([c for c in result["candidates"] if c["round"] == 1], key=lambda c: c["delta_bic"])
     names = [c["effect"] for c in first]
     from matplotlib.ticker import FuncFormatter
@@ -458,6 +466,8 @@ def table_text(result: dict[str, Any], diag: TableDiagnosis) -> str:
 
 def table_figure(diag: TableDiagnosis) -> Figure:
     """Table 1 with the paper's fit and the extended one; residuals of both."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(8, 6), layout="constrained")
     ax, ax_r = fig.subplots(2, 1, sharex=True, height_ratios=(2, 1))
     ax.plot(diag.speed, diag.force, "o", ms=4, label="Table 1")

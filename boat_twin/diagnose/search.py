@@ -54,7 +54,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.stats import t as student_t
+from scipy.special import stdtrit
 
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.effects import EFFECTS, Effect
@@ -293,7 +293,7 @@ def heldout_gain(new: Fit, old: Fit) -> float:
 
 def ci95(values: np.ndarray, stderr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """95 % interval with the t quantile of FOLDS − 1 degrees of freedom."""
-    half = student_t.ppf(0.975, FOLDS - 1) * stderr
+    half = stdtrit(FOLDS - 1, 0.975) * stderr
     return values - half, values + half
 
 

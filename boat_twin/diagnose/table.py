@@ -18,8 +18,7 @@ from typing import Any
 
 import numpy as np
 from numpy.polynomial import polynomial
-from scipy.stats import norm
-from scipy.stats import t as student_t
+from scipy.special import ndtr, stdtrit
 
 from boat_twin.diagnose.search import BIC_THRESHOLD, MIN_HELDOUT_GAIN
 
@@ -56,7 +55,7 @@ def runs_test_p(residual: np.ndarray) -> float:
     n = n_pos + n_neg
     mean = 2.0 * n_pos * n_neg / n + 1.0
     var = (mean - 1.0) * (mean - 2.0) / (n - 1.0)
-    return float(2.0 * norm.sf(abs(runs - mean) / np.sqrt(max(var, 1e-12))))
+    return float(2.0 * ndtr(-abs(runs - mean) / np.sqrt(max(var, 1e-12))))
 
 
 def _plateau(speed: np.ndarray, force: np.ndarray) -> tuple[float, float] | None:
@@ -115,7 +114,7 @@ def diagnose_table(speed: np.ndarray, force: np.ndarray, coefficients: tuple[flo
     sse = float(np.sum((residual - fitted) ** 2))
     dof = n - k
     cov = sse / dof * np.linalg.inv(design.T @ design)
-    half = student_t.ppf(0.975, dof) * np.sqrt(np.diag(cov))
+    half = stdtrit(dof, 0.975) * np.sqrt(np.diag(cov))
     ci = np.column_stack([coef - half, coef + half])
     delta_bic = float(n * np.log(sse / sse_base) + k * np.log(n))
     gain = 1.0 - cv_sse / sse_base

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.stats import t as student_t
+from scipy.special import stdtrit
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
@@ -528,7 +528,7 @@ class _Problem:
         t_value = score / math.sqrt(variance) if variance > 0.0 else 0.0
         curvature = float(s @ s)
         delay = -score / curvature * shift_s if curvature > 0.0 else 0.0
-        half = (float(student_t.ppf(0.975, max(groups.size - p_count - 1, 1))) * math.sqrt(variance) / curvature
+        half = (float(stdtrit(max(groups.size - p_count - 1, 1), 0.975)) * math.sqrt(variance) / curvature
                 * shift_s if curvature > 0.0 else math.inf)
         return {"t": t_value, "flagged": bool(abs(t_value) > TIMING_T_LIMIT), "t_limit": TIMING_T_LIMIT,
                 "delay_s": delay, "delay_ci95_s": [delay - half, delay + half]}
@@ -632,7 +632,7 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     evaluations = problem.evaluations
     cov, groups = jackknife_covariance(jac, fun, problem.clusters())
     stderr = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    quantile = float(student_t.ppf(0.975, max(groups - len(free), 1)))
+    quantile = float(stdtrit(max(groups - len(free), 1), 0.975))
     values = problem.values(x)
     not_identified = {}
     for p, se in zip(problem.free, stderr, strict=True):
