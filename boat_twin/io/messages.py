@@ -66,6 +66,7 @@ LIVE_TOPICS: dict[str, str] = {
 """Topics only the simulator node publishes (never in a bag the twin writes)."""
 
 COMMAND_TOPICS = (TOPIC_THRUST_LEFT, TOPIC_THRUST_RIGHT, TOPIC_ANGLE_LEFT, TOPIC_ANGLE_RIGHT)
+"""The default layout's command topics in the column order of a commands array (n, 4)."""
 
 
 def command_topics(propulsion: Propulsion | None) -> dict[str, str]:
@@ -102,7 +103,6 @@ def topic_type(topic: str) -> str:
     if ACTUATOR_TOPIC.match(topic):
         return "std_msgs/msg/Float64"
     raise KeyError(topic)
-"""Command topics in the column order of a commands array (n, 4)."""
 
 FRAME_MAP = "map"
 FRAME_BASE = "base_link"
