@@ -74,3 +74,15 @@ def test_a_boat_files_mass_held_is_not_reported_as_identified(skid) -> None:
     held = [w for w in report["warnings"] if "kg is held in the model" in w]  # said, not only in the text
     assert len(held) == 1 and "do not identify the mass" in held[0], report["warnings"]
     assert f"(with its added mass) {report['model']['effective_mass_kg']:.0f} kg is held" in held[0]
+
+
+def test_a_line_after_the_batch_progress_bar_starts_on_its_own_line(capsys) -> None:
+    """The batch bar is the one progress line (boat_twin.progress_line): an error or stop line ends it first."""
+    from boat_twin import progress_line
+    from boat_twin.fleet.batch import Progress
+
+    bar = Progress("diagnose", 3)
+    bar.update({"status": "ok"})
+    progress_line.end()  # what the verbs' error and stop paths call before their line
+    err = capsys.readouterr().err
+    assert err.startswith("\rdiagnose [") and "1/3, 0 error(s)" in err and err.endswith("\n")

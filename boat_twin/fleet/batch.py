@@ -30,13 +30,13 @@ import os
 import re
 import resource
 import socket
-import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
+from boat_twin import progress_line
 from boat_twin.errors import InputError
 from boat_twin.files import (
     OutputClaim,
@@ -199,13 +199,13 @@ def _complete_row(report_dir: Path) -> dict[str, Any] | None:
 
 
 class Progress:
-    """A progress bar on stderr: trials done of all, errors, elapsed time."""
+    """A progress bar on stderr (:mod:`boat_twin.progress_line`: a stop or error line starts on its own line):
+    trials done of all, errors, elapsed time."""
 
     WIDTH = 30
 
-    def __init__(self, verb: str, total: int, stream: Any = None) -> None:
+    def __init__(self, verb: str, total: int) -> None:
         self.verb, self.total, self.done, self.errors = verb, total, 0, 0
-        self.stream = stream if stream is not None else sys.stderr
         self.start = time.monotonic()
 
     def update(self, row: dict[str, Any]) -> None:
@@ -214,11 +214,10 @@ class Progress:
         self.errors += row["status"] == ERROR
         filled = self.WIDTH * self.done // max(self.total, 1)
         elapsed = time.monotonic() - self.start
-        self.stream.write(f"\r{self.verb} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {self.done}/{self.total}"
-                          f", {self.errors} error(s), {elapsed:.0f} s")
+        progress_line.show(f"{self.verb} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {self.done}/{self.total}"
+                           f", {self.errors} error(s), {elapsed:.0f} s")
         if self.done == self.total:
-            self.stream.write("\n")
-        self.stream.flush()
+            progress_line.end()
 
 
 def run_batch(job: Job, tasks: Sequence[TrialTask], out: Path, client: Any = None, *, force: bool = False,
