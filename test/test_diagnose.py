@@ -318,7 +318,8 @@ def _fit(sse: list[float]) -> Fit:
     """A fit judged on held-out windows with the held-out SSE ``sse`` per motion signal (normalized residuals),
     of a trial without an accelerometer (its SSE 0)."""
     sse = sse + [0.0] * (len(SIGNALS) - len(sse))
-    return Fit([], np.zeros(0), np.zeros(0), np.array(sse), np.array(sse), residuals=None)  # type: ignore[arg-type]
+    return Fit(effects=[], values=np.zeros(0), stderr=np.zeros(0), sse=np.array(sse), heldout_sse=np.array(sse),
+               residuals=None)  # type: ignore[arg-type]
 
 
 def _floor(n: float) -> np.ndarray:

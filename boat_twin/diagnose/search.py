@@ -135,7 +135,7 @@ RELEASED = Residuals({}, Prediction({}, np.zeros((0, 0, 2))))
 """The residuals of a released fit (:meth:`Fit.released`): none; reading a signal of them is a KeyError."""
 
 
-@dataclass
+@dataclass(frozen=True, kw_only=True)
 class Fit:
     """A model (effects with parameters) fitted to a trial, with its held-out judgement."""
 
@@ -251,14 +251,17 @@ class Diagnosis:
         if not effects:
             res = self.residuals(self.base)
             sse = res.sse().sum(axis=1)
-            return self._finish(Fit(effects, null, np.zeros(0), sse, sse, res))
+            return self._finish(Fit(effects=effects, values=null, stderr=np.zeros(0), sse=sse, heldout_sse=sse,
+                                    residuals=res))
         values = self._fit_values(effects, start, np.ones(self.folds.size, dtype=bool))
         res = self.residuals(self.config(effects, values))
         unjudged = np.full(len(SIGNALS), np.nan)
-        return self._finish(Fit(effects, values, np.full(values.size, np.nan), res.sse().sum(axis=1), unjudged, res))
+        return self._finish(Fit(effects=effects, values=values, stderr=np.full(values.size, np.nan),
+                                sse=res.sse().sum(axis=1), heldout_sse=unjudged, residuals=res))
 
     def judge(self, fit: Fit) -> Fit:
-        """Refit ``fit``'s effects without each fold in turn: held-out SSE and jackknife standard errors."""
+        """``fit`` with its held-out judgement: its effects refitted without each fold in turn, the held-out SSE
+        and the jackknife standard errors."""
         heldout = np.zeros(len(SIGNALS))
         folds = []
         for k in range(FOLDS):
@@ -267,15 +270,13 @@ class Diagnosis:
             folds.append(fold)
             heldout += self.residuals(self.config(fit.effects, fold)).sse()[:, held].sum(axis=1)
         fold_values = np.array(folds)
-        fit.stderr = np.sqrt((FOLDS - 1) / FOLDS * np.sum((fold_values - fold_values.mean(axis=0)) ** 2, axis=0))
-        fit.heldout_sse = heldout
-        return fit
+        stderr = np.sqrt((FOLDS - 1) / FOLDS * np.sum((fold_values - fold_values.mean(axis=0)) ** 2, axis=0))
+        return replace(fit, stderr=stderr, heldout_sse=heldout)
 
     def _finish(self, fit: Fit) -> Fit:
         counts = fit.residuals.counts().sum(axis=1)
         tau = np.array([correlation_time(fit.residuals.values[s]) for s in SIGNALS])
-        fit.n_eff = counts / tau
-        return fit
+        return replace(fit, n_eff=counts / tau)
 
 
 def delta_bic(new: Fit, old: Fit) -> float:
@@ -535,7 +536,7 @@ def _round(diagnosis: Diagnosis, current: Fit, remaining: dict[str, Effect], flo
         effect, fit = candidate.effect, candidate.fit
         _, values, _ = fit.split()[-1]
         if candidate.plausible:  # the held-out judgement costs FOLDS more fits: only where it can matter
-            diagnosis.judge(fit)
+            fit = candidate.fit = diagnosis.judge(fit)
             candidate.heldout_gain = heldout_gain(fit, current)
             candidate.significant = excludes_null(effect, values, fit.split()[-1][2])
             candidate.claims, candidate.share, candidate.leaves_noise = misfit_share(fit, current, floor)

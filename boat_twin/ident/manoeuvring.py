@@ -544,7 +544,7 @@ class _Problem:
         return np.concatenate(labels)
 
 
-@dataclass
+@dataclass(frozen=True, kw_only=True)
 class ManoeuvringFit:
     """A fit and its statistics; :meth:`to_dict` is the ``--json`` contract's ``manoeuvring`` block."""
 

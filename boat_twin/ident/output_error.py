@@ -57,7 +57,7 @@ alone); the selected fit and the baseline are therefore refitted with the next r
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numba
@@ -269,7 +269,7 @@ def _simulate(t_s: np.ndarray, thrust: np.ndarray, coupling: np.ndarray, scale: 
     return out
 
 
-@dataclass
+@dataclass(frozen=True, kw_only=True)
 class SurgeFit:
     """One output-error fit (SI): coefficients, effective mass, covariance and what the fit left."""
 
@@ -650,9 +650,11 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
     n_params = problem.p + (mass_kg is None)
     param_cov[:n_params, :n_params] = cov[:n_params, :n_params]
     scale_sd = float(np.sqrt(max(cov[scale_at, scale_at], 0.0))) if problem.coupled else 0.0
-    return SurgeFit(basis, np.array(coeffs), mass, mass_kg is not None, np.array(u0), residual, param_cov, clusters,
-                    cluster_s, top, problem.evaluations, problem.coupled, problem.scale(result.x), scale_sd,
-                    coupling_prior_sd=prior_sd)
+    return SurgeFit(basis=basis, coefficients=np.array(coeffs), mass_kg=mass, mass_fixed=mass_kg is not None,
+                    initial_speeds_mps=np.array(u0), residual_mps=residual, covariance=param_cov, clusters=clusters,
+                    cluster_s=cluster_s, top_speed_mps=top, evaluations=problem.evaluations,
+                    coupling_fitted=problem.coupled, coupling_scale=problem.scale(result.x),
+                    coupling_scale_sd=scale_sd, coupling_prior_sd=prior_sd)
 
 
 def _long_run_sd(problem: _Problem, residual: np.ndarray) -> float:
@@ -673,7 +675,7 @@ def predict(fit: SurgeFit, record: SurgeRecord, segment: Segment) -> np.ndarray:
     return residual + record.speed_mps[segment.start:segment.stop]
 
 
-@dataclass
+@dataclass(frozen=True, kw_only=True)
 class OutputErrorResult:
     """The output-error identification: every candidate's held-out error, the selected fit and the baseline."""
 
@@ -805,11 +807,14 @@ def identify_surge(records: list[SurgeRecord], *, mass_kg: float | None = None,
         return fits[terms]
 
     sizes = (0, *spline_sizes)
-    baseline, selected = fitted(0), fitted(sizes[chosen])
-    for fit in {id(baseline): baseline, id(selected): selected}.values():
-        fit.reference = fitted(_richer_terms(fit.basis.size - 2, spline_sizes))
+    def with_reference(fit: SurgeFit) -> SurgeFit:
+        return replace(fit, reference=fitted(_richer_terms(fit.basis.size - 2, spline_sizes)))
+
+    baseline = with_reference(fitted(0))
+    selected = baseline if sizes[chosen] == 0 else with_reference(fitted(sizes[chosen]))
     identified, note = _mass_verdict(selected, mass_kg)
-    return OutputErrorResult(selected, baseline, candidates, how, reason, identified, note)
+    return OutputErrorResult(selected=selected, baseline=baseline, candidates=candidates, folds=how, reason=reason,
+                             mass_identified=identified, mass_note=note)
 
 
 def _richer_terms(terms: int, spline_sizes: tuple[int, ...]) -> int:

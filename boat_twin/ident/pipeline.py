@@ -312,7 +312,7 @@ def _output_error(records: list[SurgeRecord], fallback_mass_kg: float | None, wa
         warnings.append(f"{oe.mass_note}; the boat file's mass (with its added mass) {fallback_mass_kg:.0f} kg is "
                         "held in the model (not identified: no interval on it)")
         oe = identify_surge(records, mass_kg=fallback_mass_kg)
-    oe.thrust_scale = scale
+    oe = replace(oe, thrust_scale=scale)
     if not oe.mass_identified and fallback_mass_kg is None:
         warnings.append(f"{oe.mass_note}; no mass in the model (give a boat file with mass_kg)")
     return oe
