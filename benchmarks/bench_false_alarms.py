@@ -21,7 +21,7 @@ needs) is run as :func:`crash_stops`: stops repeated, each ending about when the
 the IMO stopping test does). Stretched to 180 s instead, the twin's one stop backs at full astern for 170 s, at
 12 m/s (its resistance model is symmetric in the surge): that is :func:`astern_run`, a shape of its own. The
 model is directionally unstable astern, so each window's replay is compared only up to its predictability
-horizon, a second or two there (docs/diagnosis.md, "A long run astern"); the table's last line says which trials
+horizon, a second or two there (docs/studies/diagnosis.md, "A long run astern"); the table's last line says which trials
 were compared less than in full.
 
 Each trial is independent (its own seed), so ``--workers N`` runs them in N processes, each on one thread
@@ -154,7 +154,7 @@ def crash_stops(params: VesselParams, rng: np.random.Generator, duration_s: floa
 
 def astern_run(params: VesselParams, rng: np.random.Generator, duration_s: float) -> CommandProfile:
     """The twin's ``crash-stop`` held: at its approach thrust for 5-15 s, then full astern to the end (170 s at
-    about 12 m/s astern on the default boat; docs/diagnosis.md, "A long run astern")."""
+    about 12 m/s astern on the default boat; docs/studies/diagnosis.md, "A long run astern")."""
     made = make_scenario("crash-stop", params, rng)
     times = np.array([0.0, rng.uniform(5.0, 15.0)])
     return _profile("astern-run", duration_s, times, np.array([made.values[0], made.values[-1]]),

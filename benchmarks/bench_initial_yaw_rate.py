@@ -1,7 +1,7 @@
 """Which of the gyro's noise paths biases the yaw damping of the turning identification (issue 25's leftover).
 
 The twin's one-speed zigzags of ``test_zigzags_steered_between_log_ticks_identify_without_bias`` (the example boat
-of docs/identification.md: 20°/20° and 10°/10°, seed pairs 1-2 … 23-24, 10 s windows) are fitted with each
+of docs/studies/manoeuvring.md: 20°/20° and 10°/10°, seed pairs 1-2 … 23-24, 10 s windows) are fitted with each
 window's initial state as the replay builds it (``twin/replay.py``: yaw rate the 3-sample mean of the gyro, sway
 from the observer the gyro drives over the run-in before it); with one gyro path at a time replaced by the same
 trial's noise-free gyro (the same boat and helm without sensor noise: the helm steers on the true heading, so the

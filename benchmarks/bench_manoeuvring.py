@@ -1,7 +1,8 @@
 """Turning-coefficient identification: the hidden-boat study, manoeuvres not fitted, a model mismatch, fit time.
 
 Run: .venv/bin/python benchmarks/bench_manoeuvring.py [--boats 20] [--mismatch 5] [--seed 0]
-Nothing is asserted: the script prints Markdown tables for docs/identification.md and the command that made them.
+Nothing is asserted: the script prints Markdown tables for docs/manoeuvring.md and docs/studies/manoeuvring.md
+and the command that made them.
 
 (a) Hidden boats (:mod:`boat_twin.ident.manoeuvring_trials`): every coefficient drawn within ±30 % of the
 twin's (x_c within ±0.3 m, steering offset within ±1°), zigzags 20°/20° and 10°/10° at 4 and 7 m/s, starboard-

@@ -5,7 +5,7 @@ numba's default threading layer here is GNU OpenMP, whose idle workers spin (``O
 while before they sleep: with other processes on the cores, every parallel region then waits for threads that
 were descheduled while spinning, and closed-loop ensembles (one parallel region per 0.02 s integration step) ran
 6-13x slower on threads than on one thread at a load of 4-7 on 2 cores (issue 27). Passive waiting gives the
-cores back at once; benchmarks/bench_fleet.py measures the ensemble beside a busy loop (docs/fleet.md).
+cores back at once; benchmarks/bench_fleet.py measures the ensemble beside a busy loop (docs/fleet-scaling.md).
 
 A command-line run keeps BLAS on one thread unless the user sets a thread count: its matrices are small
 (parameters × samples), and two OpenBLAS threads on a busy machine only spin (``diagnose`` 1.6× the CPU of one

@@ -73,7 +73,7 @@ window starts with (±0.3°) does not dominate its end; a 120 s zigzag gives 6 (
 MISFIT_RATIO = {"vel_east_mps": 1.6, "vel_north_mps": 1.6, "heading_rad": 1.6, "accel_y_mps2": 1.6,
                 "yaw_rate_radps": 2.5}
 """Residual RMS / measured white noise above which a signal is misfitted (the model lacks a cause). Measured
-(docs/identification.md): fits of the right model stay at 0.95-1.4 (velocity, heading, accelerometer) and up to
+(docs/manoeuvring.md): fits of the right model stay at 0.95-1.4 (velocity, heading, accelerometer) and up to
 1.9 on the gyro, whose noise (0.06°/s) is so low that a window's initial sway and surge errors show above it;
 a thrust 10 % high or low gives 2.8 / 2.4 on the GNSS velocity (replayed from the measured initial states;
 1.45 after each window's own heading and surge, which absorb part of it)."""
@@ -87,7 +87,7 @@ TIMING_SHIFT_SAMPLES = 1
 the finite-difference sensitivity of every residual to a steering delay."""
 TIMING_T_LIMIT = 3.0
 """|t| of the steering-timing score test above which a fit is flagged (``timing_flag``): the residuals keep a
-component a steering delay or lag would explain. Measured (docs/identification.md): clean fits of the right model
+component a steering delay or lag would explain. Measured (docs/manoeuvring.md): clean fits of the right model
 |t| ≤ 1.7 over 6 seeds; a 0.2 s first-order lag of the steering on an independent integrator 6.8-16."""
 SEPARATION_CORRELATION = 0.95
 """|correlation| above which two estimates are reported as not separated by the trials."""
@@ -266,7 +266,7 @@ def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
     The commands act when they were issued (:attr:`~boat_twin.io.trial.Trial.command_switch_s`, which the replay
     integrates across; issue 25): replayed on the log's grid, a helm changing them between samples biased the
     coefficients (T's independent boats of ``benchmarks/bench_live_adapt.py --only O``: a_r up to +9.0 %, outside
-    its interval; docs/identification.md, "The commands' issue times"). The first window starts after the sway
+    its interval; docs/studies/manoeuvring.md, "The commands' issue times"). The first window starts after the sway
     observer's run-in when the boat turns at the trial's start (:func:`turning_at_start`) and the trial can spare
     it."""
     try:
@@ -332,9 +332,9 @@ INITIAL_STATE_NUISANCES = ((2, 0.005), (3, 0.02))
 surge (m/s). The sensors give them with errors (±0.3° from the smoothed IMU heading, ±0.016 m/s from ±1 s of GNSS
 velocity) that persist through the window (the surge's time constant is tens of seconds; the heading error
 rotates the whole path), and those errors, not the signals' noise, dominated the coefficients' errors
-(docs/identification.md). The steps are of the size of those errors. The initial yaw rate (±0.035°/s from the
+(docs/manoeuvring.md). The steps are of the size of those errors. The initial yaw rate (±0.035°/s from the
 3-sample mean of the gyro) is taken as measured: estimating it too removed a +5 % a_r bias on the twin's zigzags
-but left intervals too narrow on independent integrators' trials (docs/identification.md, "The commands' issue
+but left intervals too narrow on independent integrators' trials (docs/studies/manoeuvring.md, "The commands' issue
 times")."""
 
 

@@ -70,7 +70,7 @@ def zigzag_scenarios(config: TwinConfig, speeds_mps: Sequence[float] = ZIGZAG_SP
                      ) -> list[Scenario]:
     """Starboard-first zigzags of the set (each angle at each speed), with a helm deciding at the 10 Hz log rate
     so that the recorded commands are exactly the ones that steered (a helm between log samples is replayed
-    from the nearest sample, ±50 ms: timing noise the study leaves out; docs/identification.md)."""
+    from the nearest sample, ±50 ms: timing noise the study leaves out; docs/manoeuvring.md)."""
     return [Zigzag(config.vessel, math.radians(a), math.radians(a), speed_mps=s, duration_s=duration_s,
                    name=f"zigzag-{a:g}-{a:g}-{s:g}mps", decision_rate_hz=OUTPUT_RATE_HZ)
             for s in speeds_mps for a in angles_deg]

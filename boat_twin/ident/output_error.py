@@ -1,58 +1,18 @@
 """Output-error identification of the surge model over whole recordings, physical by construction.
 
-Model (Dyda & Chumakova 2021, eq. 1, in the form Fossen 2011 writes surge)::
+    m·du/dt = T(t) − Fc(u),   Fc(u) = sign(u)·[a·|u| + b·u² + Σ_k w_k·I_k(|u|)],   a, b, w_k ≥ 0
 
-    m·du/dt = T(t) − Fc(u),   measured: E|(u, 0) + e| (GNSS speed over ground; calm water)
-
-with m the effective surge mass (hull plus added mass), T the surge thrust Σ T_i·cos δ_i held from one sample
-to the next (the commands' zero-order hold), e the GNSS velocity noise (σ per axis, estimated from the speeds):
-a speed over ground is the norm of a noisy velocity, whose mean is the Rice distribution's (σ·√(π/2) at rest,
-never 0; :func:`rice_mean`) — the fit must not read that floor as motion —, and the resistance a non-negative
-combination of increasing terms::
-
-    Fc(u) = sign(u)·[a·|u| + b·u² + Σ_k w_k·I_k(|u|)],   a, b, w_k ≥ 0
-
-a: laminar/skin-friction-like linear damping, b: the quadratic (form and wave) drag of the simplest physical
-model (Fossen 2011, §6.4), I_k: quadratic I-splines (Ramsay 1988: integrals of non-negative B-splines, each
-rising monotonically from 0), so Fc(0) = 0 and Fc never decreases with speed whatever the data (a steady speed
-is unique for every thrust); going astern meets the mirrored resistance (odd extension: astern data are usually
-too few to fit a curve of their own). Knots sit at quantiles of the measured speeds.
-
-A record may carry a further force C the caller computes from a model of its own (the live twin's sway-yaw
-coupling m₂₂·v·r): the force is then T + c·C, its scale c fitted with the rest — free, or under a Gaussian prior
-c ~ N(1, σ_c²) from the caller's knowledge of its model (:func:`fit_surge`'s ``coupling_sd``): where the mass is
-seen only where C acts (constant-thrust zigzags) the data cannot tell c from the mass, and the prior can.
-
-Fit: the model is simulated through every sample of every segment (RK4, each sample's thrust held to the next
-sample: a zero-order hold on the record's own grid, so a thrust varying inside an interval is given as its mean
-there, :func:`held_thrust_N`) and the squared difference to the measured speed is minimised over (w, m, c
-when fitted, and each segment's initial speed), bounded least squares (scipy.optimize.least_squares,
-trust-region reflective) with the Jacobian from forward sensitivity equations integrated with the state (numba).
-Transients, steps down, reversing and closed-loop stretches all count; no steady points needed.
-
-Complexity: the baseline (a, b only) and I-spline sets of 3, 5, 8 and 12 terms are compared by cross-validated
-multi-step prediction — leave one recording out when there are three or more, else leave one of eight
-consecutive time blocks of every recording out (with four, a short recording's training blocks missed whole
-speed ranges and a 5-term curve was preferred to an 8-term one that re-simulated 2.4× better); each held-out
-stretch is simulated open loop from its measured initial speed. The smallest set within 1 % of the best held-out
-error is taken, and only if it predicts every recording's held-out data at least as well as the baseline; else the
-baseline. Only the baseline's fits start from a scan of 13 trial masses: each fold's fit of a richer basis starts
-its mass from the previous basis' fit to the same training data (never from one that saw the held-out samples),
-the fits to all the data from the baseline's; the scan was a third of ``identify``'s CPU on the shipped sample.
-
-Uncertainty: residuals of an output-error fit are correlated in time (waves, gusts, model error integrate), so
-the covariance is cluster-robust over consecutive blocks of five integrated residual-correlation times, at
-least 10 s: the delete-one-block jackknife (CR3; MacKinnon, Nielsen & Webb 2023), each replicate one Gauss-Newton
-step from the fit, (G − 1)/G·Σ_g (d_g − d̄)(d_g − d̄)ᵀ with d_g = (JᵀJ − J_gᵀJ_g)⁺·J_gᵀr_g, and Student-t
-intervals on G − 1 degrees of freedom. The plain sandwich (CR1) missed the leverage of single blocks: with a wave
-force driving a 280 kg boat through 11 thrust steps its mass standard error was 16 kg where 12 wave draws spread
-the estimate by 36-61 kg; the jackknife gives 31 kg (still narrow under strong process noise), and 2.8 kg against
-2.0 kg without the waves (conservative). Parameters at their
-bound (a term switched off) are held fixed in it. That
-covariance knows the noise but not the basis' approximation error (a plateau a few terms cannot follow, weights
-pinned at their bound), which the intervals missed on hidden trials (resistance coverage 70-84 % for every basis
-alone); the selected fit and the baseline are therefore refitted with the next richer basis (the next candidate, or
-4/3 of the richest), and the squared spread between the two estimates (mass, Fc(u)) is added to the variance.
+m: the effective surge mass (hull plus added mass), kg; T: the surge thrust Σ T_i·cos δ_i held from one sample to
+the next, N; a·|u| + b·u²: the simplest physical model (Fossen 2011, §6.4); I_k: quadratic I-splines (Ramsay 1988)
+knotted at quantiles of the measured speeds, so Fc(0) = 0 and Fc never decreases (one steady speed per thrust;
+astern the mirrored curve). The measured speed over ground is the Rice mean of a noisy velocity (:func:`rice_mean`).
+A record may carry a further force C (the live twin's sway-yaw coupling) whose scale c is fitted, free or under a
+prior N(1, σ_c²). Fit: every sample simulated (RK4, numba, the Jacobian from forward sensitivities), bounded least
+squares over (w, m, c, each segment's initial speed). Complexity: the baseline (a, b) and 3, 5, 8, 12 I-splines
+compared by cross-validated multi-step prediction. Uncertainty: the cluster-robust delete-one-block jackknife
+(CR3) over blocks of five residual-correlation times with Student-t intervals, plus the spread to the next richer
+basis. Each choice and why, with the measurements: docs/identification.md, "The model: output error over every
+sample".
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ X is the caller's (:class:`~boat_twin.shadow.session.Shadow`): the delivered thr
 the sway-yaw coupling m₂₂·v·r, c fitted under a prior as wide as the turning model's uncertainty
 (:meth:`~boat_twin.shadow.turning.TurningAdapter.coupling_sd`); the speed is taken at t − GNSS latency. A horizon
 that does not fix the mass is refitted with the current mass held. Why each choice, with the measurements:
-docs/live-twin.md (online adaptation) and docs/studies/live-twin.md ("how we got here").
+docs/live-adaptation.md and docs/studies/live-twin.md ("how we got here").
 """
 
 from __future__ import annotations
@@ -306,7 +306,7 @@ def coupling_conflict(model: SurgeModel, level: float = COUPLING_PRIOR_LEVEL) ->
     resistance took up the 93 % of the coupling it lost, ×1.098 [1.093, 1.102] for the true 1 (its intervals
     do not carry the regressor's error); such a fit ×1.035 was adopted at minute 37 of that hour and the twin's
     speed innovations rose from 1.0 to 1.85 times their noise for the rest of it, the rolling diagnosis naming
-    a thrust asymmetry and a mass error against that model every minute (docs/live-twin.md). The prior's own
+    a thrust asymmetry and a mass error against that model every minute (docs/live-adaptation.md). The prior's own
     interval, not the posterior's: under the prior the fitted c spreads less than it does. False when the scale
     was not fitted."""
     fit = model.fit
