@@ -35,7 +35,6 @@ import concurrent.futures
 import json
 import math
 import multiprocessing
-import os
 import shlex
 import sys
 import tempfile
@@ -51,7 +50,7 @@ from boat_twin.config import TwinConfig
 from boat_twin.diagnose.pipeline import diagnose_trial
 from boat_twin.files import atomic_write_text
 from boat_twin.io.bags import read_trial, write_bag
-from boat_twin.threads import single_thread_environment
+from boat_twin.threads import use_one_thread
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.params import VesselParams
 from boat_twin.vessel.scenarios import SCENARIO_NAMES, CommandProfile, Scenario, make_scenario, steady_speed_mps
@@ -219,7 +218,7 @@ def run_planned(item: tuple[str, str, int, float], duration_s: float) -> dict[st
 
 
 def _one_thread_worker() -> None:
-    os.environ.update(single_thread_environment())
+    use_one_thread()  # (not NUMBA_NUM_THREADS in os.environ: numba refuses it once its threads run)
 
 
 def exact_upper(k: int, n: int) -> float:

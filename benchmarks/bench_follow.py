@@ -29,7 +29,6 @@ import concurrent.futures
 import json
 import math
 import multiprocessing
-import os
 import tempfile
 import time
 from dataclasses import fields, replace
@@ -49,7 +48,7 @@ from boat_twin.io.bags import read_trial
 from boat_twin.io.trial import Stream, Trial, build_trial
 from boat_twin.shadow.follow import follow_trial
 from boat_twin.shadow.session import ShadowSettings
-from boat_twin.threads import single_thread_environment
+from boat_twin.threads import use_one_thread
 from boat_twin.twin.sea_trial import measured_trial, run_sea_trial
 from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import params_from_dict
@@ -201,7 +200,7 @@ def clean_hour(kind: str, boat_name: str, seed: int, duration_s: float) -> dict[
 
 
 def _clean_hour_task(item: tuple[str, str, int, float]) -> dict[str, Any]:
-    os.environ.update(single_thread_environment())
+    use_one_thread()  # (not NUMBA_NUM_THREADS in os.environ: numba refuses it once its threads run)
     return clean_hour(*item)
 
 

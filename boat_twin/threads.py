@@ -45,6 +45,18 @@ def use_one_numba_thread() -> None:
     numba.set_num_threads(1)
 
 
+def use_one_thread() -> None:
+    """Run this process's numba kernels (this thread's) and BLAS calls on one thread from now on: for a task
+    handed to a worker process that is already running (a process pool of a benchmark). Its environment is read
+    only at start-up: setting ``NUMBA_NUM_THREADS`` in ``os.environ`` once numba's threads are launched makes
+    numba's next compilation fail ("Cannot set NUMBA_NUM_THREADS to a different value once the threads have been
+    launched"); :func:`single_thread_environment` is for starting a process."""
+    import threadpoolctl
+
+    use_one_numba_thread()
+    threadpoolctl.threadpool_limits(1)
+
+
 def _blas_threads_chosen() -> bool:
     """Whether the environment sets a BLAS thread count (:data:`BLAS_THREAD_VARIABLES`)."""
     return any(os.environ.get(name) for name in BLAS_THREAD_VARIABLES)

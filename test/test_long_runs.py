@@ -101,7 +101,10 @@ def test_a_command_line_run_keeps_blas_on_one_thread_unless_told(environment, th
 
 def test_a_run_inside_a_process_that_loaded_numpy_keeps_blas_on_one_thread(monkeypatch) -> None:
     """``main`` called in a process that had loaded numpy (a test, a notebook): threadpoolctl holds it."""
+    import numpy as np
     import threadpoolctl
+
+    np.ones((4, 4)) @ np.ones((4, 4))  # BLAS loaded and used, as in such a process (alone, this test had none)
 
     for name in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "OMP_NUM_THREADS"):
         monkeypatch.delenv(name, raising=False)
@@ -234,3 +237,38 @@ def test_a_large_ensemble_runs_in_bounded_compiled_calls_with_the_same_numbers(m
                                                                       0.02, substeps)))
     assert len(calls) >= 3 and max(calls[:-1]) <= dynamics.CALL_BOAT_STEPS  # the last: the unbounded reference
     assert all(np.array_equal(a, b) for a, b in zip(*runs, strict=True))
+
+
+ONE_THREAD_TASK = """
+import numba, numpy as np
+from boat_twin.threads import use_one_thread
+
+@numba.njit(parallel=True)
+def total(x):
+    s = 0.0
+    for i in numba.prange(x.size):
+        s += x[i]
+    return s
+
+total(np.ones(100))  # numba's threads are launched: a worker that ran a task already
+use_one_thread()  # what a benchmark's next task does first
+
+@numba.njit
+def plus_one(x):
+    return x + 1
+
+import threadpoolctl
+blas = [p["num_threads"] for p in threadpoolctl.threadpool_info() if p["user_api"] == "blas"]
+print(plus_one(1), numba.get_num_threads(), blas)
+"""
+
+
+def test_a_running_worker_goes_to_one_thread_and_still_compiles() -> None:
+    """A benchmark task in a pool worker whose numba threads already run goes to one thread without touching
+    NUMBA_NUM_THREADS (which made numba's next compilation fail and stopped bench_follow's study H)."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_NUM_THREADS"}
+    run = subprocess.run([sys.executable, "-c", ONE_THREAD_TASK], capture_output=True, text=True, timeout=300,
+                         env=env)
+    assert run.returncode == 0, run.stderr
+    value, threads, blas = run.stdout.strip().splitlines()[-1].split(" ", 2)
+    assert (value, threads) == ("2", "1") and set(json.loads(blas)) <= {1}
