@@ -73,13 +73,21 @@ def add_trial_options(parser: argparse.ArgumentParser, *, bags: bool = True) -> 
 
 def trial_from_args(path: Path | str, args: argparse.Namespace) -> Trial:
     """:func:`~boat_twin.io.sources.read_trial_file` with the options :func:`add_trial_options` added, cut to
-    --start/--end (:func:`~boat_twin.io.span.trial_between`)."""
+    --start/--end (:func:`~boat_twin.io.span.trial_between`); a --config boat file's per-actuator command topics
+    fill the slots in its own order (:func:`~boat_twin.io.messages.actuator_order`)."""
     from boat_twin.io.sources import read_trial_file
     from boat_twin.io.span import trial_between
 
+    order: tuple[str, ...] = ()
+    if getattr(args, "config", None) is not None:
+        from boat_twin.config import load_twin_config
+        from boat_twin.io.messages import actuator_order
+
+        order = actuator_order(load_twin_config(args.config).vessel.propulsion)
     trial = read_trial_file(path, remap=parse_remap(getattr(args, "topic", None)),
                             namespace=getattr(args, "namespace", "") or "",
-                            calibration=getattr(args, "calibration", None), columns=getattr(args, "columns", None))
+                            calibration=getattr(args, "calibration", None), columns=getattr(args, "columns", None),
+                            order=order)
     return trial_between(trial, getattr(args, "start", None), getattr(args, "end", None))
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import tempfile
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -219,14 +219,15 @@ def holdings(available: dict[str, str]) -> str:
     return ", ".join(f"{topic} ({msgtype})" for topic, msgtype in sorted(available.items())) or "no topics"
 
 
-def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: str, source: str
-                   ) -> tuple[dict[str, str], list[str]]:
+def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: str, source: str,
+                   order: Sequence[str] = ()) -> tuple[dict[str, str], list[str]]:
     """Role → topic in the bag, and how each role not found by name was chosen (in words).
 
     ``remap`` first, else ``namespace`` + the default name, else a unique topic ending in the default name (a
     namespaced recording), else, for a sensor role, the one topic whose type the role reads (:data:`ROLE_TYPES`;
     e.g. nmea_navsat_driver's ``/fix`` and ``/vel``, an IMU driver's ``/imu/data``). Checks each found topic's
-    type. No GNSS stream at all is an error that lists what the bag holds."""
+    type. No GNSS stream at all is an error that lists what the bag holds. ``order``: the boat file's actuator
+    names in its order (:func:`~boat_twin.io.roles.actuator_slots`)."""
     chosen: dict[str, str] = {}
     for role, name in ROLE_TOPICS.items():
         if role in remap:
@@ -247,7 +248,7 @@ def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: 
             raise InputError(f"{source}: topic {topic} has type {available[topic]}, expected "
                              f"{' or '.join(_types(role))}")
         chosen[role] = topic
-    notes = _actuator_topics(available, chosen, namespace)
+    notes = _actuator_topics(available, chosen, namespace, order)
     for role in ROLE_TYPES:
         if role in chosen:
             continue
@@ -273,11 +274,12 @@ def resolve_topics(available: dict[str, str], remap: dict[str, str], namespace: 
     return chosen, notes
 
 
-def _actuator_topics(available: dict[str, str], chosen: dict[str, str], namespace: str) -> list[str]:
+def _actuator_topics(available: dict[str, str], chosen: dict[str, str], namespace: str,
+                     order: Sequence[str]) -> list[str]:
     """Command roles taken from a boat file's per-actuator topics (``thrusters/<name>/thrust|cmd|pos``,
     ``rudders/<name>/angle``; :func:`~boat_twin.io.messages.command_topics`) where the slot topics are absent:
-    thrusters in the order of their names (the boat file's slots: list them alphabetically, or remap), rudders
-    before steered thrusters. Adds them to ``chosen``; returns a note per role so read."""
+    thrusters in the boat file's order (``order``; without it in name order), rudders before steered thrusters.
+    Adds them to ``chosen``; returns a note per role so read."""
     if any(role in chosen for role in COMMAND_ROLES):
         return []
     prefix = "/" + namespace.strip("/") + "/" if namespace.strip("/") else "/"
@@ -285,10 +287,11 @@ def _actuator_topics(available: dict[str, str], chosen: dict[str, str], namespac
                    if t.startswith(prefix) and msgtype == "std_msgs/msg/Float64"
                    and ACTUATOR_TOPIC.match(t[len(prefix):]))
     notes = []
-    pairs = actuator_slots(found)
+    pairs = actuator_slots(found, order)
     for role, topic in pairs:
         chosen[role] = prefix + topic
-        notes.append(f"{role} read from {prefix + topic} (a boat file's actuator topic, slots in name order)")
+        notes.append(f"{role} read from {prefix + topic} (a boat file's actuator topic, slots in "
+                     + ("the boat file's order)" if order else "name order)"))
     if [role for role, _ in pairs if role.startswith("thrust")] == ["thrust_left"]:
         notes.append(ONE_THRUSTER_NOTE)
     return notes
@@ -315,8 +318,10 @@ def read_trial(
     remap: dict[str, str] | None = None,
     namespace: str = "",
     origin: tuple[float, float, float] | None = None,
+    order: Sequence[str] = (),
 ) -> Trial:
-    """Read a rosbag2 directory (MCAP or sqlite3) or a bare .mcap file into a :class:`Trial`, streaming."""
+    """Read a rosbag2 directory (MCAP or sqlite3) or a bare .mcap file into a :class:`Trial`, streaming; ``order``:
+    the boat file's actuator names in its order, which fill the command slots (:func:`actuator_slots`)."""
     source = str(path)
     if not path.exists():
         raise InputError(f"{source}: no such bag")
@@ -327,7 +332,7 @@ def read_trial(
     try:
         with _rosbag2_alias(path) as readable, AnyReader([readable], default_typestore=TS) as reader:
             available = {c.topic: c.msgtype for c in reader.connections}
-            topics, notes = resolve_topics(available, remap or {}, namespace, source)
+            topics, notes = resolve_topics(available, remap or {}, namespace, source, order)
             if not any(role in topics for role in COMMAND_ROLES):
                 raise InputError(f"{source}: no command topic (thrusters/*/thrust or pos, std_msgs/Float64) found; "
                                  f"the bag holds: {holdings(available)}; name them with --topic thrust_left=TOPIC")

@@ -67,7 +67,7 @@ import contextlib
 import os
 import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -234,11 +234,13 @@ def read_mavlink_log(
     calibration: Calibration | Path | None = None,
     remap: dict[str, str] | None = None,
     namespace: str = "",
+    order: Sequence[str] = (),
 ) -> MavlinkLog:
     """Read a .tlog or DataFlash .BIN into per-role streams (see the module docstring), streaming.
 
     ``remap`` picks a sensor role's message (``gnss_vel: GPS_RAW_INT``); ``calibration`` maps the commands
-    (a :class:`Calibration` or a YAML path; without one the command roles are missing).
+    (a :class:`Calibration` or a YAML path, whose actuator names fill the slots in ``order``, the boat file's; without
+    one the command roles are missing).
     """
     path = Path(path)
     source = str(path)
@@ -249,7 +251,7 @@ def read_mavlink_log(
     log_format = "tlog" if path.suffix.lower() == ".tlog" else "dataflash"
     remap = _check_remap(dict(remap or {}), namespace, log_format, source)
     if calibration is not None and not isinstance(calibration, Calibration):
-        calibration = load_calibration(Path(calibration))
+        calibration = load_calibration(Path(calibration), order)
     plan = ReadPlan(log_format, calibration)
     rows, report = _read_rows(path, plan)
     tables, absolute = _on_log_clock(rows, report)
@@ -396,9 +398,11 @@ def read_mavlink_trial(
     remap: dict[str, str] | None = None,
     namespace: str = "",
     origin: tuple[float, float, float] | None = None,
+    order: Sequence[str] = (),
 ) -> Trial:
-    """A .tlog or DataFlash .BIN as a :class:`Trial` (metadata: :class:`MavlinkTrialMetadata`)."""
-    return trial_from_log(read_mavlink_log(path, calibration, remap, namespace), origin,
+    """A .tlog or DataFlash .BIN as a :class:`Trial` (metadata: :class:`MavlinkTrialMetadata`); ``order``: the boat
+    file's actuator names in its order, which fill the command slots."""
+    return trial_from_log(read_mavlink_log(path, calibration, remap, namespace, order), origin,
                           derive_velocity="gnss_vel" not in (remap or {}))  # a named velocity source stays missing
 
 

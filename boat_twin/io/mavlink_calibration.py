@@ -23,6 +23,7 @@ pulse) or 65535 (unused channel) and a MANUAL_CONTROL axis of 32767 (invalid) ma
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -110,8 +111,9 @@ class Calibration:
         return self.commands[role].to_raw(value)
 
 
-def calibration_from_dict(data: Any, source: str = "<calibration>") -> Calibration:
-    """Validate a calibration map (the YAML's content); every error names ``source`` and the field."""
+def calibration_from_dict(data: Any, source: str = "<calibration>", order: Sequence[str] = ()) -> Calibration:
+    """Validate a calibration map (the YAML's content); every error names ``source`` and the field. ``order``: the
+    boat file's actuator names in its order, which fill the slots (:func:`~boat_twin.io.roles.actuator_slots`)."""
     if not isinstance(data, dict):
         raise InputError(f"{source}: a calibration must be a mapping with a 'commands' section")
     unknown = sorted(set(data) - {"commands", "description"})
@@ -120,7 +122,7 @@ def calibration_from_dict(data: Any, source: str = "<calibration>") -> Calibrati
     commands = data.get("commands")
     if not isinstance(commands, dict) or not commands:
         raise InputError(f"{source}: missing field 'commands' (role: {{source, table}} or {{value}})")
-    roles = _actuator_roles(commands, source)
+    roles = _actuator_roles(commands, source, order)
     maps = {}
     for key, entry in commands.items():
         role = roles.get(str(key), str(key))
@@ -138,7 +140,7 @@ def _unit(key: str) -> str:
     return {"thrust": "N", "cmd": "the thruster's unit"}.get(key.rsplit("/", 1)[-1], "rad")
 
 
-def _actuator_roles(commands: dict[Any, Any], source: str) -> dict[str, str]:
+def _actuator_roles(commands: dict[Any, Any], source: str, order: Sequence[str]) -> dict[str, str]:
     """Actuator topic → command role of a calibration naming a boat's actuators (empty: slot roles), by
     :func:`~boat_twin.io.roles.actuator_slots`; one clear error for a mix of both or a third actuator."""
     named = [str(k) for k in commands if ACTUATOR_TOPIC.match(str(k))]
@@ -148,7 +150,7 @@ def _actuator_roles(commands: dict[Any, Any], source: str) -> dict[str, str]:
     if slots:
         raise InputError(f"{source}: commands.{slots[0]}: name the commands either by role (thrust_left...) or "
                          "by the boat's actuators (thrusters/<name>/...), not both")
-    roles = {name: role for role, name in actuator_slots(named)}
+    roles = {name: role for role, name in actuator_slots(named, order)}
     extra = [k for k in named if k not in roles]
     if extra:
         raise InputError(f"{source}: commands.{extra[0]}: the twin has two thruster and two steering slots; this "
@@ -198,7 +200,8 @@ def _command_map(role: str, entry: Any, where: str, unit: str) -> CommandMap:
     return CommandMap(role, spec, raw, value)
 
 
-def load_calibration(path: Path) -> Calibration:
-    """Read and validate a calibration YAML (format: the module docstring and ``config/mavlink/``)."""
-    return calibration_from_dict(load_yaml(Path(path)), str(path))
+def load_calibration(path: Path, order: Sequence[str] = ()) -> Calibration:
+    """Read and validate a calibration YAML (format: the module docstring and ``config/mavlink/``); ``order``: the
+    boat file's actuator names in its order."""
+    return calibration_from_dict(load_yaml(Path(path)), str(path), order)
 

@@ -88,6 +88,14 @@ def command_topics(propulsion: Propulsion | None) -> dict[str, str]:
     return topics
 
 
+def actuator_order(propulsion: Propulsion | None) -> tuple[str, ...]:
+    """The boat file's actuator names in its own order (thrusters, then rudders): the order its per-actuator
+    command topics fill the slots (:func:`~boat_twin.io.roles.actuator_slots`); empty for the default layout."""
+    if propulsion is None:
+        return ()
+    return tuple(t.name for t in propulsion.thrusters) + tuple(r.name for r in propulsion.rudders)
+
+
 TOPIC_WIND = "wind"
 """The true wind over ground an anemometer measures: geometry_msgs/Vector3Stamped in the ENU world frame, m/s
 (x east, y north: the air's velocity, where it blows to). Written by the simulator when its environment has a

@@ -1,7 +1,7 @@
 """The roles a trial's streams play (names only, free of heavy imports: the command line lists them in --help)."""
 
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 COMMAND_ROLES = ("thrust_left", "thrust_right", "angle_left", "angle_right")
 """Command streams, each one scalar per message (N, a thruster's own unit, or rad)."""
@@ -17,11 +17,14 @@ ACTUATOR_TOPIC = re.compile(r"^(thrusters/\w+/(thrust|cmd|pos)|rudders/\w+/angle
 """A boat file's per-actuator command topics (:func:`~boat_twin.io.messages.command_topics`): std_msgs/Float64."""
 
 
-def actuator_slots(names: Iterable[str]) -> list[tuple[str, str]]:
-    """(command role, actuator) for a boat's per-actuator command names (:data:`ACTUATOR_TOPIC`): thrusters in the
-    order of their names (the boat file's slots: list them alphabetically), rudders before steered thrusters; at
-    most two of each (the kernel's slots). What the bag reader and the MAVLink calibration map read alike."""
-    found = sorted(names)
+def actuator_slots(names: Iterable[str], order: Sequence[str] = ()) -> list[tuple[str, str]]:
+    """(command role, actuator) for a boat's per-actuator command names (:data:`ACTUATOR_TOPIC`): thrusters in
+    ``order`` (the boat file's actuator names as its propulsion section lists them: the slots
+    :func:`~boat_twin.io.messages.command_topics` gives), names not in it after them alphabetically (without a boat
+    file: all in name order); rudders before steered thrusters; at most two of each (the kernel's slots). What the
+    bag reader and the MAVLink calibration map read alike."""
+    rank = {name: i for i, name in enumerate(order)}
+    found = sorted(names, key=lambda t: (rank.get(t.split("/")[1], len(rank)), t))
     thrusts = [t for t in found if t.startswith("thrusters/") and not t.endswith("/pos")]
     angles = [t for t in found if t.startswith("rudders/")] or [t for t in found if t.endswith("/pos")]
     return [*zip(COMMAND_ROLES[:2], thrusts[:2], strict=False), *zip(COMMAND_ROLES[2:], angles[:2], strict=False)]

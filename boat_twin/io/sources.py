@@ -5,6 +5,7 @@ Readers are imported when a file is read, so that importing this module stays ch
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -24,12 +25,15 @@ def read_trial_file(
     calibration: Path | str | Calibration | None = None,
     origin: tuple[float, float, float] | None = None,
     columns: str | Path | None = None,
+    order: Sequence[str] = (),
 ) -> Trial:
     """Read ``path`` as a :class:`~boat_twin.io.trial.Trial`: .tlog/.BIN/.bin through
     :func:`boat_twin.io.mavlink.read_mavlink_trial` (``calibration`` maps PWM to N and rad; ``remap`` picks a
     sensor role's message), anything else through :func:`boat_twin.io.bags.read_trial` (``remap`` and
     ``namespace`` pick topics; a calibration is refused there); a .csv through
-    :func:`boat_twin.io.csv_trial.read_csv_trial` with its ``columns`` mapping."""
+    :func:`boat_twin.io.csv_trial.read_csv_trial` with its ``columns`` mapping. ``order``: the boat file's actuator
+    names in its order (:func:`~boat_twin.io.messages.actuator_order`), which fill a bag's or calibration's
+    per-actuator command slots."""
     path = Path(path)
     check_trial_path(path)
     if path.suffix.lower() == ".csv":
@@ -50,9 +54,9 @@ def read_trial_file(
         from boat_twin.io.mavlink import read_mavlink_trial
 
         cal = Path(calibration) if isinstance(calibration, str) else calibration
-        return read_mavlink_trial(path, cal, remap=remap, namespace=namespace, origin=origin)
+        return read_mavlink_trial(path, cal, remap=remap, namespace=namespace, origin=origin, order=order)
     if calibration is not None:
         raise InputError(f"{path}: --calibration applies to MAVLink logs (.tlog, .BIN), not to bags")
     from boat_twin.io.bags import read_trial
 
-    return read_trial(path, remap=remap, namespace=namespace, origin=origin)
+    return read_trial(path, remap=remap, namespace=namespace, origin=origin, order=order)

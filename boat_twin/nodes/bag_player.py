@@ -69,9 +69,10 @@ class BagPlayerNode(Node):
             from boat_twin.errors import InputError
 
             raise InputError("parameter trial: give the recording to play (-p trial:=PATH)")
-        trial = read_trial_file(Path(trial_path), remap=remap, namespace=namespace,
-                                calibration=calibration or None, columns=columns or None)
         config = load_config(Path(config_file)) if config_file else TwinConfig()
+        trial = read_trial_file(Path(trial_path), remap=remap, namespace=namespace,
+                                calibration=calibration or None, columns=columns or None,
+                                order=messages.actuator_order(config.vessel.propulsion))
         self.duration_s = float(trial.t_s[-1])
         self.messages = playback_messages(trial, config, self.start_s)
         self.pending = next(self.messages, None)
