@@ -28,7 +28,7 @@ def _starboard_first(tmp_path: Path) -> Path:
 
 def test_a_bag_of_a_boat_files_thrusters_reads_back_into_the_boat_files_slots(tmp_path: Path) -> None:
     from boat_twin.cli import main
-    from boat_twin.cli.options import trial_from_args
+    from boat_twin.cli.options import read_options_from_args, trial_from_args
     from boat_twin.io.bags import read_trial
 
     boat = _starboard_first(tmp_path)
@@ -44,8 +44,12 @@ def test_a_bag_of_a_boat_files_thrusters_reads_back_into_the_boat_files_slots(tm
     assert by_name.metadata.topics["thrust_left"] == "/thrusters/port/cmd"
     assert not np.allclose(ours.thrust_left_N, ours.thrust_right_N)
     np.testing.assert_array_equal(ours.thrust_left_N, by_name.thrust_right_N)
-    cli = trial_from_args(bag, argparse.Namespace(config=boat, model=None))  # identify/diagnose/follow --config
+    args = argparse.Namespace(config=boat, model=None)
+    cli = trial_from_args(bag, args)  # identify/diagnose/follow --config
     np.testing.assert_array_equal(cli.thrust_left_N, ours.thrust_left_N)
+    each = read_options_from_args(args)  # what --each hands every batch job
+    assert each.order == ("stbd", "port")
+    np.testing.assert_array_equal(each.read(bag).thrust_left_N, ours.thrust_left_N)
 
 
 def test_a_calibration_naming_the_thrusters_fills_the_boat_files_slots() -> None:

@@ -20,7 +20,7 @@ from boat_twin.cli.options import (
     add_trial_options,
     assumed_config,
     claim_out_dir,
-    parse_remap,
+    read_options_from_args,
     run_each,
     trial_from_args,
     trial_inputs,
@@ -91,11 +91,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("give a TRIAL (bag, .mcap, .tlog, .BIN, .csv) or --table dyda2021")
     number("--window", args.window, above=0.0)
     if args.each:
-        from boat_twin.fleet.jobs import DiagnoseJob, ReadOptions
+        from boat_twin.fleet.jobs import DiagnoseJob
 
-        read = ReadOptions(parse_remap(args.topic), args.namespace or "",
-                           str(args.calibration) if args.calibration is not None else None, args.columns,
-                           start_s=args.start, end_s=args.end)
+        read = read_options_from_args(args)
         return run_each(args, DiagnoseJob(twin_config_from_args(args), read, args.window,
                                            tuple(assumed_config(args))))
     if len(args.trial) > 1:

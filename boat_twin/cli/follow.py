@@ -23,7 +23,7 @@ from boat_twin.cli.options import (
     assumed_config,
     claim_out_dir,
     foxglove_address,
-    parse_remap,
+    read_options_from_args,
     run_each,
     trial_from_args,
     trial_inputs,
@@ -88,11 +88,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--foxglove shows one trial as it is followed: not with --each")
     address = foxglove_address(args)
     if args.each:
-        from boat_twin.fleet.jobs import FollowJob, ReadOptions
+        from boat_twin.fleet.jobs import FollowJob
 
-        read = ReadOptions(parse_remap(args.topic), args.namespace or "",
-                           str(args.calibration) if args.calibration is not None else None, args.columns,
-                           start_s=args.start, end_s=args.end)
+        read = read_options_from_args(args)
         return run_each(args, FollowJob(twin_config_from_args(args), read, tuple(assumed_config(args))))
     if len(args.trial) > 1:
         raise InputError(f"{len(args.trial)} trials given: follow reads one trial, or each of several with "

@@ -19,7 +19,7 @@ from boat_twin.cli.options import (
     add_fleet_options,
     add_trial_options,
     claim_out_dir,
-    parse_remap,
+    read_options_from_args,
     run_each,
     trial_from_args,
     trial_inputs,
@@ -104,14 +104,12 @@ def _boat_facts(args: argparse.Namespace) -> dict[str, float] | None:
 def _run_each(args: argparse.Namespace) -> int:
     """--each: every trial identified on its own (not pooled), each read with the --config boat, on the
     --scheduler's workers."""
-    from boat_twin.fleet.jobs import IdentifyJob, ReadOptions
+    from boat_twin.fleet.jobs import IdentifyJob
 
     for name in ("table", "manoeuvring", "validate", "window", "model"):
         if getattr(args, name):
             raise InputError(f"--each identifies each trial's thrust-speed model; --{name} does not apply")
-    read = ReadOptions(parse_remap(args.topic), args.namespace or "",
-                       str(args.calibration) if args.calibration is not None else None, args.columns,
-                       start_s=args.start, end_s=args.end)
+    read = read_options_from_args(args)
     job = IdentifyJob(read, args.order, min(args.max_order, 6), args.monotone, args.steady_window,
                       args.thrust_tolerance, _boat_facts(args),
                       str(args.boat) if args.boat is not None else None, twin_config_from_args(args))

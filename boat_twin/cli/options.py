@@ -18,6 +18,7 @@ from boat_twin.io.roles import TRIAL_ROLES
 
 if TYPE_CHECKING:
     from boat_twin.config import TwinConfig
+    from boat_twin.fleet.jobs import ReadOptions
     from boat_twin.io.trial import Trial
 
 TRIAL_HELP = ("recorded trial: rosbag2 directory (MCAP or sqlite3), bare .mcap file, MAVLink telemetry log (.tlog), "
@@ -72,11 +73,16 @@ def add_trial_options(parser: argparse.ArgumentParser, *, bags: bool = True) -> 
 
 
 def trial_from_args(path: Path | str, args: argparse.Namespace) -> Trial:
-    """:func:`~boat_twin.io.sources.read_trial_file` with the options :func:`add_trial_options` added, cut to
-    --start/--end (:func:`~boat_twin.io.span.trial_between`); a --config boat file's per-actuator command topics
-    fill the slots in its own order (:func:`~boat_twin.io.messages.actuator_order`)."""
-    from boat_twin.io.sources import read_trial_file
-    from boat_twin.io.span import trial_between
+    """The trial at ``path`` read with the options :func:`add_trial_options` added (:func:`read_options_from_args`),
+    cut to --start/--end."""
+    return read_options_from_args(args).read(Path(path))
+
+
+def read_options_from_args(args: argparse.Namespace) -> ReadOptions:
+    """How a verb reads its trials (one, or each of a batch): --topic, --namespace, --calibration, --columns,
+    --start/--end, and a --config boat file's per-actuator command topics filling the slots in its own order
+    (:func:`~boat_twin.io.messages.actuator_order`)."""
+    from boat_twin.fleet.jobs import ReadOptions
 
     order: tuple[str, ...] = ()
     if getattr(args, "config", None) is not None:
@@ -84,11 +90,10 @@ def trial_from_args(path: Path | str, args: argparse.Namespace) -> Trial:
         from boat_twin.io.messages import actuator_order
 
         order = actuator_order(load_twin_config(args.config).vessel.propulsion)
-    trial = read_trial_file(path, remap=parse_remap(getattr(args, "topic", None)),
-                            namespace=getattr(args, "namespace", "") or "",
-                            calibration=getattr(args, "calibration", None), columns=getattr(args, "columns", None),
-                            order=order)
-    return trial_between(trial, getattr(args, "start", None), getattr(args, "end", None))
+    calibration = getattr(args, "calibration", None)
+    return ReadOptions(parse_remap(getattr(args, "topic", None)), getattr(args, "namespace", "") or "",
+                       str(calibration) if calibration is not None else None, getattr(args, "columns", None),
+                       start_s=getattr(args, "start", None), end_s=getattr(args, "end", None), order=order)
 
 
 def twin_config_from_args(args: argparse.Namespace) -> TwinConfig:

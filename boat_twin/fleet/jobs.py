@@ -25,7 +25,8 @@ it ran (host:pid), and the peak resident memory of that process so far, MB (flat
 
 @dataclass(frozen=True)
 class ReadOptions:
-    """How a trial is read (``--topic``, ``--namespace``, ``--calibration``, ``--columns``, ``--start``/``--end``)."""
+    """How a trial is read (``--topic``, ``--namespace``, ``--calibration``, ``--columns``, ``--start``/``--end``, the
+    boat file's actuator order)."""
 
     remap: dict[str, str] = field(default_factory=dict)
     namespace: str = ""
@@ -34,6 +35,8 @@ class ReadOptions:
     start_s: float | None = None
     end_s: float | None = None
     """The stretch used, s since the trial's start (None: from its start, to its end)."""
+    order: tuple[str, ...] = ()
+    """The boat file's actuator names in its order (:func:`~boat_twin.io.messages.actuator_order`)."""
 
     def read(self, path: Path) -> Trial:
         """:func:`~boat_twin.io.sources.read_trial_file` of ``path`` with these options, cut to the stretch."""
@@ -41,7 +44,7 @@ class ReadOptions:
         from boat_twin.io.span import trial_between
 
         trial = read_trial_file(path, remap=self.remap, namespace=self.namespace, calibration=self.calibration,
-                                columns=self.columns)
+                                columns=self.columns, order=self.order)
         return trial_between(trial, self.start_s, self.end_s)
 
 
