@@ -37,3 +37,32 @@ def test_a_closed_loop_scenario_is_refused_in_one_line(tmp_path) -> None:
     assert proc.wait(rosnodes.START_TIMEOUT_S) == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "steers on the boat's heading" in lines[0], lines
+
+
+def test_a_boat_files_thrusters_are_played_on_their_own_topics_and_stopped_at_their_neutral(tmp_path) -> None:
+    import yaml
+
+    boat = yaml.safe_load((rosnodes.ROOT / "config" / "boats" / "skid_steer_catamaran.yaml").read_text())
+    pwm = {"command": [1100.0, 1450.0, 1550.0, 1900.0], "thrust_N": [-15.0, 0.0, 0.0, 25.0], "unit": "pwm_us"}
+    for thruster in boat["vessel"]["propulsion"]["thrusters"]:
+        thruster["table"] = pwm
+    config = tmp_path / "pwm_boat.yaml"
+    config.write_text(yaml.safe_dump(boat))
+    commands = tmp_path / "commands.csv"
+    commands.write_text("t,thrust_left_N,thrust_right_N,angle_left_rad,angle_right_rad\n"
+                        "0,1700,1650,0,0\n8.5,1800,1750,0,0\n10.5,1800,1750,0,0\n")
+    heard: dict[str, list[float]] = {"port": [], "starboard": []}
+    with rosnodes.probe() as probe:
+        for name, values in heard.items():
+            probe.node.create_subscription(Float64, f"thrusters/{name}/cmd", lambda m, v=values: v.append(m.data),
+                                           QoSProfile(depth=50))
+        player = rosnodes.NodeProcess("player", {"commands_file": str(commands), "config_file": str(config)},
+                                      tmp_path)
+        assert probe.spin_until(lambda: player.process.poll() is not None, rosnodes.START_TIMEOUT_S)
+        probe.spin_for(0.5)
+    assert player.wait(1.0) == 0, player.stderr
+    for name, (ahead, more) in (("port", (1700.0, 1800.0)), ("starboard", (1650.0, 1750.0))):
+        values = heard[name]
+        changes = [v for i, v in enumerate(values) if i == 0 or v != values[i - 1]]
+        # the file's columns on the boat file's thrusters in its order; stopped at the dead band's middle
+        assert changes[-2:] == [more, 1500.0] and set(changes[:-2]) <= {ahead}, (name, values)

@@ -53,3 +53,15 @@ def test_a_boat_files_thrust_maps_in_numpy_are_the_kernels_and_read_backwards_gi
     for slot, thrust_N, speed in ((0, 650.0, 3.0), (0, -150.0, 0.0), (1, 500.0, 4.0), (1, -200.0, 0.0)):
         command = _thrust_command(slot, thrust_N, speed, k)
         assert _slot_thrust(slot, command, speed, k) == pytest.approx(thrust_N, rel=1e-9)
+
+
+def test_a_thrust_tables_zero_thrust_command_is_its_neutral() -> None:
+    from boat_twin.vessel.actuators import ThrustTable
+
+    band = ThrustTable((1100.0, 1450.0, 1550.0, 1900.0), (-15.0, 0.0, 0.0, 25.0), "pwm_us")
+    assert band.zero_thrust_command() == 1500.0  # the middle of the dead band
+    crossing = ThrustTable((-1.0, 1.0), (-10.0, 30.0))
+    assert crossing.zero_thrust_command() == -0.5
+    assert float(crossing.thrust(crossing.zero_thrust_command())) == 0.0
+    ahead_only = ThrustTable((0.0, 1.0), (2.0, 30.0))
+    assert ahead_only.zero_thrust_command() == 0.0  # never zero: the end nearest to it

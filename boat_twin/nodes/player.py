@@ -1,18 +1,22 @@
-"""ROS 2 node ``player``: plays a scenario's open-loop commands on the thruster topics, on the node clock.
+"""ROS 2 node ``player``: plays a scenario's open-loop commands on the boat's command topics, on the node clock.
 
 The helmsman of a live walkthrough or a hardware-in-the-loop test: the same command profiles as
 ``boat-twin simulate`` (boat_twin.vessel.scenarios), published on change and re-sent every 0.25 s (a late
 subscriber gets the held value; the simulator's 1 s command watchdog stays fed), stamped by the node clock
 (use_sim_time:=true follows the simulator's /clock). It exits when the profile ends. Whenever it stops — the
 profile's end, Ctrl-C, SIGTERM — it sends zero thrust last (the steering stays), so that the boat is not left
-running on its last command.
+running on its last command. The topics are the boat's (:func:`~boat_twin.io.messages.command_topics`): the
+default layout's ``thrusters/{left,right}/thrust`` and ``pos``, or a boat file's per-actuator
+``thrusters/<name>/thrust|cmd|pos`` and ``rudders/<name>/angle``; "zero thrust" is each thruster's own stop
+command (0 N, 0 rev/s, a table's zero-thrust command such as 1500 µs).
 
 Parameters (read at start-up)
   scenario (string, thrust-steps)   an open-loop scenario of the registry (boat_twin.vessel.scenarios.SCENARIOS)
   commands_file (string, "")        or a command CSV (t, thrust_left_N, thrust_right_N, angle_left_rad,
                                     angle_right_rad), as ``simulate --commands``
   seed (int, 0)                     random scenario's seed
-  config_file (string, "")          twin YAML whose vessel sizes the scenario (empty: the built-in boat)
+  config_file (string, "")          twin YAML whose vessel sizes the scenario and names the topics (empty: the
+                                    built-in boat)
 """
 
 from __future__ import annotations
@@ -26,7 +30,8 @@ from std_msgs.msg import Float64
 
 from boat_twin.config import TwinConfig, load_config
 from boat_twin.errors import InputError
-from boat_twin.io.messages import COMMAND_TOPICS
+from boat_twin.io.messages import command_topics
+from boat_twin.io.roles import COMMAND_ROLES
 from boat_twin.nodes import conventions, parameters
 from boat_twin.nodes.spin import run_node
 from boat_twin.vessel.scenarios import CommandProfile, make_scenario, read_command_csv
@@ -57,7 +62,14 @@ class PlayerNode(Node):
                                  "play an open-loop scenario or a commands_file")
             profile = scenario
         self.profile = profile
-        self.publishers_ = [self.create_publisher(Float64, topic, 10) for topic in COMMAND_TOPICS]
+        topics = command_topics(config.vessel.propulsion)
+        self.columns = [i for i, role in enumerate(COMMAND_ROLES) if role in topics]
+        """The profile's command columns the boat has a topic for (thrust left, right, angle left, right)."""
+        self.publishers_ = [self.create_publisher(Float64, topics[COMMAND_ROLES[i]], 10) for i in self.columns]
+        propulsion = config.vessel.propulsion
+        self.stops = {k: (propulsion.thrusters[i].stop_command if propulsion is not None else 0.0)
+                      for k, i in enumerate(self.columns) if i < 2}
+        """Publisher index → the command that stops its thruster, in the thruster's own unit."""
         self.start_ns: int | None = None
         self.held: np.ndarray | None = None
         self.sent_ns = 0
@@ -67,10 +79,10 @@ class PlayerNode(Node):
         self.get_logger().info(f"playing {profile.name}: {profile.duration_s:.0f} s of commands")
 
     def on_stop(self) -> None:
-        """Zero thrust on both outboards, waited for (the node runner calls this however the node stops)."""
-        thrust = self.publishers_[:2]
-        for publisher in thrust:
-            publisher.publish(Float64(data=0.0))
+        """Zero thrust on every thruster, waited for (the node runner calls this however the node stops)."""
+        thrust = [self.publishers_[k] for k in self.stops]
+        for k, stop in self.stops.items():
+            self.publishers_[k].publish(Float64(data=stop))
         for publisher in thrust:
             publisher.wait_for_all_acked(Duration(seconds=STOP_ACK_TIMEOUT_S))
         self.get_logger().info("stopped: zero thrust sent")
@@ -87,8 +99,8 @@ class PlayerNode(Node):
             return
         row = self.profile.command(t_s, np.zeros((1, 6)))[0]
         if self.held is None or not np.array_equal(row, self.held) or now_ns - self.sent_ns >= RESEND_PERIOD_S * 1e9:
-            for publisher, value in zip(self.publishers_, row.tolist(), strict=True):
-                publisher.publish(Float64(data=value))
+            for publisher, column in zip(self.publishers_, self.columns, strict=True):
+                publisher.publish(Float64(data=float(row[column])))
             self.held, self.sent_ns = row, now_ns
 
 

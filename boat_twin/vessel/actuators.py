@@ -67,6 +67,20 @@ class ThrustTable:
         """Thrust at ``command``, N: linear between the points, held at the ends; NaN stays NaN."""
         return np.asarray(np.interp(command, self.command, self.thrust_N))
 
+    def zero_thrust_command(self) -> float:
+        """The command that gives no thrust, in the table's unit: the middle of its dead band where points give
+        0 N, else where the curve first crosses zero (a PWM table's neutral, 1500 µs); the end nearest to zero
+        thrust if it never does."""
+        command, thrust = np.asarray(self.command), np.asarray(self.thrust_N)
+        zero = command[thrust == 0.0]
+        if zero.size:
+            return float(0.5 * (zero.min() + zero.max()))
+        crossing = np.flatnonzero(np.sign(thrust[:-1]) != np.sign(thrust[1:]))
+        if crossing.size:
+            i = int(crossing[0])
+            return float(command[i] - thrust[i] * (command[i + 1] - command[i]) / (thrust[i + 1] - thrust[i]))
+        return float(command[np.argmin(np.abs(thrust))])
+
 
 @dataclass(frozen=True)
 class PropellerMap:
@@ -122,6 +136,12 @@ class Thruster:
     def command_topic(self) -> str:
         """Its command topic (the VRX convention): ``thrusters/<name>/thrust`` in N, else ``.../cmd``."""
         return f"thrusters/{self.name}/{'thrust' if self.command == 'newtons' else 'cmd'}"
+
+    @property
+    def stop_command(self) -> float:
+        """The command that asks it for no thrust, in its own unit: 0 N, 0 rev/s, or its table's
+        :meth:`~ThrustTable.zero_thrust_command`."""
+        return self.table.zero_thrust_command() if self.table is not None else 0.0
 
 
 @dataclass(frozen=True)
