@@ -418,23 +418,27 @@ class _Problem:
             rows.append(speed - self.records[seg.record].speed_mps[seg.start:seg.stop])
         return np.concatenate(rows)
 
-    def simulate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Residuals (simulated |u| − measured) and their Jacobian with respect to ``x``."""
+    def simulate(self, x: np.ndarray, extra_rows: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Residuals (simulated |u| − measured) and their Jacobian with respect to ``x``, built in place (one
+        samples × parameters array: on hours of data with gaps it is the fit's largest); ``extra_rows`` zero rows
+        after the data's (a prior's pseudo-observation)."""
         self.evaluations += 1
         n_free = self.heads
         columns = self.sensitivity_columns()
-        rows, jac_rows = [], []
+        n_rows = sum(seg.stop - seg.start for seg in self.segments)
+        residual = np.empty(n_rows)
+        jac = np.zeros((n_rows + extra_rows, n_free + len(self.segments)))
+        row = 0
         for s, seg in enumerate(self.segments):
             rec = self.records[seg.record]
             out = self._run(x, s, True)
             speed, slope = rice_mean(out[:, 0], self.noise_mps[seg.record])
-            sign = slope[:, None]
-            rows.append(speed - rec.speed_mps[seg.start:seg.stop])
-            jac = np.zeros((out.shape[0], n_free + len(self.segments)))
-            jac[:, : n_free] = (sign * out[:, columns])
-            jac[:, n_free + s] = sign[:, 0] * out[:, -1]
-            jac_rows.append(jac)
-        return np.concatenate(rows), np.vstack(jac_rows)
+            end = row + out.shape[0]
+            residual[row:end] = speed - rec.speed_mps[seg.start:seg.stop]
+            jac[row:end, : n_free] = slope[:, None] * out[:, columns]
+            jac[row:end, n_free + s] = slope * out[:, -1]
+            row = end
+        return residual, jac
 
     def measured(self) -> np.ndarray:
         """Measured speeds of the fitted samples, in residual order, m/s."""
@@ -561,13 +565,13 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
         key = x.tobytes()
         if key not in cache:
             cache.clear()
-            residual, jac = problem.simulate(x)
+            prior_row = weight[0] > 0.0  # the prior on c: one pseudo-observation w·(c − 1)
+            residual, jac = problem.simulate(x, extra_rows=int(prior_row))
             if not _finite_squares(jac):  # sensitivities blew up (a stiff, near-massless trial point): a
                 residual = np.full_like(residual, np.nan)  # failed step, which the solver shrinks away from
-            if weight[0] > 0.0:  # the prior on c: one pseudo-observation w·(c − 1)
-                row = np.zeros((1, jac.shape[1]))
-                row[0, scale_at] = weight[0]
-                residual, jac = np.append(residual, weight[0] * (x[scale_at] - 1.0)), np.vstack([jac, row])
+            if prior_row:
+                jac[-1, scale_at] = weight[0]
+                residual = np.append(residual, weight[0] * (x[scale_at] - 1.0))
             cache[key] = residual, jac
         return cache[key]
 
