@@ -3,8 +3,10 @@
 The identified model (``{"resistance": ..., "effective_mass_kg": ...}``, what ``model.yaml`` holds) overrides
 the default boat through :func:`~boat_twin.vessel.params.params_from_dict`, as ``boat-twin simulate --model``
 loads it. The trial's commands, held from one sample to the next (before the first command: the first),
-drive :func:`~boat_twin.vessel.simulate.simulate` in calm water and air from the speed measured at the first
-sample; the simulated speed over ground is compared with the GNSS speed over ground sample by sample.
+drive :func:`~boat_twin.vessel.simulate.simulate` in calm water from the speed measured at the first sample, in
+calm air or, where the trial measured a true wind (an anemometer), in that wind's mean over the trial (a known
+input, as the identification and the diagnosis take it); the simulated speed over ground is compared with the
+GNSS speed over ground sample by sample.
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ from matplotlib.figure import Figure
 from boat_twin.errors import InputError
 from boat_twin.io.trial import COMMAND_ROLES, Trial
 from boat_twin.signal_noise import white_noise_stdev
+from boat_twin.twin.replay import measured_wind_mps
+from boat_twin.vessel.environment import Environment
 from boat_twin.vessel.params import VesselParams, params_from_dict
 from boat_twin.vessel.scenarios import CommandProfile
 from boat_twin.vessel.simulate import simulate
@@ -39,6 +43,8 @@ class Resimulation:
     """Surge mass with added mass the re-simulation used, kg."""
     mass_source: str
     """Where the effective mass came from: ``identified``, ``boat file``, or why it is not identified."""
+    wind_mps: tuple[float, float] | None = None
+    """The measured true wind the re-simulation ran in (east, north; the trial's mean), m/s; None: calm air."""
 
     @property
     def error_mps(self) -> np.ndarray:
@@ -62,9 +68,11 @@ class Resimulation:
             "initial_speed_mps": float(self.measured_mps[0]),
             "effective_mass_kg": self.effective_mass_kg,
             "mass_source": self.mass_source,
-            "conditions": "calm water and air; vessel parameters other than the identified ones: the identified twin's "
-                          "(twin.yaml), else the default boat",
-        }
+            "conditions": ("calm water and air" if self.wind_mps is None else
+                           "calm water, the trial's measured wind (its mean)")
+                          + "; vessel parameters other than the identified ones: the identified twin's (twin.yaml), "
+                            "else the default boat",
+        } | ({} if self.wind_mps is None else {"wind_east_north_mps": list(self.wind_mps)})
 
 
 def _held_commands(trial: Trial, first: int) -> np.ndarray:
@@ -87,7 +95,8 @@ def resimulate(trial: Trial, model: dict[str, Any], base: VesselParams | None = 
     """Simulate ``trial``'s commands with ``model`` (identified model dict) over ``base`` (default boat);
     ``mass_source`` says where the model's effective mass came from (reported with the error).
 
-    Starts at the first sample with a measured speed, heading straight ahead at that speed, in calm water.
+    Starts at the first sample with a measured speed, heading straight ahead at that speed, in calm water and in
+    the trial's measured wind (its mean; calm air without an anemometer).
     """
     base = base or VesselParams()
     params = params_from_dict(model, "identified model", base)
@@ -99,7 +108,9 @@ def resimulate(trial: Trial, model: dict[str, Any], base: VesselParams | None = 
     t_rel = trial.t_s[first:] - trial.t_s[first]
     profile = CommandProfile("trial commands", t_rel, _held_commands(trial, first), float(t_rel[-1]),
                              float(speed[first]))
-    truth = simulate(params, profile).truth()
+    wind = measured_wind_mps(trial)
+    calm_or_wind = Environment() if wind is None else Environment(wind_east_mps=wind[0], wind_north_mps=wind[1])
+    truth = simulate(params, profile, calm_or_wind).truth()
     simulated = np.interp(t_rel, truth.t_s, np.hypot(truth.vel_east_mps, truth.vel_north_mps))
     keep = np.isfinite(speed[first:])
     return Resimulation(
@@ -109,6 +120,7 @@ def resimulate(trial: Trial, model: dict[str, Any], base: VesselParams | None = 
         speed_noise_mps=white_noise_stdev(speed[first:]),
         effective_mass_kg=params.mass_kg * (1.0 + params.surge_added_mass_ratio),
         mass_source=mass_source if "effective_mass_kg" in model else "the base boat's (none identified)",
+        wind_mps=wind,
     )
 
 
