@@ -138,3 +138,55 @@ def test_convert_writes_the_wind_vanes_wind_that_the_bag_reader_reads_back(
         known = np.isfinite(ours) & (at >= mav.t_s[0]) & (at <= mav.t_s[-1])
         assert np.count_nonzero(known) > 250
         np.testing.assert_allclose(ours[known], np.interp(at[known], mav.t_s, theirs), atol=1e-6)
+
+
+DATAFLASH_FORMATS = {  # type id: (name, struct format of the payload, DataFlash format letters, columns)
+    128: ("FMT", "<BB4s16s64s", "BBnNZ", "Type,Length,Name,Format,Columns"),
+    130: ("GPS", "<QBBIHiiiff", "QBBIHLLeff", "TimeUS,I,Status,GMS,GWk,Lat,Lng,Alt,Spd,GCrs"),
+    131: ("ATT", "<Qfff", "Qfff", "TimeUS,Roll,Pitch,Yaw"),
+    132: ("WIND", "<Qffffff", "Qffffff", "TimeUS,DrRaw,DrApp,DrTru,SpdRaw,SpdApp,SpdTru"),
+    133: ("RCOU", "<QHHH", "QHHH", "TimeUS,C1,C2,C3"),
+}
+"""The messages of the DataFlash log written below, as ArduPilot's logger defines them (AP_WindVane's WIND:
+DrTru the true wind's direction in degrees, SpdTru its speed)."""
+
+
+def _dataflash_record(kind: int, *values: object) -> bytes:
+    """One DataFlash message: the 0xA3 0x95 head, its type id, the packed payload."""
+    return bytes([0xA3, 0x95, kind]) + struct.pack(DATAFLASH_FORMATS[kind][1], *values)
+
+
+def write_dataflash(path: Path, duration_s: float = 30.0) -> None:
+    """A rover's DataFlash log: FMT records, then GPS, ATT and RCOU at 10 Hz and its wind vane's WIND at 1 Hz
+    (the readings of :func:`_wind_from`), time since boot only (no GPS week: no time base)."""
+    out = bytearray()
+    for kind, (name, fmt, letters, columns) in DATAFLASH_FORMATS.items():
+        length = 3 + struct.calcsize(fmt)
+        out += _dataflash_record(128, kind, length, name.encode(), letters.encode(), columns.encode())
+    for k in range(int(duration_s * 10)):
+        t = k * 0.1
+        us = int(round((100.0 + t) * 1e6))
+        out += _dataflash_record(130, us, 0, 3, 0, 0, int(59.9e7), int(round((10.7 + 1e-5 * t) * 1e7)), 0, 0.5,
+                                 90.0)
+        out += _dataflash_record(131, us, 0.0, 0.0, 90.0)
+        rudder = 1500 + int(round(300 * math.sin(t / 3.0)))
+        out += _dataflash_record(133, us, rudder, 1500, 1500 + 100 * (1 + int(t // 10)))
+        if k % 10 == 0:
+            direction, speed = _wind_from(t)
+            out += _dataflash_record(132, us, 0.0, 0.0, direction, 0.0, 0.0, speed)
+    path.write_bytes(bytes(out))
+
+
+def test_a_dataflash_logs_wind_vane_is_read_as_the_air_over_ground(tmp_path: Path) -> None:
+    (tmp_path / "cal.yaml").write_text(CALIBRATION)
+    write_dataflash(tmp_path / "boat.BIN")
+    trial = read_trial_file(tmp_path / "boat.BIN", calibration=str(tmp_path / "cal.yaml"))
+    assert trial.wind_east_mps is not None and trial.wind_north_mps is not None
+    assert trial.metadata.topics["wind"] == "WIND"
+    boot = trial.t_s + trial.metadata.start_time_s - 100.0  # the vane's clock: time since boot less 100 s
+    at = np.flatnonzero(np.isclose(boot, np.round(boot), atol=1e-6) & (boot > 0.5) & (boot < 29.5))
+    assert at.size > 20
+    for i in at:
+        direction, speed = _wind_from(float(boot[i]))
+        assert trial.wind_east_mps[i] == pytest.approx(-speed * math.sin(math.radians(direction)), abs=0.05)
+        assert trial.wind_north_mps[i] == pytest.approx(-speed * math.cos(math.radians(direction)), abs=0.05)

@@ -54,8 +54,9 @@ class _Decoder:
 
     def handlers(self) -> dict[str, Callable[[Any, float], None]]:
         """Message type → its method, for the types this plan reads (their rows are created here)."""
-        handlers: dict[str, Callable[[Any, float], None]] = {"GPS": self.gps, "ATT": self.att, "IMU": self.imu}
-        for name, width in (("GPS", 7), ("ATT", 5), ("IMU", 8)):
+        handlers: dict[str, Callable[[Any, float], None]] = {"GPS": self.gps, "ATT": self.att, "IMU": self.imu,
+                                                             "WIND": self.wind}
+        for name, width in (("GPS", 7), ("ATT", 5), ("IMU", 8), ("WIND", 4)):
             self.rows[name] = Rows(width)
         for name, chans in (("RCOU", self.servo_channels), ("RCIN", self.rc_channels)):
             if chans:
@@ -76,6 +77,14 @@ class _Decoder:
     def imu(self, m: Any, t: float) -> None:
         if getattr(m, "I", 0) == 0:
             self.rows["IMU"].add((t, 0.0, m.GyrX, -m.GyrY, -m.GyrZ, m.AccX, -m.AccY, -m.AccZ))
+
+    def wind(self, m: Any, t: float) -> None:
+        """A rover's wind vane (AP_WindVane's WIND): the true wind's direction DrTru, degrees clockwise from north,
+        the direction it comes from (as the telemetry's WIND), and its speed SpdTru, m/s → the air's velocity
+        (east, north)."""
+        if math.isfinite(m.DrTru) and math.isfinite(m.SpdTru):
+            going = math.radians(m.DrTru + 180.0)
+            self.rows["WIND"].add((t, 0.0, m.SpdTru * math.sin(going), m.SpdTru * math.cos(going)))
 
     def channels(self, name: str, chans: list[int]) -> Callable[[Any, float], None]:
         """The reader of RCOU or RCIN channels ``chans`` (their field names found in the first message)."""

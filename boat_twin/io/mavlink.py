@@ -9,8 +9,8 @@ role          .tlog                                                  DataFlash .
 gnss_fix      GLOBAL_POSITION_INT (default) or GPS_RAW_INT (≥ 2D)    GPS (instance 0, Status ≥ 2D fix)
 gnss_vel      the same message: vx, vy (or vel and cog)              GPS: Spd and GCrs
 imu           ATTITUDE (+ RAW_IMU accelerations)                     ATT (+ IMU instance 0 rates, accelerations)
-wind          WIND (ArduPilot: direction it comes from, speed)       (not read)
-              or WIND_COV (wind_x north, wind_y east)
+wind          WIND (ArduPilot: direction it comes from, speed)       WIND (a rover's wind vane: DrTru, the
+              or WIND_COV (wind_x north, wind_y east)                 direction it comes from, and SpdTru)
 commands      SERVO_OUTPUT_RAW, RC_CHANNELS or MANUAL_CONTROL        RCOU or RCIN
               through the calibration map                           through the calibration map
 ============  =====================================================  ========================================
@@ -96,7 +96,7 @@ GNSS_SOURCES = {"tlog": ("GLOBAL_POSITION_INT", "GPS_RAW_INT"), "dataflash": ("G
 """Messages a GNSS role can come from, in order of preference (``remap`` picks one)."""
 IMU_SOURCES = {"tlog": ("ATTITUDE",), "dataflash": ("ATT",)}
 """Messages the heading comes from."""
-WIND_SOURCES = {"tlog": ("WIND", "WIND_COV")}
+WIND_SOURCES = {"tlog": ("WIND", "WIND_COV"), "dataflash": ("WIND",)}
 """Messages a measured true wind comes from, in order of preference."""
 
 
@@ -351,7 +351,8 @@ def _imu_stream(log: MavlinkLog, tables: dict[str, np.ndarray], absolute: dict[s
 
 def _wind_stream(log: MavlinkLog, tables: dict[str, np.ndarray], absolute: dict[str, np.ndarray]) -> None:
     """The measured true wind (``wind``: east, north m/s, the air's velocity) from ArduPilot's WIND (a rover's
-    wind vane: the direction it comes from and its speed), else common WIND_COV (.tlog; DataFlash: not read)."""
+    wind vane: the direction it comes from and its speed; in a DataFlash log AP_WindVane's WIND), else common
+    WIND_COV (.tlog)."""
     for name in WIND_SOURCES.get(log.log_format, ()):
         table = tables.get(name)
         if table is not None and table.shape[0] >= 1:
