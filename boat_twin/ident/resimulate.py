@@ -4,9 +4,9 @@ The identified model (``{"resistance": ..., "effective_mass_kg": ...}``, what ``
 the default boat through :func:`~boat_twin.vessel.params.params_from_dict`, as ``boat-twin simulate --model``
 loads it. The trial's commands, held from one sample to the next (before the first command: the first),
 drive :func:`~boat_twin.vessel.simulate.simulate` in calm water from the speed measured at the first sample, in
-calm air or, where the trial measured a true wind (an anemometer), in that wind's mean over the trial (a known
-input, as the identification and the diagnosis take it); the simulated speed over ground is compared with the
-GNSS speed over ground sample by sample.
+calm air or, where the trial measured a true wind (an anemometer), in that wind as it was measured, held over
+each :data:`WIND_HOLD_S` (a known input, as the identification and the diagnosis take it); the simulated speed
+over ground is compared with the GNSS speed over ground sample by sample.
 """
 
 from __future__ import annotations
@@ -21,10 +21,14 @@ from boat_twin.errors import InputError
 from boat_twin.io.trial import COMMAND_ROLES, Trial
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.twin.replay import measured_wind_mps
-from boat_twin.vessel.environment import Environment
+from boat_twin.vessel.environment import WindTrack
 from boat_twin.vessel.params import VesselParams, params_from_dict
 from boat_twin.vessel.scenarios import CommandProfile
-from boat_twin.vessel.simulate import simulate
+from boat_twin.vessel.simulate import OUTPUT_RATE_HZ, simulate, simulate_chunks
+
+WIND_HOLD_S = 20.0
+"""A measured wind is held at its mean over each stretch of this length in the re-simulation, s: the diagnosis'
+window (:func:`~boat_twin.twin.replay.cut_windows`' default), so both meet the wind alike."""
 
 
 @dataclass(frozen=True)
@@ -44,7 +48,8 @@ class Resimulation:
     mass_source: str
     """Where the effective mass came from: ``identified``, ``boat file``, or why it is not identified."""
     wind_mps: tuple[float, float] | None = None
-    """The measured true wind the re-simulation ran in (east, north; the trial's mean), m/s; None: calm air."""
+    """The trial's mean measured true wind (east, north), m/s; None: calm air. The re-simulation ran in the wind
+    as measured (held over each :data:`WIND_HOLD_S`)."""
 
     @property
     def error_mps(self) -> np.ndarray:
@@ -69,7 +74,7 @@ class Resimulation:
             "effective_mass_kg": self.effective_mass_kg,
             "mass_source": self.mass_source,
             "conditions": ("calm water and air" if self.wind_mps is None else
-                           "calm water, the trial's measured wind (its mean)")
+                           f"calm water, the trial's measured wind (held over each {WIND_HOLD_S:g} s)")
                           + "; vessel parameters other than the identified ones: the identified twin's (twin.yaml), "
                             "else the default boat",
         } | ({} if self.wind_mps is None else {"wind_east_north_mps": list(self.wind_mps)})
@@ -96,7 +101,7 @@ def resimulate(trial: Trial, model: dict[str, Any], base: VesselParams | None = 
     ``mass_source`` says where the model's effective mass came from (reported with the error).
 
     Starts at the first sample with a measured speed, heading straight ahead at that speed, in calm water and in
-    the trial's measured wind (its mean; calm air without an anemometer).
+    the trial's measured wind (held over each :data:`WIND_HOLD_S`; calm air without an anemometer).
     """
     base = base or VesselParams()
     params = params_from_dict(model, "identified model", base)
@@ -109,9 +114,16 @@ def resimulate(trial: Trial, model: dict[str, Any], base: VesselParams | None = 
     profile = CommandProfile("trial commands", t_rel, _held_commands(trial, first), float(t_rel[-1]),
                              float(speed[first]))
     wind = measured_wind_mps(trial)
-    calm_or_wind = Environment() if wind is None else Environment(wind_east_mps=wind[0], wind_north_mps=wind[1])
-    truth = simulate(params, profile, calm_or_wind).truth()
-    simulated = np.interp(t_rel, truth.t_s, np.hypot(truth.vel_east_mps, truth.vel_north_mps))
+    if wind is None or trial.wind_east_mps is None or trial.wind_north_mps is None:
+        truth = simulate(params, profile).truth()
+        times, speeds = truth.t_s, np.hypot(truth.vel_east_mps, truth.vel_north_mps)
+    else:
+        track = WindTrack(t_rel, trial.wind_east_mps[first:], trial.wind_north_mps[first:])
+        parts = [chunk.truth() for chunk in simulate_chunks(params, profile, chunk_ticks=int(round(
+            WIND_HOLD_S * OUTPUT_RATE_HZ)), wind_track=track)]
+        times = np.concatenate([p.t_s for p in parts])
+        speeds = np.concatenate([np.hypot(p.vel_east_mps, p.vel_north_mps) for p in parts])
+    simulated = np.interp(t_rel, times, speeds)
     keep = np.isfinite(speed[first:])
     return Resimulation(
         t_s=trial.t_s[first:][keep],

@@ -1,4 +1,5 @@
-"""The sea and air around the boat: a constant, uniform water current and wind (ENU)."""
+"""The sea and air around the boat: a constant, uniform water current and wind (ENU), and a measured wind's
+time course (:class:`WindTrack`) a simulation can be run in, held piecewise."""
 
 from __future__ import annotations
 
@@ -34,3 +35,25 @@ class Environment:
     def as_vector(self) -> np.ndarray:
         """``[current_east, current_north, wind_east, wind_north]``, m/s: the dynamics kernel's environment row."""
         return np.array([self.current_east_mps, self.current_north_mps, self.wind_east_mps, self.wind_north_mps])
+
+
+@dataclass(frozen=True)
+class WindTrack:
+    """A measured true wind over time (an anemometer's): times s, the air's velocity over ground east and north,
+    m/s (NaN: not known then)."""
+
+    t_s: np.ndarray
+    east_mps: np.ndarray
+    north_mps: np.ndarray
+
+    def mean_over(self, start_s: float, stop_s: float) -> tuple[float, float]:
+        """The wind's mean over [``start_s``, ``stop_s``), m/s (east, north): its known samples there, else the
+        known sample nearest to the span's middle (the wind held across the anemometer's gaps)."""
+        known = np.isfinite(self.east_mps) & np.isfinite(self.north_mps)
+        if not np.any(known):
+            raise InputError("the wind track has no known sample")
+        inside = known & (self.t_s >= start_s) & (self.t_s < stop_s)
+        if np.any(inside):
+            return float(np.mean(self.east_mps[inside])), float(np.mean(self.north_mps[inside]))
+        nearest = int(np.argmin(np.where(known, np.abs(self.t_s - 0.5 * (start_s + stop_s)), np.inf)))
+        return float(self.east_mps[nearest]), float(self.north_mps[nearest])

@@ -13,13 +13,13 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from boat_twin.errors import InputError
 from boat_twin.vessel.dynamics import Dynamics
-from boat_twin.vessel.environment import Environment
+from boat_twin.vessel.environment import Environment, WindTrack
 from boat_twin.vessel.helms import CompiledHelm
 from boat_twin.vessel.params import VesselParams
 from boat_twin.vessel.scenarios import CommandProfile, Scenario
@@ -115,11 +115,15 @@ def simulate_chunks(
     chunk_ticks: int | None = None,
     boats: Sequence[VesselParams] | None = None,
     compiled_helm: bool = True,
+    wind_track: WindTrack | None = None,
 ) -> Iterator[SimulationRecord]:
     """:func:`simulate` as consecutive records of at most ``chunk_ticks`` output ticks each (None: one record).
 
     The boats' states carry over from chunk to chunk, so the chunks together are exactly the one record of
-    :func:`simulate`, but only one chunk (144 bytes per boat and tick) is held at a time.
+    :func:`simulate`, but only one chunk (144 bytes per boat and tick) is held at a time. ``wind_track``: a
+    measured wind (times on the scenario's clock) instead of ``environment``'s steady one, each chunk run in its
+    mean over the chunk (:meth:`~boat_twin.vessel.environment.WindTrack.mean_over`; the record's environment says
+    which).
     """
     environment = environment or Environment()
     dynamics = Dynamics(params, extra_drag_N, boats)
@@ -153,6 +157,11 @@ def simulate_chunks(
         stop = min(start + step, n_ticks)
         t_s = np.arange(start, stop) / OUTPUT_RATE_HZ
         issued: np.ndarray | None = None
+        chunk_environment = environment
+        if wind_track is not None and t_s.size:
+            east, north = wind_track.mean_over(float(t_s[0]), float(t_s[-1]) + 1.0 / OUTPUT_RATE_HZ)
+            chunk_environment = replace(environment, wind_east_mps=east, wind_north_mps=north)
+            environments[:, 2:4] = (east, north)
         if isinstance(helm, CommandProfile):
             index = np.searchsorted(helm.times_s, t_s + 1e-9, side="right") - 1
             rows = np.where(index[:, None] >= 0, helm.values[np.maximum(index, 0)], 0.0)
@@ -202,7 +211,7 @@ def simulate_chunks(
             raise InputError(f"the simulation diverged at t = {t_s[tick]:.1f} s (a non-finite state): these vessel "
                              f"parameters cannot be integrated at {INTEGRATION_RATE_HZ:g} Hz; check the masses, "
                              "damping and resistance")
-        yield SimulationRecord(t_s, out_states, commands, derivatives, environment, out_steering, issued)
+        yield SimulationRecord(t_s, out_states, commands, derivatives, chunk_environment, out_steering, issued)
         start = stop
         if start >= n_ticks:
             return
