@@ -175,3 +175,21 @@ def test_a_simulation_in_a_wind_track_holds_each_chunks_mean() -> None:
     winds = [c.environment.wind_east_mps for c in simulate_chunks(params, scenario, chunk_ticks=200,
                                                                      wind_track=turning)]
     assert winds[:5] == [-7.0] * 5 and winds[5] == 5.0 and winds[-1] == 5.0
+
+
+def test_a_wind_known_only_before_the_first_speed_is_held() -> None:
+    """A vane that logged only before the GNSS gave its first speed: the re-simulation holds its last reading."""
+    from boat_twin.ident.resimulate import resimulate
+
+    params = replace(VesselParams(), frontal_windage_area_m2=AREA_M2)
+    trial = boat_trial(params, lambda t: 800.0, lambda t: 0.0, 120.0, np.random.default_rng(7),
+                       wind_mps=lambda t: (-8.0, 2.0))
+    assert trial.wind_east_mps is not None and trial.wind_north_mps is not None
+    late = np.arange(trial.t_s.size) >= 50  # the first GNSS velocity at sample 50
+    early = np.arange(trial.t_s.size) < 20  # the vane's last reading at sample 19
+    windy = replace(trial, vel_east_mps=np.where(late, trial.vel_east_mps, np.nan),
+                    vel_north_mps=np.where(late, trial.vel_north_mps, np.nan), wind_east_mps=np.where(early, trial.wind_east_mps, np.nan),
+                    wind_north_mps=np.where(early, trial.wind_north_mps, np.nan))
+    result = resimulate(windy, {}, params).to_dict()
+    assert result["wind_east_north_mps"] == pytest.approx([-8.0, 2.0], abs=0.3)
+    assert result["speed_rmse_mps"] < 0.1

@@ -118,7 +118,8 @@ def resimulate(trial: Trial, model: dict[str, Any], base: VesselParams | None = 
         truth = simulate(params, profile).truth()
         times, speeds = truth.t_s, np.hypot(truth.vel_east_mps, truth.vel_north_mps)
     else:
-        track = WindTrack(t_rel, trial.wind_east_mps[first:], trial.wind_north_mps[first:])
+        # the whole record (before the first speed too: a vane known only then is held from there)
+        track = WindTrack(trial.t_s - trial.t_s[first], trial.wind_east_mps, trial.wind_north_mps)
         parts = [chunk.truth() for chunk in simulate_chunks(params, profile, chunk_ticks=int(round(
             WIND_HOLD_S * OUTPUT_RATE_HZ)), wind_track=track)]
         times = np.concatenate([p.t_s for p in parts])
