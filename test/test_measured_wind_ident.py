@@ -188,7 +188,8 @@ def test_a_wind_known_only_before_the_first_speed_is_held() -> None:
     late = np.arange(trial.t_s.size) >= 50  # the first GNSS velocity at sample 50
     early = np.arange(trial.t_s.size) < 20  # the vane's last reading at sample 19
     windy = replace(trial, vel_east_mps=np.where(late, trial.vel_east_mps, np.nan),
-                    vel_north_mps=np.where(late, trial.vel_north_mps, np.nan), wind_east_mps=np.where(early, trial.wind_east_mps, np.nan),
+                    vel_north_mps=np.where(late, trial.vel_north_mps, np.nan),
+                    wind_east_mps=np.where(early, trial.wind_east_mps, np.nan),
                     wind_north_mps=np.where(early, trial.wind_north_mps, np.nan))
     result = resimulate(windy, {}, params).to_dict()
     assert result["wind_east_north_mps"] == pytest.approx([-8.0, 2.0], abs=0.3)
