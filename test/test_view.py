@@ -13,6 +13,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 from processes import popen_as_from_a_shell
@@ -189,3 +190,75 @@ def test_a_mavlink_run_shows_the_live_boat_and_records_its_view(tmp_path: Path) 
     assert recorded is not None
     bag_counts = {recorded.channels[i].topic: n for i, n in recorded.statistics.channel_message_counts.items()}
     assert counts["/boat/fix"] <= bag_counts["/gnss/fix"] <= 201  # every fix the view shows is one the bag holds
+
+
+def _advertised(url: str, quiet_s: float = 1.5, deadline_s: float = 30.0) -> set[str]:
+    """The topics a Foxglove server advertises to a client that just connected (until it is quiet for
+    ``quiet_s``)."""
+    from foxglove_client import SUBPROTOCOLS
+    from websockets.sync import client as websockets_sync
+
+    topics: set[str] = set()
+    deadline = time.monotonic() + deadline_s
+    with websockets_sync.connect(url, subprotocols=SUBPROTOCOLS, open_timeout=10) as ws:
+        while time.monotonic() < deadline:
+            try:
+                frame = ws.recv(timeout=quiet_s)
+            except TimeoutError:
+                if topics:
+                    break
+                continue
+            if isinstance(frame, str) and json.loads(frame)["op"] == "advertise":
+                topics |= {channel["topic"] for channel in json.loads(frame)["channels"]}
+    return topics
+
+
+def test_a_shadow_view_opens_every_innovation_channel_before_a_client_connects(tmp_path: Path) -> None:
+    """A channel the SDK opens while a client is connected can be advertised before the server takes a subscription
+    to it ("attempted to subscribe to unknown channel", seen once in CI: the client never got the speed
+    innovations): a shadow's view opens the innovation channels the twin has with the others, at its start; and
+    those are every channel a followed trial gives innovations on."""
+    import numpy as np
+
+    from boat_twin.config import TwinConfig
+    from boat_twin.diagnose.hidden import scenario
+    from boat_twin.shadow.follow import follow_trial
+    from boat_twin.shadow.sync import INNOVATION_CHANNELS
+    from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
+    from boat_twin.view.stream import TwinView
+
+    view = TwinView(("127.0.0.1", 0), innovation_channels=INNOVATION_CHANNELS)
+    try:
+        assert view.url is not None
+        topics = _advertised(view.url)
+    finally:
+        view.close()
+    assert {f"/twin/innovations/{c}" for c in INNOVATION_CHANNELS} <= topics, topics
+    from boat_twin.io.bags import read_trial, write_bag
+
+    base = TwinConfig()
+    bag = tmp_path / "trial.mcap"
+    write_bag(bag, trial_messages(run_sea_trial(base, scenario("zigzag", base.vessel, np.random.default_rng(3),
+                                                                       60.0), 3), truth=False))
+    seen: set[str] = set()
+
+    class Channels:  # a FollowObserver that keeps the channels of the innovations it is shown
+        def attach(self, shadow: Any) -> None:
+            before = shadow.on_innovation
+
+            def both(item: Any) -> None:
+                before(item)
+                seen.add(item.channel)
+            shadow.on_innovation = both
+
+        def log_line(self, line: str) -> None:
+            pass
+
+        def sample(self, kind: str, t_s: float, values: tuple[float, ...]) -> None:
+            pass
+
+        def finish(self) -> None:
+            pass
+
+    follow_trial(read_trial(bag), base, observer=Channels())
+    assert seen == set(INNOVATION_CHANNELS)

@@ -107,11 +107,12 @@ def run(args: argparse.Namespace) -> int:
         if address is None:
             done = follow_trial(trial, config, progress=None if args.json else _progress)
         else:
+            from boat_twin.shadow.sync import INNOVATION_CHANNELS
             from boat_twin.view.observer import Pacer, ShadowView
             from boat_twin.view.stream import TwinView
 
             view = TwinView(address, out / VIEW_MCAP if out is not None else None, trial.metadata.start_time_s,
-                            (config.vessel.length_m, config.vessel.beam_m))
+                            (config.vessel.length_m, config.vessel.beam_m), innovation_channels=INNOVATION_CHANNELS)
             try:
                 announce_view(view.url)
                 done = follow_trial(trial, config, progress=None if args.json else _progress,

@@ -119,10 +119,12 @@ def use_sim_time(node: Node) -> bool:
     return simulated
 
 
-def foxglove_view(node: Node, hull_m: tuple[float, float]) -> TwinView | None:
+def foxglove_view(node: Node, hull_m: tuple[float, float], innovation_channels: tuple[str, ...] = ()
+                  ) -> TwinView | None:
     """The ``foxglove`` parameter (string, "": off; HOST:PORT, HOST or :PORT, loopback by default) and
     ``foxglove_allow_remote`` (bool, false): a live Foxglove view of what the node shows (boat_twin.view), its
-    address logged; None when off. A bad address or a missing foxglove-sdk: one line, exit 2."""
+    address logged; None when off. A bad address or a missing foxglove-sdk: one line, exit 2.
+    ``innovation_channels``: opened at the start (a shadow twin's, :class:`~boat_twin.view.stream.TwinView`)."""
     text = parameters.string(node, "foxglove", "", "serve a live Foxglove view on HOST:PORT (empty: off)")
     allow_remote = parameters.boolean(node, "foxglove_allow_remote", False, "allow a non-loopback foxglove host")
     if not text:
@@ -132,6 +134,6 @@ def foxglove_view(node: Node, hull_m: tuple[float, float]) -> TwinView | None:
 
     address = parse_address(text, "foxglove", allow_remote, "foxglove_allow_remote:=true")
     require_sdk("the foxglove parameter")
-    view = TwinView(address, hull_m=hull_m, name=node.get_name())
+    view = TwinView(address, hull_m=hull_m, name=node.get_name(), innovation_channels=innovation_channels)
     node.get_logger().info(f"foxglove: live view on {view.url}")
     return view

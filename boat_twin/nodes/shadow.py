@@ -59,7 +59,7 @@ from boat_twin.nodes.diagnostics import OK, WARN, Diagnostics, Status
 from boat_twin.nodes.identifier import default_model_path
 from boat_twin.nodes.spin import run_node
 from boat_twin.shadow.session import Shadow, ShadowSettings
-from boat_twin.shadow.sync import Innovation, SyncSettings
+from boat_twin.shadow.sync import INNOVATION_CHANNELS, Innovation, SyncSettings
 from boat_twin.shadow.turning import LIVE_KEYS
 from boat_twin.view.observer import ShadowView
 
@@ -100,7 +100,8 @@ class ShadowNode(Node):
         self.remap = conventions.topic_remap(topics)
         self.twin_path = Path(twin_path).expanduser() if twin_path else default_model_path().with_name("twin.yaml")
         config = load_config(Path(config_file)) if config_file else TwinConfig()
-        self.view = conventions.foxglove_view(self, (config.vessel.length_m, config.vessel.beam_m))
+        self.view = conventions.foxglove_view(self, (config.vessel.length_m, config.vessel.beam_m),
+                                              INNOVATION_CHANNELS)
         self.watch = ShadowView(self.view) if self.view is not None else None
         self.shadow = Shadow(config, ShadowSettings(SyncSettings(reorder_s=reorder_s), adapt=adapt, diagnose=diagnose,
                                                     diagnose_in_background=True), self.log_line)

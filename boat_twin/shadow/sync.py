@@ -53,6 +53,9 @@ KIND_ORDER = {kind: i for i, kind in enumerate(COMMAND_ROLES + SENSOR_ROLES)}
 """Samples with one stamp are processed in this order (commands first), whatever order they arrived in."""
 INTEGRATION_STEP_S = 0.05
 """Longest RK4 step of the propagation, s (the diagnosis replays at 20 Hz as well)."""
+INNOVATION_CHANNELS = ("speed_mps", "vel_east_mps", "vel_north_mps", "east_m", "north_m", "yaw_rate_radps",
+                       "heading_rad")
+"""The channels the twin's innovations come on (SI unit in the name): a live view opens them all at its start."""
 
 
 @dataclass(frozen=True)
@@ -369,6 +372,7 @@ class ShadowTwin:
         return tuple(float(np.interp(at_s, t, np.array([h[k] for h in self._history]))) for k in range(1, 7))
 
     def _record(self, stamp_s: float, channel: str, measured: float, predicted: float, stdev: float) -> None:
+        """One innovation on ``channel`` (one of :data:`INNOVATION_CHANNELS`)."""
         self.innovations.append(Innovation(stamp_s, channel, measured, predicted, stdev))
 
     def _correct_gnss_vel(self, stamp_s: float, values: tuple[float, ...]) -> None:

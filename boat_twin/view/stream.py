@@ -69,7 +69,11 @@ class TwinView:
     (``mcap``); times are stream seconds, stamped ``epoch_s`` + t."""
 
     def __init__(self, address: tuple[str, int] | None = None, mcap: Path | None = None, epoch_s: float = 0.0,
-                 hull_m: tuple[float, float] = (6.0, 2.6), name: str = "boat_twin") -> None:
+                 hull_m: tuple[float, float] = (6.0, 2.6), name: str = "boat_twin",
+                 innovation_channels: tuple[str, ...] = ()) -> None:
+        """``innovation_channels``: the innovation channels opened at once (a shadow twin's), with the others,
+        before a client can ask for them: a channel the SDK opens while a client is connected can be advertised
+        before the server takes a subscription to it ("unknown channel"), and that client never gets it."""
         foxglove = require_sdk()
         from foxglove import channels
 
@@ -99,6 +103,8 @@ class TwinView:
         self._log = channels.LogChannel(TOPICS["log"], context=ctx)
         self._model = foxglove.Channel(TOPICS["model"], schema=MODEL_SCHEMA, context=ctx)
         self._innovations: dict[str, Any] = {}
+        for channel in innovation_channels:
+            self._innovation_channel(channel)
         self._next_scene_s = -math.inf
 
     @property
@@ -174,13 +180,17 @@ class TwinView:
     def innovation(self, t_s: float, channel: str, measured: float, predicted: float, stdev: float,
                    value: float) -> None:
         """One innovation (``value`` = measured − predicted, angles wrapped) with its ±2σ band."""
+        _, ns = self._time(t_s)
+        self._innovation_channel(channel).log(_json({
+            "t_s": t_s, "innovation": value, "stdev": stdev, "band_low": -2.0 * stdev, "band_high": 2.0 * stdev,
+            "measured": measured, "predicted": predicted}), log_time=ns)
+
+    def _innovation_channel(self, channel: str) -> Any:
+        """The Foxglove channel of one innovation channel (opened on first use)."""
         if channel not in self._innovations:
             self._innovations[channel] = self._fg.Channel(f"{TOPICS['innovations']}/{channel}",
                                                           schema=INNOVATION_SCHEMA, context=self.context)
-        _, ns = self._time(t_s)
-        self._innovations[channel].log(_json({
-            "t_s": t_s, "innovation": value, "stdev": stdev, "band_low": -2.0 * stdev, "band_high": 2.0 * stdev,
-            "measured": measured, "predicted": predicted}), log_time=ns)
+        return self._innovations[channel]
 
     def model(self, t_s: float, values: dict[str, float | None]) -> None:
         """The adapted model (:data:`MODEL_SCHEMA`)."""
