@@ -2,16 +2,19 @@
 
 Every process of a test session shares one private ROS_DOMAIN_ID with localhost-only discovery, so parallel
 sessions on one machine (or a developer's own ROS graph) never see each other's topics; pytest-xdist workers of
-one run get distinct domains.
+one run get distinct domains. The nodes' ROS logs go to a ROS_HOME of this test process, removed when it exits
+(unless ROS_HOME is set).
 """
 
 from __future__ import annotations
 
+import atexit
 import os
 import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 import zlib
 from collections.abc import Callable, Iterator
@@ -33,7 +36,9 @@ def private_domain_id() -> int:
 os.environ["ROS_DOMAIN_ID"] = str(private_domain_id())
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ["RMW_IMPLEMENTATION"] = "rmw_fastrtps_cpp"
-os.environ.setdefault("ROS_HOME", str(Path(os.environ.get("TMPDIR", "/tmp")) / f"boat_twin_ros_{os.getpid()}"))
+if "ROS_HOME" not in os.environ:
+    os.environ["ROS_HOME"] = tempfile.mkdtemp(prefix="boat_twin_ros_")
+    atexit.register(shutil.rmtree, os.environ["ROS_HOME"], ignore_errors=True)
 
 import rclpy  # noqa: E402  (the environment above must be set first)
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
