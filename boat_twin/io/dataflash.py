@@ -11,7 +11,8 @@ from typing import Any
 
 from boat_twin.errors import InputError
 from boat_twin.frames import enu_yaw_from_ned, wrap_pi
-from boat_twin.io.mavlink_log import ReadPlan, ReadReport, Rows
+from boat_twin.io.mavlink_log import ReadPlan, ReadReport
+from boat_twin.rows import Rows
 
 COMMAND_MESSAGES = {"SERVO": "RCOU", "RC": "RCIN"}
 """Command source kind → the DataFlash message it is read from (MANUAL_CONTROL is not logged)."""

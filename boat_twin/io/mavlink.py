@@ -81,9 +81,10 @@ from boat_twin.io.mavlink_calibration import (
     calibration_from_dict,
     load_calibration,
 )
-from boat_twin.io.mavlink_log import IMU_COLUMNS, REBOOT_BACKSTEP_S, MavlinkLog, ReadPlan, ReadReport, Rows
+from boat_twin.io.mavlink_log import IMU_COLUMNS, REBOOT_BACKSTEP_S, MavlinkLog, ReadPlan, ReadReport
 from boat_twin.io.mavlink_trial import MavlinkTrialMetadata, trial_from_log
 from boat_twin.io.trial import COMMAND_ROLES, GAP_TOLERANCE_PERIODS, SENSOR_ROLES, Stream, Trial
+from boat_twin.rows import Rows
 
 __all__ = ["IMU_COLUMNS", "LOG_SUFFIXES", "Calibration", "CommandMap", "MavlinkLog", "MavlinkTrialMetadata",
            "calibration_from_dict", "is_mavlink_log", "load_calibration", "read_mavlink_log", "read_mavlink_trial",

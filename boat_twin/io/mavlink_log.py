@@ -1,11 +1,10 @@
 """What reading a MAVLink log produces, and what its two readers (:mod:`boat_twin.io.tlog`,
-:mod:`boat_twin.io.dataflash`) share: the plan of messages and channels to read, flat row buffers, and the
+:mod:`boat_twin.io.dataflash`) share: the plan of messages and channels to read and the
 report of what the file said about itself. The conventions are :mod:`boat_twin.io.mavlink`'s."""
 
 from __future__ import annotations
 
 import math
-from array import array
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -61,24 +60,6 @@ class MavlinkLog:
         """Role → backward steps of its stamps, for the roles that have any."""
         steps = {role: int(np.sum(np.diff(s.stamps_s) < 0)) for role, s in self.streams.items()}
         return {role: n for role, n in steps.items() if n}
-
-
-class Rows:
-    """Rows of numbers appended to one flat ``array('d')``: bounded memory, no message objects kept."""
-
-    __slots__ = ("data", "width")
-
-    def __init__(self, width: int) -> None:
-        self.width = width
-        self.data = array("d")
-
-    def add(self, row: tuple[float, ...]) -> None:
-        self.data.extend(row)
-
-    def array(self) -> np.ndarray:
-        """The rows as an (n, width) view of the buffer (no copy; append nothing after this)."""
-        return np.frombuffer(self.data, dtype=float).reshape(-1, self.width)
-
 
 
 @dataclass

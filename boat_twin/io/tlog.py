@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 
 from boat_twin.frames import enu_yaw_from_ned, wrap_pi
-from boat_twin.io.mavlink_log import REBOOT_BACKSTEP_S, ReadPlan, ReadReport, Rows
+from boat_twin.io.mavlink_log import REBOOT_BACKSTEP_S, ReadPlan, ReadReport
+from boat_twin.rows import Rows
 from boat_twin.units import STANDARD_GRAVITY_MPS2
 
 USEC32_WRAP_S = 2.0**32 * 1e-6

@@ -17,6 +17,7 @@ from boat_twin.config import TwinConfig
 from boat_twin.diagnose.pipeline import command_warnings
 from boat_twin.io.samples import trial_samples
 from boat_twin.io.trial import Trial
+from boat_twin.rows import Rows
 from boat_twin.shadow.session import RATIO_CHANNELS, Shadow, ShadowSettings
 from boat_twin.shadow.sync import Innovation
 
@@ -101,19 +102,19 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
             observer.log_line(line)
 
     shadow = Shadow(config, settings, log_line)
-    traces: dict[str, list[tuple[float, float, float]]] = {channel: [] for channel in RATIO_CHANNELS}
+    traces = {channel: Rows(3) for channel in RATIO_CHANNELS}
     east: dict[float, tuple[float, float]] = {}
-    track: list[tuple[float, float, float, float, float]] = []
+    track = Rows(5)
 
     def trace(item: Innovation) -> None:
         if item.channel in traces:
-            traces[item.channel].append((item.t_s, item.value, item.stdev))
+            traces[item.channel].add((item.t_s, item.value, item.stdev))
         elif item.channel == "east_m":
             east.clear()
             east[item.t_s] = (item.measured, item.predicted)
         elif item.channel == "north_m" and item.t_s in east:
             (e_measured, e_predicted) = east[item.t_s]
-            track.append((item.t_s, e_measured, item.measured, e_predicted, item.predicted))
+            track.add((item.t_s, e_measured, item.measured, e_predicted, item.predicted))
 
     shadow.on_innovation = trace
     if observer is not None:
@@ -145,9 +146,9 @@ def follow_trial(trial: Trial, config: TwinConfig, settings: ShadowSettings | No
     final = {**_entry(shadow), "model": shadow.model(), "twin": _twin_summary(shadow)}
     if not timeline:
         timeline.append(_entry(shadow))
-    innovations = {channel: np.array(rows).reshape(-1, 3) for channel, rows in traces.items()}
+    innovations = {channel: rows.array() for channel, rows in traces.items()}
     return FollowResult(timeline, final, log, shadow.twin_config(), innovations["speed_mps"], models, diagnoses,
-                        innovations, np.array(track).reshape(-1, 5), follow_warnings(trial, config, shadow))
+                        innovations, track.array(), follow_warnings(trial, config, shadow))
 
 
 def follow_warnings(trial: Trial, config: TwinConfig, shadow: Shadow) -> list[str]:
