@@ -8,11 +8,11 @@ knotted at quantiles of the measured speeds, so Fc(0) = 0 and Fc never decreases
 astern the mirrored curve). The measured speed over ground is the Rice mean of a noisy velocity (:func:`rice_mean`).
 A record may carry a further force C (the live twin's sway-yaw coupling) whose scale c is fitted, free or under a
 prior N(1, σ_c²). Fit: every sample simulated (RK4, numba, the Jacobian from forward sensitivities), bounded least
-squares over (w, m, c, each segment's initial speed). Complexity: the baseline (a, b) and 3, 5, 8, 12 I-splines
-compared by cross-validated multi-step prediction. Uncertainty: the cluster-robust delete-one-block jackknife
-(CR3) over blocks of five residual-correlation times with Student-t intervals, plus the spread to the next richer
-basis. Each choice and why, with the measurements: docs/identification.md, "The model: output error over every
-sample".
+squares over (w, m, c, each segment's initial speed). Complexity: the baseline (a, b), 3, 5, 8, 12 I-splines
+and 12 with knots half spread evenly (:data:`KNOT_UNIFORM_SHARE`) compared by cross-validated multi-step
+prediction. Uncertainty: the cluster-robust delete-one-block jackknife (CR3) over blocks of five
+residual-correlation times with Student-t intervals, plus the spread to the next richer basis.
+Each choice and why, with the measurements: docs/identification.md, "The model: output error over every sample".
 """
 
 from __future__ import annotations

@@ -11,7 +11,8 @@ commanded angle + offset at the steering rate; the engines' first-order lag). Pe
 - the thrust along the hull Σ k·T·cos δ delivered at the measured surge, as its mean over each interval (the
   outboards swing between samples), then held over the intervals between the times the speeds describe
   (:func:`~boat_twin.ident.output_error.horizon_record`, as live);
-- the sway-yaw coupling m₂₂·v·r (the configured boat's m₂₂, the gyro's yaw rate less its configured bias),
+- the sway-yaw coupling m₂₂·v·r (the configured boat's m₂₂, the sway across the heading the compass and the gyro
+  give together (:func:`fused_heading`), the gyro's yaw rate less its configured bias),
   whose scale the fit estimates — where the trial turns: a coupling below :data:`COUPLING_MIN_SHARE` of the
   thrust (RMS over the trial) is left out, its scale is noise there (the thrust-steps sample, which never
   steers: 0.09 %, and fitting c = −8 ± 29 widened its mass interval 4.5-fold; the twin's random-command trials
