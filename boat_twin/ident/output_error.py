@@ -8,11 +8,11 @@ knotted at quantiles of the measured speeds, so Fc(0) = 0 and Fc never decreases
 astern the mirrored curve). The measured speed over ground is the Rice mean of a noisy velocity (:func:`rice_mean`).
 A record may carry a further force C (the live twin's sway-yaw coupling) whose scale c is fitted, free or under a
 prior N(1, σ_c²). Fit: every sample simulated (RK4, numba, the Jacobian from forward sensitivities), bounded least
-squares over (w, m, c, each segment's initial speed). Complexity: the baseline (a, b) and 3, 5, 8, 12 I-splines
-compared by cross-validated multi-step prediction. Uncertainty: the cluster-robust delete-one-block jackknife
-(CR3) over blocks of five residual-correlation times with Student-t intervals, plus the spread to the next richer
-basis. Each choice and why, with the measurements: docs/identification.md, "The model: output error over every
-sample".
+squares over (w, m, c, each segment's initial speed). Complexity: the baseline (a, b), 3, 5, 8, 12 I-splines
+and 12 with knots half spread evenly (:data:`KNOT_UNIFORM_SHARE`) compared by cross-validated multi-step
+prediction. Uncertainty: the cluster-robust delete-one-block jackknife (CR3) over blocks of five
+residual-correlation times with Student-t intervals, plus the spread to the next richer basis.
+Each choice and why, with the measurements: docs/identification.md, "The model: output error over every sample".
 """
 
 from __future__ import annotations
@@ -49,6 +49,13 @@ MIN_CLUSTER_S = 10.0
 """Shortest block of the cluster-robust covariance, s."""
 MASS_RELATIVE_LIMIT = 0.5
 """A 95 % mass interval wider than ± this share of the estimate: the mass is not identified by the data, -."""
+EVEN_KNOT_SIZES = (12,)
+"""I-spline terms tried last, with knots spread evenly in part (:data:`KNOT_UNIFORM_SHARE`)."""
+KNOT_UNIFORM_SHARE = 0.5
+"""Share of a uniform distribution over [0, top speed] in the distribution whose quantiles place the I-splines'
+knots (:func:`spline_basis`): at least this share of the knots spread evenly over the speeds, so that a range the
+boat crosses only in transients (a skid-steer catamaran's random trial: 10 % of its samples below 3.9 m/s of
+6.5, where its resistance has its plateau) is not left to one I-spline, -."""
 TABLE_POINTS = 41
 """Points of the table the fitted curve is written as (monotone cubic through them: TableResistance)."""
 
@@ -118,6 +125,9 @@ class ResistanceBasis:
 
     knots_mps: tuple[float, ...] = ()
     """Clamped knot vector of the I-splines' B-spline derivatives (degree 2), m/s; empty: the baseline."""
+    uniform_share: float = 0.0
+    """Share of the uniform distribution in the one whose quantiles placed the knots (:func:`spline_basis`; 0: the
+    measured speeds' quantiles), -."""
 
     @property
     def size(self) -> int:
@@ -126,8 +136,9 @@ class ResistanceBasis:
 
     @property
     def name(self) -> str:
-        """``baseline`` or ``spline-K`` (K I-spline terms)."""
-        return "baseline" if self.size == 2 else f"spline-{self.size - 2}"
+        """``baseline``, ``spline-K`` (K I-spline terms) or ``spline-K-even`` (knots spread evenly in part:
+        :attr:`uniform_share`)."""
+        return "baseline" if self.size == 2 else f"spline-{self.size - 2}" + ("-even" if self.uniform_share else "")
 
     def design(self, speed_mps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Terms and their speed derivatives at |u|, shapes (n, size): φ_j(|u|) in N per unit coefficient."""
@@ -143,13 +154,25 @@ class ResistanceBasis:
         return np.column_stack(values), np.column_stack(slopes)
 
 
-def spline_basis(speeds_mps: np.ndarray, terms: int) -> ResistanceBasis:
-    """``terms`` I-splines with interior knots at quantiles of ``speeds_mps`` over [0, max |speed|]."""
+def spline_basis(speeds_mps: np.ndarray, terms: int, uniform_share: float = 0.0) -> ResistanceBasis:
+    """``terms`` I-splines with interior knots at quantiles of ``speeds_mps`` over [0, max |speed|]; with
+    ``uniform_share`` w > 0, at quantiles of the mixture (1 − w)·(the speeds' distribution) + w·U(0, max |speed|)
+    (:data:`KNOT_UNIFORM_SHARE`: what :func:`identify_surge` takes), so that speeds the boat only crosses keep
+    knots of their own."""
     top = float(np.max(np.abs(speeds_mps)))
-    inner = np.quantile(np.abs(speeds_mps), np.linspace(0.0, 1.0, terms - 1)[1:-1]) if terms > 3 else np.array([])
+    levels = np.linspace(0.0, 1.0, terms - 1)[1:-1]
+    if terms <= 3:
+        inner = np.array([])
+    elif uniform_share > 0.0 and top > 0.0:
+        data = np.sort(np.abs(np.asarray(speeds_mps, dtype=float)))
+        at = np.union1d(data, np.linspace(0.0, top, 1001))
+        cdf = (1.0 - uniform_share) * np.searchsorted(data, at, side="right") / data.size + uniform_share * at / top
+        inner = np.interp(levels, cdf, at)
+    else:
+        inner = np.quantile(np.abs(speeds_mps), levels)
     inner = np.unique(np.clip(inner, 0.02 * top, 0.98 * top))
     knots = np.concatenate([[0.0] * 3, inner, [top] * 3])
-    return ResistanceBasis(tuple(float(k) for k in knots))
+    return ResistanceBasis(tuple(float(k) for k in knots), uniform_share if terms > 3 else 0.0)
 
 
 @numba.njit(cache=True)
@@ -737,11 +760,13 @@ def _cross_validate(records: list[SurgeRecord], basis: ResistanceBasis, folds: l
 
 
 def identify_surge(records: list[SurgeRecord], *, mass_kg: float | None = None,
-                   spline_sizes: tuple[int, ...] = SPLINE_SIZES) -> OutputErrorResult:
+                   spline_sizes: tuple[int, ...] = SPLINE_SIZES,
+                   even_sizes: tuple[int, ...] = EVEN_KNOT_SIZES) -> OutputErrorResult:
     """Output-error identification of mass and resistance over ``records`` (module docstring): the baseline
-    and the I-spline candidates cross-validated, the selected one refitted on everything. ``mass_kg`` holds the
-    effective mass (not fitted); otherwise it is fitted and judged identified when its 95 % interval is within
-    ± :data:`MASS_RELATIVE_LIMIT` of it."""
+    and the I-spline candidates (``spline_sizes`` knotted at the speeds' quantiles, then ``even_sizes`` with
+    knots spread evenly in part: :data:`KNOT_UNIFORM_SHARE`) cross-validated, the selected one refitted on
+    everything. ``mass_kg`` holds the effective mass (not fitted); otherwise it is fitted and judged identified
+    when its 95 % interval is within ± :data:`MASS_RELATIVE_LIMIT` of it."""
     segments = split_segments(records)
     if not segments:
         raise InputError(f"no stretch of {MIN_SEGMENT_SAMPLES} samples without a gap over {MAX_GAP_S:g} s: "
@@ -750,32 +775,38 @@ def identify_surge(records: list[SurgeRecord], *, mass_kg: float | None = None,
     top = float(np.max(np.abs(speeds)))
     if not top > 0.0:
         raise InputError("the boat never moved (every measured speed is 0): no resistance to identify")
-    bases = [ResistanceBasis()] + [spline_basis(speeds, k) for k in spline_sizes]
+    kinds = [(0, 0.0)] + [(k, 0.0) for k in spline_sizes] + [(k, KNOT_UNIFORM_SHARE) for k in even_sizes]
+
+    def basis_of(terms: int, share: float) -> ResistanceBasis:
+        return ResistanceBasis() if terms == 0 else spline_basis(speeds, terms, share)
+
     folds, how = _folds(records, segments)
     candidates = []
     mass_starts_kg: list[float | None] = [None] * len(folds)  # each fold's fitted mass, basis after basis
-    for basis in bases:
+    for kind in kinds:
+        basis = basis_of(*kind)
         mse, per_record = (_cross_validate(records, basis, folds, top, mass_kg, mass_starts_kg) if folds
                            else (np.nan, None))
         candidates.append({"model": basis.name, "terms": basis.size, "cv_mse_mps2": mse,
                            "cv_rmse_mps": float(np.sqrt(mse)),
                            "cv_rmse_per_record_mps": None if per_record is None else per_record.tolist()})
     chosen, reason = _choose(candidates)
-    fits: dict[int, SurgeFit] = {}
+    fits: dict[tuple[int, float], SurgeFit] = {}
 
-    def fitted(terms: int) -> SurgeFit:  # the baseline first: the others start from its mass
-        if terms not in fits:
-            basis = ResistanceBasis() if terms == 0 else spline_basis(speeds, terms)
-            fits[terms] = fit_surge(records, basis, segments=segments, mass_kg=mass_kg, top_speed_mps=top,
-                                    mass_start_kg=fits[0].mass_kg if fits else None)
-        return fits[terms]
+    def fitted(terms: int, share: float = 0.0) -> SurgeFit:  # the baseline first: the others start from its mass
+        if (terms, share) not in fits:
+            fits[terms, share] = fit_surge(records, basis_of(terms, share), segments=segments, mass_kg=mass_kg,
+                                           top_speed_mps=top,
+                                           mass_start_kg=fits[0, 0.0].mass_kg if fits else None)
+        return fits[terms, share]
 
-    sizes = (0, *spline_sizes)
-    def with_reference(fit: SurgeFit) -> SurgeFit:
-        return replace(fit, reference=fitted(_richer_terms(fit.basis.size - 2, spline_sizes)))
+    def with_reference(fit: SurgeFit) -> SurgeFit:  # the next richer basis of the same knot placement
+        share = fit.basis.uniform_share
+        return replace(fit, reference=fitted(_richer_terms(fit.basis.size - 2,
+                                                           even_sizes if share else spline_sizes), share))
 
     baseline = with_reference(fitted(0))
-    selected = baseline if sizes[chosen] == 0 else with_reference(fitted(sizes[chosen]))
+    selected = baseline if chosen == 0 else with_reference(fitted(*kinds[chosen]))
     identified, note = _mass_verdict(selected, mass_kg)
     return OutputErrorResult(selected=selected, baseline=baseline, candidates=candidates, folds=how, reason=reason,
                              mass_identified=identified, mass_note=note)

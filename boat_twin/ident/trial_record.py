@@ -11,7 +11,8 @@ commanded angle + offset at the steering rate; the engines' first-order lag). Pe
 - the thrust along the hull Σ k·T·cos δ delivered at the measured surge, as its mean over each interval (the
   outboards swing between samples), then held over the intervals between the times the speeds describe
   (:func:`~boat_twin.ident.output_error.horizon_record`, as live);
-- the sway-yaw coupling m₂₂·v·r (the configured boat's m₂₂, the gyro's yaw rate less its configured bias),
+- the sway-yaw coupling m₂₂·v·r (the configured boat's m₂₂, the sway across the heading the compass and the gyro
+  give together (:func:`fused_heading`), the gyro's yaw rate less its configured bias),
   whose scale the fit estimates — where the trial turns: a coupling below :data:`COUPLING_MIN_SHARE` of the
   thrust (RMS over the trial) is left out, its scale is noise there (the thrust-steps sample, which never
   steers: 0.09 %, and fitting c = −8 ± 29 widened its mass interval 4.5-fold; the twin's random-command trials
@@ -30,6 +31,7 @@ the place of the coupling's scale; the sway-yaw coupling then enters the force a
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
@@ -44,6 +46,9 @@ SURGE_ROLES = ("gnss_vel",) + COMMAND_ROLES
 DELIVERED_THRUST = ("thrust delivered along the hull (the commands through the configured engines' envelope and "
                     "steering)")
 """What the record's thrust is, as messages about it name it."""
+HEADING_SMOOTHING_S = 5.0
+"""Standard deviation of the Gaussian window over which :func:`fused_heading` trusts the compass heading (below:
+the gyro's integral), s."""
 COUPLING_MIN_SHARE = 0.01
 """A sway-yaw coupling whose RMS over the trial is below this share of the thrust's is left out of the record
 (a trial that does not turn: its scale is not identifiable, and below the mass intervals' width), -."""
@@ -90,6 +95,33 @@ def _interval_mean(values: np.ndarray) -> np.ndarray:
     return out
 
 
+def fused_heading(t_s: np.ndarray, heading_rad: np.ndarray, yaw_rate_radps: np.ndarray,
+                  smoothing_s: float = HEADING_SMOOTHING_S) -> np.ndarray:
+    """(n,) the heading from the compass at low frequencies and the gyro's integral at high ones (a complementary
+    filter, zero-phase: ψ = θ + G(ψ_compass − θ), θ = ∫r dt, G a Gaussian window of σ = ``smoothing_s``), rad;
+    over each stretch where both are known, the compass heading as is elsewhere. The compass's white noise
+    (the UM7's 3°) leaks the surge into the sway across the heading (u·ε: 0.26 m/s at 5 m/s), whose product with
+    the yaw rate is the sway-yaw coupling: a noisy regressor, whose scale the fit attenuates and the mass takes up
+    (errors in variables). Through the gyro that noise falls by √(2√π·σ/Δt) (11× at 10 Hz), while the gyro's own
+    noise, integrated over σ, stays below 0.05° (a constant gyro bias cancels in ψ_compass − θ); what the
+    compass gets wrong slowly stays."""
+    heading = np.asarray(heading_rad, dtype=float)
+    out = heading.copy()
+    known = np.isfinite(heading) & np.isfinite(yaw_rate_radps)
+    if t_s.size < 2 or not np.any(known):
+        return out
+    dt = float(np.median(np.diff(t_s)))
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], known.astype(int), [0]])))
+    for start, stop in zip(edges[::2], edges[1::2], strict=True):
+        if stop - start < 2:
+            continue
+        rate = yaw_rate_radps[start:stop]
+        theta = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(t_s[start:stop]))])
+        out[start:stop] = theta + ndimage.gaussian_filter1d(heading[start:stop] - theta, smoothing_s / dt,
+                                                            mode="nearest")
+    return out
+
+
 def trial_record(trial: Trial, config: TwinConfig, wind: bool = False) -> SurgeRecord:
     """The trial's known samples as the surge fit reads them under ``config`` (module docstring): times the speeds
     describe (s), the delivered thrust along the hull (N), the surge (m/s; without a heading, the speed over
@@ -106,11 +138,14 @@ def trial_record(trial: Trial, config: TwinConfig, wind: bool = False) -> SurgeR
     north = trial.vel_north_mps - config.environment.current_north_mps
     has_heading = bool(np.any(np.isfinite(trial.heading_rad)))
     if has_heading:  # the heading and yaw rate when each velocity was measured
+        gyro = trial.yaw_rate_radps - float(config.um7.gyro_bias_radps[2])
         yaw = np.interp(t - latency, t, trial.heading_rad - config.um7.yaw_offset_rad)
         surge = east * np.cos(yaw) + north * np.sin(yaw)
         sway = -east * np.sin(yaw) + north * np.cos(yaw)
-        rate = np.interp(t - latency, t, trial.yaw_rate_radps) - float(config.um7.gyro_bias_radps[2])
-        coupling = derive_coefficients(vessel).m22_kg * sway * rate  # at the times the samples describe
+        fused = np.interp(t - latency, t, fused_heading(t, trial.heading_rad, gyro) - config.um7.yaw_offset_rad)
+        across = -east * np.sin(fused) + north * np.cos(fused)  # the coupling's sway: the compass' noise filtered
+        rate = np.interp(t - latency, t, gyro)
+        coupling = derive_coefficients(vessel).m22_kg * across * rate  # at the times the samples describe
     else:
         surge = np.hypot(east, north)
     u_now = np.interp(t, t - latency, surge)  # the surge at each stamp's own time: where the envelope is read
