@@ -189,13 +189,16 @@ def ambiguity(selection: Selection) -> AmbiguousResult | None:
     return {"effects": [c.effect.name for c in selection.ambiguous],
             "parameters": {c.effect.name: c.effect.named(c.fit.split()[-1][1]) for c in selection.ambiguous},
             "round": len(selection.rounds),
-            "reason": AMBIGUITY_REASONS["timing" if selection.ambiguous[0].effect.name in TIMING_ALIASES
-                                        else "wind"]}
+            "reason": AMBIGUITY_REASONS[selection.ambiguity or ("timing" if selection.ambiguous[0].effect.name
+                                                                 in TIMING_ALIASES else "wind")]}
 
 
 AMBIGUITY_REASONS = {
     "wind": "the trial holds one heading: a wind is a constant force in the body frame there, as the other cause "
             "is; a trial that turns through many headings tells them apart",
+    "held_out": "the held-out windows do not prefer one (held-out gains within 1 % of each other, or the other "
+                "higher): over many headings a wind drifts the boat much as a current sets it, or as the other "
+                "cause's force does",
     "timing": "both move the measured response later by about as much (no evidence against either: ΔBIC within "
               "10): a command delay moves every response, a GNSS latency only the GNSS's, an engine lag only the "
               "thrust's; a trial that steers as well as steps the thrust tells them apart",
