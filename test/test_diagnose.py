@@ -761,9 +761,10 @@ def test_two_catalogue_causes_are_both_named_when_the_first_leaves_the_second_in
 
 def test_the_withheld_rule_judges_each_cause_by_what_it_explains_and_withholds_the_causes_named_after_it() -> None:
     """``search.withheld``, the one rule of the offline and the live diagnosis: nothing is withheld without
-    structure left; offline, a cause whose claimed signals stay above MISFIT_FACTOR × the noise is, with every cause
-    named after it (fitted against a model that held it), while one named before it stands; live, the twin's
-    misfit decides for all."""
+    structure left; offline, a cause whose claimed signals stay above MISFIT_FACTOR × the noise is, or structured
+    within it when the cause removes less than MIN_MISFIT_SHARE of their misfit (issue 42), with every cause named
+    after it (fitted against a model that held it), while one named before it stands; live, the twin's misfit
+    decides for all."""
     effects = catalogue(TwinConfig(), np.linspace(0.5, 9.0, 200))
     fit = _fit([1.0, 1.0, 1.0, 1.0])
     current = Candidate(effects["water_current"], fit, -500.0, 0.3, False, False, claims=("vel_east_mps",))
@@ -778,7 +779,12 @@ def test_the_withheld_rule_judges_each_cause_by_what_it_explains_and_withholds_t
     assert withheld(named, left("yaw_rate_radps", 2.1)) == [turning, shape]  # the first named stands
     assert withheld(named, left("vel_east_mps", 2.1)) == named
     assert withheld(named, left("heading_rad", 5.0)) == []  # structure in a signal no cause claims: unexplained
-    assert withheld(named, left("yaw_rate_radps", 1.9)) == []  # structure within 2x the noise: not withheld
+    turning.share = 0.9
+    assert withheld(named, left("yaw_rate_radps", 1.9)) == []  # structure within 2x the noise, 90 % removed: stands
+    turning.share = 0.15  # named by the share rule's "within 2x" clause, structure left in its signal: withheld
+    assert withheld(named, left("yaw_rate_radps", 1.9)) == [turning, shape]
+    turning.pair_share = 0.8  # it and the cause named with it remove 80 %: stands
+    assert withheld(named, left("yaw_rate_radps", 1.9)) == []
     assert withheld(named, left("yaw_rate_radps", 1.9), misfit=True) == named  # live: the twin misfits
     assert withheld(named, left("vel_east_mps", 5.0), misfit=False) == []  # live: the twin fits
 

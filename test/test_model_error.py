@@ -147,6 +147,24 @@ def test_against_the_twins_own_error_a_hidden_effect_is_named_and_a_clean_file_i
         assert abs(found - size) < 0.25 * size and low < found < high
 
 
+@pytest.mark.parametrize(("seed", "named"), [(21, None), (29, None), (20, "water_current")])
+def test_a_hidden_current_is_never_named_a_wind_against_the_twins_own_error(
+        described: TwinConfig, seed: int, named: str | None) -> None:
+    """Issue 42: the real-like boat has no wind, and a 0.35 m/s current it drifts in was named a 7-10 m/s wind:
+    on many headings a wind drifts the boat much as a current sets it. On seeds 21 and 29 both are named in the
+    first round, the wind best by ΔBIC but not by its held-out gain (the current's 35 % and 38 % against the wind's
+    31 % and 24 %): neither is named (``ambiguous``, the held-out windows not telling them apart). On seed 20 the
+    current's held-out gain is the higher by 13 %: it is named."""
+    result = diagnose_trial(simulate(Boat(), Hidden(current_mps=(0.25, -0.25)), 180.0, seed), described).result
+    assert "wind" not in [v["effect"] for v in result["verdict"]]
+    if named is None:
+        assert result["verdict"] == [] and result["ambiguous"] is not None
+        assert set(result["ambiguous"]["effects"]) == {"wind", "water_current"}
+        assert "held-out" in result["ambiguous"]["reason"]
+    else:
+        assert [v["effect"] for v in result["verdict"]] == [named] and result["ambiguous"] is None
+
+
 def test_the_live_rolling_diagnosis_judges_its_window_against_the_same_error(described: TwinConfig) -> None:
     from boat_twin.shadow.rolling import DiagnosisJob
 

@@ -189,13 +189,16 @@ def ambiguity(selection: Selection) -> AmbiguousResult | None:
     return {"effects": [c.effect.name for c in selection.ambiguous],
             "parameters": {c.effect.name: c.effect.named(c.fit.split()[-1][1]) for c in selection.ambiguous},
             "round": len(selection.rounds),
-            "reason": AMBIGUITY_REASONS["timing" if selection.ambiguous[0].effect.name in TIMING_ALIASES
-                                        else "wind"]}
+            "reason": AMBIGUITY_REASONS[selection.ambiguity or ("timing" if selection.ambiguous[0].effect.name
+                                                                 in TIMING_ALIASES else "wind")]}
 
 
 AMBIGUITY_REASONS = {
     "wind": "the trial holds one heading: a wind is a constant force in the body frame there, as the other cause "
             "is; a trial that turns through many headings tells them apart",
+    "held_out": "the held-out windows do not prefer one (held-out gains within 1 % of each other, or the other "
+                "higher): over many headings a wind drifts the boat much as a current sets it, or as the other "
+                "cause's force does",
     "timing": "both move the measured response later by about as much (no evidence against either: ΔBIC within "
               "10): a command delay moves every response, a GNSS latency only the GNSS's, an engine lag only the "
               "thrust's; a trial that steers as well as steps the thrust tells them apart",
@@ -229,22 +232,31 @@ def verdict(selection: Selection, withheld: list[Candidate] | None = None) -> li
 def withheld_dicts(selection: Selection, withheld: list[Candidate],
                    signatures: list[Signature]) -> list[WithheldResult]:
     """The ``withheld`` causes with their parameters, what they explain and the misfit they leave there."""
-    left = {s.signal: s.misfit for s in signatures}
+    left = {s.signal: s for s in signatures}
     out: list[WithheldResult] = []
     for candidate in withheld:
         parameters, interval = _final_values(selection, candidate)
-        misfit_left = {s: left[s] for s in candidate.claims if s in left}
+        misfit_left = {s: left[s].misfit for s in candidate.claims if s in left}
         worst = max(misfit_left, key=lambda s: misfit_left[s], default="")
         out.append({"effect": candidate.effect.name, "parameters": parameters, "ci95": interval,
                     "claims": list(candidate.claims), "misfit_share": float(candidate.share),
-                    "misfit_left": misfit_left,
-                    "reason": (f"it removes {candidate.share:.0%} of its signals' misfit (the rule asks "
-                               f"{MIN_MISFIT_SHARE:.0%}) but leaves {worst} {misfit_left[worst]:.1f}x its noise, "
-                               f"with structure (above {MISFIT_FACTOR:g}x): it explains a part of something "
-                               "outside the catalogue" if worst and misfit_left[worst] > MISFIT_FACTOR else
-                               "structure is left while the model misfits (the live twin's innovations): a part "
-                               "of something outside the catalogue")})
+                    "misfit_left": misfit_left, "reason": _withheld_reason(candidate, left, worst)})
     return out
+
+
+def _withheld_reason(candidate: Candidate, left: dict[str, Signature], worst: str) -> str:
+    """Why ``candidate`` is withheld: what it leaves in ``worst``, the claimed signal the structure test flags
+    with the largest misfit (``left``: the final model's signatures), or the live twin's evidence ('' : none)."""
+    if not worst:
+        return ("structure is left while the model misfits (the live twin's innovations): a part of something "
+                "outside the catalogue")
+    signature = left[worst]
+    what = (f"{signature.misfit:.1f}x its noise, with structure (above {MISFIT_FACTOR:g}x)"
+            if signature.misfit > MISFIT_FACTOR else
+            f"structured (held-out R² {signature.heldout_r2:.2f} on the boat's situation, beyond what the twin "
+            "normally leaves)")
+    return (f"it removes {candidate.share:.0%} of its signals' misfit (the rule asks {MIN_MISFIT_SHARE:.0%}) but "
+            f"leaves {worst} {what}: it explains a part of something outside the catalogue")
 
 
 def result_dict(windows: Windows, selection: Selection, baseline: Prediction, extended: Prediction,
