@@ -21,7 +21,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
@@ -29,6 +28,7 @@ from boat_twin.frames import wrap_pi
 from boat_twin.io.trial import Trial
 from boat_twin.sensors.gnss import expected_fix
 from boat_twin.sensors.um7 import expected_gyro, expected_yaw
+from boat_twin.signal_noise import savgol_filter
 from boat_twin.validation import number
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.params import VesselParams

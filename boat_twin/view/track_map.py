@@ -5,12 +5,16 @@ placed where the window's measured track is)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from boat_twin.diagnose.pipeline import TrialDiagnosis
-from boat_twin.shadow.follow import FollowResult
+
+if TYPE_CHECKING:  # the live twin (and scipy.stats with it): follow's map only
+    from boat_twin.shadow.follow import FollowResult
 
 MEASURED_COLOR, PREDICTED_COLOR, BASELINE_COLOR = "tab:blue", "tab:orange", "tab:gray"
 
