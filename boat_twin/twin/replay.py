@@ -399,6 +399,14 @@ def measured_motion(windows: Windows, config: TwinConfig) -> MeasuredMotion:
     return MeasuredMotion(heading, surge, yaw_rate)
 
 
+def motion_key(config: TwinConfig) -> tuple[float, ...]:
+    """What of ``config`` :func:`measured_motion` uses: configs with equal keys have the same measured motion
+    (a caller keeps it across the evaluations of a fit that varies other parameters)."""
+    env = config.environment
+    return (float(config.um7.gyro_bias_radps[2]), float(config.um7.yaw_offset_rad), float(config.gnss.latency_s),
+            float(env.current_east_mps), float(env.current_north_mps))
+
+
 def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, actuators: np.ndarray,
                    motion: MeasuredMotion | None = None, columns: np.ndarray | None = None) -> np.ndarray:
     """(k·m, 6) state at each window's start for each of the ``k`` vessels of ``dynamics`` (boat j·m + w:
