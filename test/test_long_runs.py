@@ -79,12 +79,14 @@ def test_diagnose_json_draws_nothing_and_imports_no_plotting(tmp_path) -> None:
 
 @pytest.mark.parametrize("report", [["--json"], ["--out", "REPORT"]])
 def test_diagnose_imports_neither_scipy_stats_nor_the_live_twin(report, tmp_path) -> None:
-    """``diagnose`` (its report included) smooths with its own Savitzky-Golay, interpolates a resistance table with
-    its own PCHIP and types follow's results only for the checker: scipy.signal and the live twin each imported
-    scipy.stats (0.5 s of CPU of a 10-minute trial's diagnosis, issue 37 asks ≤ 3 s), scipy.interpolate 0.1 s."""
+    """``diagnose`` of a bag (its report included) smooths with its own Savitzky-Golay, interpolates a resistance
+    table with its own PCHIP, tells a MAVLink log by its name alone and types follow's results only for the
+    checker: scipy.signal and the live twin each imported scipy.stats (0.5 s of CPU of a 10-minute trial's
+    diagnosis, issue 37 asks ≤ 3 s), scipy.interpolate 0.1 s."""
     sample = ROOT / "bags" / "thrust_steps_sample"
     argv = ["diagnose", str(sample), *(str(tmp_path / "out") if a == "REPORT" else a for a in report)]
-    unwanted = ("scipy.stats", "scipy.signal", "scipy.interpolate", "boat_twin.shadow", "boat_twin.ident")
+    unwanted = ("scipy.stats", "scipy.signal", "scipy.interpolate", "boat_twin.shadow", "boat_twin.ident",
+                "boat_twin.io.mavlink")
     code = (f"import contextlib, io, json, sys\nfrom boat_twin.cli import main\n"
             f"with contextlib.redirect_stdout(io.StringIO()):\n    assert main({argv!r}) == 0\n"
             f"print(json.dumps(sorted(m for m in sys.modules if m.startswith({unwanted!r}))))")
