@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from boat_twin import progress_line
-from boat_twin.cli import verb_help
+from boat_twin.cli import settle_imports, verb_help
 from boat_twin.cli.options import (
     TRIAL_HELP,
     add_fleet_options,
@@ -47,6 +47,10 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     from boat_twin.diagnose.report import text_report
     from boat_twin.fleet.reports import write_diagnosis_report
 
+    if out is not None:  # the report's figures (matplotlib): imported before the heap is settled
+        import boat_twin.view.summary  # noqa: F401
+        import boat_twin.view.track_map  # noqa: F401
+    settle_imports()
     trial = trial_from_args(args.trial, args)
     config = twin_config_from_args(args)
     summary = trial.metadata.summary_line()  # what identify prints of a trial
