@@ -16,6 +16,8 @@ import os
 import signal
 import sys
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 from boat_twin import __version__, progress_line
 from boat_twin.errors import InputError, PrintedStops
@@ -123,6 +125,21 @@ def settle_imports() -> None:
     0.2-0.4 s of CPU of a 10-minute trial's ``diagnose`` (issue 37). They live as long as the process anyway."""
     if _console["process"]:
         gc.freeze()
+
+
+@contextmanager
+def settled_imports() -> Iterator[None]:
+    """A verb's imports in the block, then :func:`settle_imports`; in the ``boat-twin`` process the collector
+    stays off while they run (they leave little garbage, and each full collection walked every module so far)."""
+    off = _console["process"] and gc.isenabled()
+    if off:
+        gc.disable()
+    try:
+        yield
+    finally:
+        settle_imports()
+        if off:
+            gc.enable()
 
 
 def main(argv: list[str] | None = None) -> int:
