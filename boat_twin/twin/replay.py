@@ -464,7 +464,8 @@ def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[Vess
     column: dict[int, int] = {}  # a vessel given several times (a projection's nuisance steps): one history
     columns = np.array([column.setdefault(id(v), len(column)) for v in vessels])
     distinct = list({id(v): v for v in vessels}.values())
-    history = np.stack([windows.actuators(Dynamics(v)) for v in distinct], axis=1)
+    history = np.stack([windows.actuators(dynamics if v is config.vessel else Dynamics(v)) for v in distinct],
+                       axis=1)  # config.vessel's: the ensemble's own model (its coefficients, its params)
     states = initial_states(windows, config, dynamics, history, motion, columns)
     if initial_shift is not None:
         states += initial_shift.reshape(states.shape)
