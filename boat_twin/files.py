@@ -480,13 +480,18 @@ def atomic_write_yaml(path: Path, data: Any) -> None:
     atomic_write_text(path, yaml.safe_dump(data, sort_keys=False))
 
 
+PNG_COMPRESS_LEVEL = 1
+"""zlib level of the PNG figures: the same pixels as the default 6 in 60 % of the encoding time (a tenth of a
+second of a ``diagnose`` report's five figures), files ~13 % larger."""
+
+
 def atomic_save_figure(path: Path, figure: Any, title: str | None = None) -> None:
     """Save a matplotlib figure as PNG to ``path`` atomically; ``title``: its overall title (the trial it shows)."""
     if title is not None:
         figure.suptitle(title)
     with OutputClaim(path, force=True) as claim:
         new = claim.scratch / path.name
-        figure.savefig(new, dpi=110, format="png")
+        figure.savefig(new, dpi=110, format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
         claim.commit(new)
 
 

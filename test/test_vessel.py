@@ -334,3 +334,33 @@ def test_a_command_delay_acts_as_the_commands_logged_that_much_later() -> None:
                                               np.vstack([rows[:1], rows]), 10.0, 5.0))
     assert np.array_equal(delayed.states, shifted.states)
     assert np.array_equal(delayed.commands[:, 0], rows[np.searchsorted(times, delayed.t_s + 1e-9) - 1])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_table_resistances_pchip_is_scipys_bit_for_bit(seed) -> None:
+    """Its own PCHIP spares ``diagnose`` and ``follow`` the import of scipy.interpolate (issue 37)."""
+    from scipy.interpolate import PchipInterpolator
+
+    from boat_twin.vessel.resistance import Pchip
+
+    rng = np.random.default_rng(seed)
+    for _ in range(50):
+        n = int(rng.integers(2, 20))
+        x = np.concatenate([[0.0], np.cumsum(rng.uniform(0.05, 3.0, n - 1))])
+        y = rng.choice([np.concatenate([[0.0], np.cumsum(rng.uniform(0.0, 400.0, n - 1))]),
+                        np.round(rng.normal(size=n)) * 3.0])
+        at = np.concatenate([rng.uniform(-1.0, x[-1] + 1.0, 100), x, [np.nan]])
+        assert np.array_equal(Pchip(x, y)(at), PchipInterpolator(x, y, extrapolate=False)(at), equal_nan=True)
+
+
+def test_the_interpolation_of_every_column_is_numpys_bit_for_bit() -> None:
+    """The GNSS latency's interpolation of a replay's (n, windows) arrays at once (issue 37) is np.interp's."""
+    from boat_twin.sensors.gnss import delayed
+
+    rng = np.random.default_rng(1)
+    t = np.arange(200) * 0.1
+    values = rng.normal(size=(200, 30)) * 50.0
+    values[rng.random(values.shape) < 0.05] = np.nan
+    for delay in (0.0, 0.05, 0.1, 0.37, -0.2, 50.0):
+        expected = np.stack([np.interp(t - delay, t, values[:, j]) for j in range(30)], axis=1)
+        assert np.array_equal(delayed(t, values, delay), expected, equal_nan=True)

@@ -10,11 +10,14 @@ stderr and exit code 2, without a traceback.
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import os
 import signal
 import sys
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 from boat_twin import __version__, progress_line
 from boat_twin.errors import InputError, PrintedStops
@@ -111,10 +114,39 @@ def _say_stopped(stop: BaseException) -> int:
     return 130 if interrupted else 143
 
 
+_console = {"process": False}
+"""Whether this interpreter is the ``boat-twin`` console process (:func:`main` called without arguments)."""
+
+
+def settle_imports() -> None:
+    """In the ``boat-twin`` process only (not a test or a notebook calling :func:`main`): put what is alive now —
+    above all the modules a verb has just imported, ~150,000 objects with scipy, numba and matplotlib — out of
+    the cyclic garbage collector's sight (``gc.freeze``). Every full collection later in the run walked them again:
+    0.2-0.4 s of CPU of a 10-minute trial's ``diagnose`` (issue 37). They live as long as the process anyway."""
+    if _console["process"]:
+        gc.freeze()
+
+
+@contextmanager
+def settled_imports() -> Iterator[None]:
+    """A verb's imports in the block, then :func:`settle_imports`; in the ``boat-twin`` process the collector
+    stays off while they run (they leave little garbage, and each full collection walked every module so far)."""
+    off = _console["process"] and gc.isenabled()
+    if off:
+        gc.disable()
+    try:
+        yield
+    finally:
+        settle_imports()
+        if off:
+            gc.enable()
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``boat-twin`` console script. Exit codes: 0 done, 2 bad input (one line on stderr),
     130 Ctrl-C, 143 SIGTERM (an output being written is dropped; an old one stays as it was)."""
     process = argv is None  # the console script: this process ends when main returns
+    _console["process"] = process
     if process:
         one_blas_thread_environment()
     argv = sys.argv[1:] if argv is None else argv
@@ -166,6 +198,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.excepthook = previous_excepthook
         if process and stopped:
             _end_stopped_process(stopped)
+        settle_imports()  # the interpreter's teardown collects what is left, not every object of the run again
 
 
 def _end_stopped_process(status: int) -> None:

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from boat_twin import progress_line
-from boat_twin.cli import verb_help
+from boat_twin.cli import settled_imports, verb_help
 from boat_twin.cli.options import (
     TRIAL_HELP,
     add_fleet_options,
@@ -43,10 +43,14 @@ TABLE_OUTPUTS = (EXTENDED_MODEL_NAME, "diagnosis_table.png")
 
 
 def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
-    from boat_twin.diagnose.pipeline import command_warnings, diagnose_trial
-    from boat_twin.diagnose.report import text_report
-    from boat_twin.fleet.reports import write_diagnosis_report
+    with settled_imports():
+        from boat_twin.diagnose.pipeline import command_warnings, diagnose_trial
+        from boat_twin.diagnose.report import text_report
+        from boat_twin.fleet.reports import write_diagnosis_report
 
+        if out is not None:  # the report's figures (matplotlib): imported before the heap is settled
+            import boat_twin.view.summary  # noqa: F401
+            import boat_twin.view.track_map  # noqa: F401
     trial = trial_from_args(args.trial, args)
     config = twin_config_from_args(args)
     summary = trial.metadata.summary_line()  # what identify prints of a trial

@@ -65,7 +65,7 @@ from boat_twin.diagnose.model_error import normal_misfit, yardstick
 from boat_twin.diagnose.structure import MISFIT_FACTOR, Signature
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
-from boat_twin.twin.replay import SIGNALS, Prediction, Windows, predict
+from boat_twin.twin.replay import SIGNALS, MeasuredMotion, Prediction, Windows, measured_motion, motion_key, predict
 
 FOLDS = 5
 """Folds of windows (dealt in turn) for held-out judgement and jackknife uncertainty."""
@@ -111,6 +111,8 @@ WIND_ALIASES = tuple(name for name, spec in EFFECTS.items() if spec.wind_alias)
 resistance_shape."""
 MAX_EVALUATIONS = 40
 """Model evaluations per least-squares fit (each a replay of every window)."""
+MOTIONS_KEPT = 4
+"""Sensor configurations whose measured motion a diagnosis keeps (each three trial-length arrays)."""
 
 
 @dataclass
@@ -202,6 +204,17 @@ class Diagnosis:
         self.folds = np.arange(m) % FOLDS
         self.progress = progress or (lambda _msg: None)
         self.evaluations = 0
+        self._motions: dict[tuple[float, ...], MeasuredMotion] = {}
+        """The measured motion of the last :data:`MOTIONS_KEPT` sensor configurations (:func:`motion_key`): a fit
+        of vessel or environment parameters replays every evaluation with the same one."""
+
+    def _motion(self, config: TwinConfig) -> MeasuredMotion:
+        key = motion_key(config)
+        if key not in self._motions:
+            if len(self._motions) >= MOTIONS_KEPT:
+                del self._motions[next(iter(self._motions))]
+            self._motions[key] = measured_motion(self.windows, config)
+        return self._motions[key]
 
     def config(self, effects: list[Effect], values: np.ndarray) -> TwinConfig:
         """The base extended by ``effects`` with the concatenated parameter ``values``."""
@@ -215,7 +228,7 @@ class Diagnosis:
         """Normalized residuals of ``config`` over every window."""
         self.evaluations += 1
         try:
-            prediction = predict(self.windows, config)
+            prediction = predict(self.windows, config, self._motion(config))
         except InputError:  # parameters the boat cannot have (e.g. a reference turn it could not hold)
             # (a signal the windows do not measure stays unmeasured: NaN, as in every feasible fit)
             infeasible = {s: np.where(np.isfinite(self.windows.measured[s]), INFEASIBLE_RESIDUAL, np.nan)

@@ -6,13 +6,16 @@ maps (:mod:`boat_twin.view.track_map`) sit above them; identify's writer is its 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from boat_twin.config import TwinConfig, save_config
 from boat_twin.diagnose.defaults import EXTENDED_MODEL_NAME
 from boat_twin.diagnose.pipeline import TrialDiagnosis
 from boat_twin.diagnose.report import concerned_signals, evidence_figure, residual_figure, signal_figure
 from boat_twin.files import atomic_save_figure, atomic_write_text, to_json
-from boat_twin.shadow.follow import FollowResult
+
+if TYPE_CHECKING:  # the live twin (and scipy.stats with it) is follow's: diagnose's report has no use for it
+    from boat_twin.shadow.follow import FollowResult
 
 
 def write_diagnosis_report(out: Path, done: TrialDiagnosis, source: str, named: Path | None = None) -> None:

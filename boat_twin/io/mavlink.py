@@ -83,6 +83,7 @@ from boat_twin.io.mavlink_calibration import (
 )
 from boat_twin.io.mavlink_log import IMU_COLUMNS, REBOOT_BACKSTEP_S, MavlinkLog, ReadPlan, ReadReport
 from boat_twin.io.mavlink_trial import MavlinkTrialMetadata, trial_from_log
+from boat_twin.io.sources import LOG_SUFFIXES, is_mavlink_log
 from boat_twin.io.trial import COMMAND_ROLES, GAP_TOLERANCE_PERIODS, SENSOR_ROLES, Stream, Trial
 from boat_twin.rows import Rows
 
@@ -91,8 +92,6 @@ __all__ = ["IMU_COLUMNS", "LOG_SUFFIXES", "Calibration", "CommandMap", "MavlinkL
            "trial_from_log"]
 """The reading's public names, those of the modules it is split into included (callers import them here)."""
 
-LOG_SUFFIXES = (".tlog", ".bin")
-"""File name endings (case-insensitive) read as MAVLink logs: telemetry logs and DataFlash logs."""
 GNSS_SOURCES = {"tlog": ("GLOBAL_POSITION_INT", "GPS_RAW_INT"), "dataflash": ("GPS",)}
 """Messages a GNSS role can come from, in order of preference (``remap`` picks one)."""
 IMU_SOURCES = {"tlog": ("ATTITUDE",), "dataflash": ("ATT",)}
@@ -406,8 +405,3 @@ def read_mavlink_trial(
     file's actuator names in its order, which fill the command slots."""
     return trial_from_log(read_mavlink_log(path, calibration, remap, namespace, order), origin,
                           derive_velocity="gnss_vel" not in (remap or {}))  # a named velocity source stays missing
-
-
-def is_mavlink_log(path: Path) -> bool:
-    """Whether ``path`` is read as a MAVLink log (by its ending: .tlog, .bin, .BIN)."""
-    return Path(path).suffix.lower() in LOG_SUFFIXES

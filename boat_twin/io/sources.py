@@ -16,6 +16,15 @@ if TYPE_CHECKING:
     from boat_twin.io.mavlink import Calibration
     from boat_twin.io.trial import Trial
 
+LOG_SUFFIXES = (".tlog", ".bin")
+"""File name endings (case-insensitive) read as MAVLink logs: telemetry logs and DataFlash logs."""
+
+
+def is_mavlink_log(path: Path) -> bool:
+    """Whether ``path`` is read as a MAVLink log (by its ending: .tlog, .bin, .BIN): here, not in the MAVLink
+    reader, so that reading a bag does not import that reader."""
+    return Path(path).suffix.lower() in LOG_SUFFIXES
+
 
 def read_trial_file(
     path: Path | str,
@@ -48,8 +57,6 @@ def read_trial_file(
         return read_csv_trial(path, columns)
     if columns is not None:
         raise InputError(f"{path}: --columns applies to CSV trials (.csv), not to bags or MAVLink logs")
-    from boat_twin.io.mavlink import is_mavlink_log
-
     if is_mavlink_log(path):
         from boat_twin.io.mavlink import read_mavlink_trial
 

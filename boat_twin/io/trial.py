@@ -320,9 +320,7 @@ def velocity_from_positions(east_m: np.ndarray, north_m: np.ndarray, period_s: f
     :data:`SPEED_WINDOW_S`. σ_p comes from the positions' second differences (white-noise estimate: a receiver
     whose error wanders slowly has more low-frequency error than this states). Each run of known positions is
     smoothed alone; runs shorter than the window stay unknown (NaN)."""
-    from scipy.signal import savgol_filter
-
-    from boat_twin.signal_noise import white_noise_stdev
+    from boat_twin.signal_noise import savgol_filter, white_noise_stdev
 
     sigma_p = float(np.nanmax([white_noise_stdev(east_m), white_noise_stdev(north_m), 0.0]))
     wanted = (12.0 * sigma_p**2 / (period_s**2 * SPEED_NOISE_TARGET_MPS**2)) ** (1.0 / 3.0)
@@ -335,7 +333,7 @@ def velocity_from_positions(east_m: np.ndarray, north_m: np.ndarray, period_s: f
     for start, stop in zip(edges[::2], edges[1::2], strict=True):
         if stop - start >= n:
             for k, pos in enumerate((east_m, north_m)):
-                vel[start:stop, k] = savgol_filter(pos[start:stop], n, 2, deriv=1, delta=period_s, mode="interp")
+                vel[start:stop, k] = savgol_filter(pos[start:stop], n, 2, deriv=1, delta=period_s)
     how = (f"derived from GNSS positions (no velocity stream): Savitzky-Golay local quadratic over "
            f"{n * period_s:.3g} s, no lag; position noise {sigma_p:.3g} m gives speed noise {sigma_v:.3g} m/s")
     return vel[:, 0], vel[:, 1], n * period_s, float(sigma_v), how

@@ -21,7 +21,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
@@ -29,6 +28,7 @@ from boat_twin.frames import wrap_pi
 from boat_twin.io.trial import Trial
 from boat_twin.sensors.gnss import expected_fix
 from boat_twin.sensors.um7 import expected_gyro, expected_yaw
+from boat_twin.signal_noise import savgol_filter
 from boat_twin.validation import number
 from boat_twin.vessel.dynamics import Dynamics
 from boat_twin.vessel.params import VesselParams
@@ -399,6 +399,14 @@ def measured_motion(windows: Windows, config: TwinConfig) -> MeasuredMotion:
     return MeasuredMotion(heading, surge, yaw_rate)
 
 
+def motion_key(config: TwinConfig) -> tuple[float, ...]:
+    """What of ``config`` :func:`measured_motion` uses: configs with equal keys have the same measured motion
+    (a caller keeps it across the evaluations of a fit that varies other parameters)."""
+    env = config.environment
+    return (float(config.um7.gyro_bias_radps[2]), float(config.um7.yaw_offset_rad), float(config.gnss.latency_s),
+            float(env.current_east_mps), float(env.current_north_mps))
+
+
 def initial_states(windows: Windows, config: TwinConfig, dynamics: Dynamics, actuators: np.ndarray,
                    motion: MeasuredMotion | None = None, columns: np.ndarray | None = None) -> np.ndarray:
     """(k·m, 6) state at each window's start for each of the ``k`` vessels of ``dynamics`` (boat j·m + w:
@@ -456,7 +464,8 @@ def predict_vessels(windows: Windows, config: TwinConfig, vessels: Sequence[Vess
     column: dict[int, int] = {}  # a vessel given several times (a projection's nuisance steps): one history
     columns = np.array([column.setdefault(id(v), len(column)) for v in vessels])
     distinct = list({id(v): v for v in vessels}.values())
-    history = np.stack([windows.actuators(Dynamics(v)) for v in distinct], axis=1)
+    history = np.stack([windows.actuators(dynamics if v is config.vessel else Dynamics(v)) for v in distinct],
+                       axis=1)  # config.vessel's: the ensemble's own model (its coefficients, its params)
     states = initial_states(windows, config, dynamics, history, motion, columns)
     if initial_shift is not None:
         states += initial_shift.reshape(states.shape)

@@ -973,7 +973,10 @@ class Dynamics:
         self.model = compile_model(params, extra_drag_N)
         if boats is not None and any(b.resistance is not params.resistance for b in boats):
             raise ValueError("every boat of the ensemble must share the resistance model of params")
-        rows = [self.model.coefficients] if boats is None else [compile_coefficients(b) for b in boats]
+        rows = [self.model.coefficients]
+        if boats is not None:  # a vessel given for many boats (each window of a replay): derived once
+            compiled = {id(b): compile_coefficients(b) for b in {id(b): b for b in boats}.values()}
+            rows = [compiled[id(b)] for b in boats]
         self.coefficients = np.array(rows)
         """(boats or 1, coefficients) rows the kernel reads: one per boat, or one for all."""
 

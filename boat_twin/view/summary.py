@@ -5,6 +5,7 @@ diagnosis_summary.png, ``follow --out`` follow_summary.png; the other figures ho
 from __future__ import annotations
 
 import textwrap
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -12,7 +13,6 @@ from matplotlib.figure import Figure
 
 from boat_twin.diagnose.pipeline import TrialDiagnosis
 from boat_twin.diagnose.report import text_report, window_series
-from boat_twin.shadow.follow import FollowResult, final_model_text
 from boat_twin.view.track_map import (
     DIAGNOSIS_BASELINE,
     DIAGNOSIS_PREDICTED,
@@ -20,6 +20,9 @@ from boat_twin.view.track_map import (
     diagnosis_tracks,
     draw_track,
 )
+
+if TYPE_CHECKING:  # the live twin (and scipy.stats with it): follow's page only, imported by it
+    from boat_twin.shadow.follow import FollowResult
 
 PAGE_IN = (11.69, 8.27)
 """A4 landscape, inches."""
@@ -96,6 +99,8 @@ def follow_summary_figure(done: FollowResult, title: str) -> Figure:
 
 def _follow_lines(done: FollowResult) -> list[str]:
     """The follow's answer in words: the final model with its intervals and what the rolling diagnosis held."""
+    from boat_twin.shadow.follow import final_model_text
+
     final = done.final
     lines = [final_model_text(final)] if "model" in final else []
     held = [e for e in done.timeline if e["causes"] or e["unexplained"]]

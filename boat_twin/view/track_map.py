@@ -5,12 +5,16 @@ placed where the window's measured track is)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from boat_twin.diagnose.pipeline import TrialDiagnosis
-from boat_twin.shadow.follow import FollowResult
+
+if TYPE_CHECKING:  # the live twin (and scipy.stats with it): follow's map only
+    from boat_twin.shadow.follow import FollowResult
 
 MEASURED_COLOR, PREDICTED_COLOR, BASELINE_COLOR = "tab:blue", "tab:orange", "tab:gray"
 
@@ -32,8 +36,9 @@ def draw_track(ax: Axes, measured_m: np.ndarray, predicted_m: list[np.ndarray], 
     ax.plot(measured_m[:, 0], measured_m[:, 1], "-", color=MEASURED_COLOR, lw=1.5, label="measured (GNSS)")
     for segments, color, style, label in ((baseline_m or [], BASELINE_COLOR, "--", baseline_label),
                                           (predicted_m, PREDICTED_COLOR, "-", predicted_label)):
-        for i, segment in enumerate(segments):
-            ax.plot(segment[:, 0], segment[:, 1], style, color=color, lw=1.0, label=label if i == 0 else None)
+        if segments:  # one line broken between the segments (a line each: 60 artists for 10 minutes of windows)
+            joined = np.concatenate([np.vstack([segment, np.full((1, 2), np.nan)]) for segment in segments])
+            ax.plot(joined[:, 0], joined[:, 1], style, color=color, lw=1.0, label=label)
     if known.size:
         ax.plot(*known[0], "o", color="tab:green", ms=9, label="start")
         ax.plot(*known[-1], "s", color="tab:red", ms=9, label="end")
