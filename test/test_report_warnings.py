@@ -184,3 +184,22 @@ def test_a_mass_held_at_the_end_of_a_follow_is_a_warning(followed: tuple[Trial, 
     held = [w for w in follow_warnings(trial, config, shadow) if "the mass was held" in w]
     assert held == [f"the mass was held at {config.vessel.mass_kg:.0f} kg at the end: the data since the last "
                     "adopted fit did not fix it (the resistance was fitted with it held; no interval on the mass)"]
+
+
+def test_an_hours_long_track_is_drawn_with_a_bounded_subset_that_keeps_its_ends_and_never_bridges_a_gap() -> None:
+    from boat_twin.view.track_map import drawn
+
+    short = np.column_stack([np.arange(100.0), np.arange(100.0)])
+    assert drawn(short, limit=1000) is short  # a track within the limit is drawn as it is
+    track = np.column_stack([np.arange(216_000.0), np.zeros(216_000)])
+    gaps = [5_003, 5_004, 100_001, 215_998]  # a gap of two fixes, one of one, one near the end
+    track[gaps] = np.nan
+    line = drawn(track, limit=20_000)
+    assert line.shape[0] <= 20_000 + 3 * len(gaps) + 1
+    np.testing.assert_array_equal(line[[0, -1]], track[[0, -1]])
+    x = line[:, 0]
+    assert np.count_nonzero(np.isnan(x)) == len(gaps)  # every break drawn
+    finite = np.isfinite(x)
+    steps = np.flatnonzero(finite[:-1] & finite[1:])
+    for gap in gaps:  # no drawn step joins the fixes on either side of a gap
+        assert not np.any((x[steps] < gap) & (x[steps + 1] > gap))
