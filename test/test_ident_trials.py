@@ -8,6 +8,7 @@ import dataclasses
 import json
 import math
 import re
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -276,3 +277,28 @@ def test_samples_inside_a_command_gap_are_skipped_not_refused(tmp_path) -> None:
     unreported = dataclasses.replace(trial, thrust_left_N=thrust)
     with pytest.raises(InputError, match="NaN outside the reported gaps"):
         trial_samples(unreported)
+
+
+def test_thrust_seen_counts_what_the_engines_delivered_not_what_was_asked() -> None:
+    from boat_twin.ident.twin_config import thrust_seen
+
+    engines = VesselParams()
+    speed = np.linspace(0.0, 12.0, 50)  # a trial's speed over ground, m/s, and commands far beyond the envelope
+    asked = SimpleNamespace(speed_mps=speed, thrust_left_N=np.full(50, 3.0 * engines.bollard_thrust_N),
+                            thrust_right_N=np.full(50, -3.0 * engines.bollard_thrust_N))
+    seen = thrust_seen([asked], engines)
+    assert seen["ahead_N"] == pytest.approx(engines.bollard_thrust_N)
+    assert seen["astern_N"] == pytest.approx(engines.reverse_thrust_ratio * engines.bollard_thrust_N)
+    assert seen["power_W"] <= engines.propulsive_efficiency * engines.engine_power_W * (1 + 1e-12)
+
+
+def test_a_steered_trial_asking_more_than_the_engines_give_re_simulates_within_the_noise(tmp_path) -> None:
+    """Random commands at speed ask more thrust than the engines' power delivers there; the fit reads the thrust
+    through the envelope, and the identified twin keeps it (it had raised its power to the commands' T·|u|: the
+    re-simulation ran 0.88 m/s RMS too fast)."""
+    trial = tmp_path / "random.mcap"
+    assert main(["simulate", "random", "--duration", "300", "--seed", "5", "--out", str(trial)]) == 0
+    assert main(["identify", str(trial), "--out", str(tmp_path / "ident")]) == 0
+    result = json.loads((tmp_path / "ident" / "identify.json").read_text())
+    assert result["twin"]["sources"]["engine_power_W"] == "similar boat"
+    assert result["resimulation"]["speed_rmse_mps"] < 0.2, result["resimulation"]

@@ -18,6 +18,7 @@ from boat_twin.errors import InputError
 from boat_twin.files import load_yaml
 from boat_twin.io.trial import Trial
 from boat_twin.vessel.params import VesselParams, params_from_dict, similar_boat
+from boat_twin.vessel.propulsion import engine_thrust_N
 from boat_twin.vessel.resistance import resistance_from_dict
 
 BOAT_FIELDS = tuple(f.name for f in fields(VesselParams) if f.name != "resistance")
@@ -67,13 +68,15 @@ def read_boat_file(path: Path) -> BoatFile:
     return BoatFile({key: getattr(parsed, key) for key in facts}, tuple(ignored))
 
 
-def thrust_seen(trials: list[Trial]) -> dict[str, float]:
+def thrust_seen(trials: list[Trial], read_through: VesselParams) -> dict[str, float]:
     """The largest thrust per engine ahead and astern (N) and the largest thrust power T·|u| per engine (W) the
-    trials commanded, over their known samples."""
+    trials' commands delivered through the engines ``read_through`` (the envelope the identification read the
+    thrust through: a command above it was not delivered, and the fit never saw it), over their known samples."""
     ahead = astern = power = 0.0
     for trial in trials:
         speed = np.abs(trial.speed_mps)
-        for thrust in (trial.thrust_left_N, trial.thrust_right_N):
+        for command in (trial.thrust_left_N, trial.thrust_right_N):
+            thrust = engine_thrust_N(read_through, command, np.where(np.isfinite(speed), speed, 0.0))
             known = np.isfinite(thrust)
             if np.any(known):
                 ahead = max(ahead, float(np.max(thrust[known])))
@@ -90,8 +93,9 @@ def identified_vessel(model: dict[str, Any], given: dict[str, Any], seen: dict[s
 
     Resistance: the identified fit. Mass: the identified effective mass over (1 + surge added-mass ratio), else the
     boat file's ``mass_kg``. Geometry: the boat file, the rest :func:`similar_boat`. Thrust limits not in the boat
-    file: the similar boat's, raised to the largest commands and thrust power the trials held (so no recorded
-    command is clipped at the speed it was recorded at: the recording shows the boat had at least that much).
+    file: the similar boat's, raised to the largest thrust and thrust power the trials' commands delivered through
+    the engines the fit read them through (``seen``: :func:`thrust_seen`), so that the twin delivers every thrust
+    the fit saw at the speed it was seen at, and no more.
     """
     base_ratio = given.get("surge_added_mass_ratio", VesselParams().surge_added_mass_ratio)
     if "effective_mass_kg" in model:
