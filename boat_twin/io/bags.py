@@ -25,7 +25,7 @@ from boat_twin.files import OutputClaim, check_trial_path
 from boat_twin.frames import quaternion_yaw_rad
 from boat_twin.io.mcap_crc import check_chunk_crcs, fill_chunk_crcs
 from boat_twin.io.messages import TOPIC_ODOM_TRUTH, TOPIC_WIND, TOPICS, TS, topic_type
-from boat_twin.io.roles import ACTUATOR_TOPIC, COMMAND_ROLES, actuator_slots
+from boat_twin.io.roles import ACTUATOR_TOPIC, COMMAND_ROLES, ONE_THRUSTER_NOTE, actuator_slots
 from boat_twin.io.trial import Stream, Trial, build_trial
 
 ROLE_TOPICS = {
@@ -295,9 +295,6 @@ def _actuator_topics(available: dict[str, str], chosen: dict[str, str], namespac
     if [role for role, _ in pairs if role.startswith("thrust")] == ["thrust_left"]:
         notes.append(ONE_THRUSTER_NOTE)
     return notes
-
-
-ONE_THRUSTER_NOTE = "thrust_right: 0 (a single thruster's topic: the boat file's second slot is empty)"
 
 
 @contextmanager

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,7 @@ import pymap3d
 from boat_twin.errors import InputError
 from boat_twin.files import load_yaml
 from boat_twin.frames import enu_yaw_from_ned
+from boat_twin.io.roles import ONE_THRUSTER_NOTE, actuator_roles
 from boat_twin.io.trial import COMMAND_ROLES, Stream, Trial, build_trial
 from boat_twin.units import KGF_N, KNOT_MPS
 
@@ -64,6 +66,8 @@ CSV_UNITS: dict[str, dict[str, float]] = {
 """Unit family → unit name → its size in SI (s, m, rad, rad/s, m/s, N). A thrust column may hold a boat file's
 thruster command instead (docs/model.md, "Propulsion and steering"): ``command`` (its table's unit, read as is),
 ``rev/s`` or ``rpm`` (a propeller's shaft speed, read in rev/s)."""
+_COMMAND_UNITS = ("command", "rev/s", "rpm")
+"""The force family's units that are a thruster's command, not a force."""
 _KIND = {"time": "time", "lat": "angle", "lon": "angle", "alt": "length", "x": "length", "y": "length",
          "x_ned": "length", "y_ned": "length", "vel_east": "speed", "vel_north": "speed", "speed": "speed",
          "course": "angle", "heading": "angle", "yaw": "angle", "yaw_rate": "rate", "thrust_left": "force",
@@ -92,13 +96,20 @@ class ColumnSpec:
     """'ned' (clockwise from north) or 'enu' (counter-clockwise from east): course, heading, yaw."""
     clockwise: bool = False
     """A yaw rate positive clockwise (sign cw, NED): negated into ENU."""
+    actuator: str = ""
+    """The boat's actuator topic the mapping named this command by ('' for a slot role or a sensor)."""
 
 
-def parse_columns(spec: str | Path) -> tuple[dict[str, ColumnSpec], dict[str, np.ndarray], tuple[float, float, float]]:
+def parse_columns(spec: str | Path, order: Sequence[str] = ()
+                  ) -> tuple[dict[str, ColumnSpec], dict[str, np.ndarray], tuple[float, float, float]]:
     """``--columns``: a YAML file (``columns:``, ``calibration:``, ``origin:``) or ``quantity=column,...``.
 
-    Returns quantity → :class:`ColumnSpec`, command role → (k, 2) calibration table (raw → N or rad), and the ENU
-    origin (lat deg, lon deg, height m) for local positions."""
+    The commands are named by role (``thrust_left``...) or, for a boat file's thrusters and rudders, by their
+    command topics (``thrusters/<name>/thrust|cmd|pos``, ``rudders/<name>/angle``), which fill the slots as a bag's
+    topics do (:func:`~boat_twin.io.roles.actuator_roles`; ``order``: the boat file's actuator names in its order).
+    Returns quantity → :class:`ColumnSpec` (commands under their slot role, each spec naming its actuator),
+    command role → (k, 2) calibration table (raw → N, the thruster's unit or rad), and the ENU origin (lat deg,
+    lon deg, height m) for local positions."""
     text = str(spec)
     calibration: dict[str, np.ndarray] = {}
     origin = (0.0, 0.0, 0.0)
@@ -126,23 +137,30 @@ def parse_columns(spec: str | Path) -> tuple[dict[str, ColumnSpec], dict[str, np
             if not sep or not key or not column:
                 raise InputError(f"--columns {item!r}: expected QUANTITY=COLUMN, e.g. time=t")
             raw_columns[key] = column
-    unknown = sorted(set(raw_columns) - set(CSV_QUANTITIES))
+    roles = actuator_roles(raw_columns, f"{where}: columns", order)
+    unknown = sorted(set(raw_columns) - set(CSV_QUANTITIES) - set(roles))
     if unknown:
-        raise InputError(f"{where}: unknown quantity '{unknown[0]}' (quantities: {', '.join(CSV_QUANTITIES)})")
-    columns = {quantity: _spec(quantity, value, f"{where}: columns.{quantity}")
-               for quantity, value in raw_columns.items()}
-    for role in calibration:
-        if role not in COMMAND_ROLES:
-            raise InputError(f"{where}: calibration for '{role}': only commands ({', '.join(COMMAND_ROLES)}) take one")
+        raise InputError(f"{where}: unknown quantity '{unknown[0]}' (quantities: {', '.join(CSV_QUANTITIES)}, or a "
+                         "boat file's thrusters/<name>/thrust|cmd|pos and rudders/<name>/angle)")
+    columns = {roles.get(key, key): _spec(roles.get(key, key), value, f"{where}: columns.{key}", key)
+               for key, value in raw_columns.items()}
+    for key in list(calibration):
+        role = roles.get(key, key)
+        if role not in COMMAND_ROLES or (roles and key == role):
+            raise InputError(f"{where}: calibration for '{key}': only mapped commands ("
+                             + (", ".join(roles) if roles else ", ".join(COMMAND_ROLES)) + ") take one")
         if role in columns and columns[role].unit:
-            raise InputError(f"{where}: columns.{role}: a calibrated command's table gives its value in SI "
-                             "(N or rad); drop its unit")
+            raise InputError(f"{where}: columns.{key}: a calibrated command's table gives its value in SI "
+                             "(N or rad) or the thruster's unit; drop its unit")
+        calibration[role] = calibration.pop(key)
     _check_mapping(columns, where)
     return columns, calibration, origin
 
 
-def _spec(quantity: str, value: Any, where: str) -> ColumnSpec:
-    """A column as mapped: a name, or ``{column, unit, frame, sign}`` (unit, frame and sign checked)."""
+def _spec(quantity: str, value: Any, where: str, key: str) -> ColumnSpec:
+    """A column as mapped under ``key`` (the quantity, or a boat's actuator topic read as ``quantity``): a name, or
+    ``{column, unit, frame, sign}`` (unit, frame and sign checked; a thruster's ``cmd`` read in its own unit
+    by default, its ``thrust`` in N or kgf)."""
     if isinstance(value, (str, int)) and not isinstance(value, bool):
         value = {"column": value}
     if not isinstance(value, dict) or not isinstance(value.get("column"), (str, int)):
@@ -153,7 +171,12 @@ def _spec(quantity: str, value: Any, where: str) -> ColumnSpec:
     if extra:
         raise InputError(f"{where}: unknown key '{extra[0]}' (allowed here: {', '.join(sorted(allowed))})")
     units = CSV_UNITS[_KIND[quantity]]
-    unit = str(value.get("unit", _DEFAULT_UNIT.get(quantity, next(iter(units)))))
+    default = _DEFAULT_UNIT.get(quantity, next(iter(units)))
+    if key.endswith("/cmd"):
+        units, default = {u: units[u] for u in _COMMAND_UNITS}, "command"
+    elif key.endswith("/thrust"):
+        units = {u: s for u, s in units.items() if u not in _COMMAND_UNITS}
+    unit = str(value.get("unit", default))
     if unit not in units:
         raise InputError(f"{where}: unknown unit '{unit}' (units: {', '.join(units)})")
     frame = str(value.get("frame", _DEFAULT_FRAME.get(quantity, ""))).lower()
@@ -164,7 +187,8 @@ def _spec(quantity: str, value: Any, where: str) -> ColumnSpec:
     if sign not in ("cw", "ccw"):
         raise InputError(f"{where}: sign '{sign}': expected ccw (counter-clockwise positive, ENU/FLU) or cw "
                          "(clockwise positive, NED)")
-    return ColumnSpec(str(value["column"]), units[unit], unit if "unit" in value else "", frame, sign == "cw")
+    return ColumnSpec(str(value["column"]), units[unit], unit if "unit" in value else "", frame, sign == "cw",
+                      key if key != quantity else "")
 
 
 def _table(table: Any, where: str) -> np.ndarray:
@@ -203,7 +227,8 @@ def _check_mapping(columns: dict[str, ColumnSpec], where: str) -> None:
         raise InputError(f"{where}: no position (lat/lon, x/y, x_ned/y_ned) or velocity (vel_east/vel_north, "
                          "speed) mapped")
     if not any(k in columns for k in ("thrust_left", "thrust_right")):
-        raise InputError(f"{where}: no thrust column mapped (thrust_left, thrust_right)")
+        raise InputError(f"{where}: no thrust column mapped (thrust_left, thrust_right, or a boat file's "
+                         "thrusters/<name>/thrust|cmd)")
 
 
 def _read_columns(path: Path, columns: dict[str, ColumnSpec]) -> dict[str, np.ndarray]:
@@ -314,10 +339,11 @@ def _wind(data: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray] | None:
     return None
 
 
-def read_csv_trial(path: Path, columns: str | Path) -> Trial:
-    """Read a CSV trial with the ``columns`` mapping (:func:`parse_columns`) into a :class:`Trial`."""
+def read_csv_trial(path: Path, columns: str | Path, order: Sequence[str] = ()) -> Trial:
+    """Read a CSV trial with the ``columns`` mapping (:func:`parse_columns`; ``order``: the boat file's actuator
+    names in its order) into a :class:`Trial`."""
     path = Path(path)
-    mapping, calibration, origin = parse_columns(columns)
+    mapping, calibration, origin = parse_columns(columns, order)
     name = {quantity: spec.column for quantity, spec in mapping.items()}
     data = _si(_read_columns(path, mapping), mapping)
     first_s = data.pop("time0")
@@ -362,7 +388,14 @@ def read_csv_trial(path: Path, columns: str | Path) -> Trial:
             value = raw if role not in calibration else np.interp(raw, calibration[role][:, 0],
                                                                   calibration[role][:, 1])
             streams[role] = _stream(t, np.where(np.isfinite(raw), value, np.nan))
-            topics[role] = f"column {name[role]}" + (" (calibrated)" if role in calibration else "")
+            actuator = mapping[role].actuator
+            topics[role] = (f"column {name[role]}" + (f" ({actuator})" if actuator else "")
+                            + (" (calibrated)" if role in calibration else ""))
+    single = bool(mapping.get("thrust_left", ColumnSpec("")).actuator) and "thrust_right" not in mapping
+    if single:  # a boat file's single thruster: no second slot
+        streams["thrust_right"] = Stream(streams["thrust_left"].stamps_s[:1], np.zeros((1, 1)))
     trial = build_trial(streams, str(path), topics, origin if local else None)
+    if single:
+        trial.metadata.stream_choices.append(ONE_THRUSTER_NOTE)
     trial.metadata.start_time_s += float(first_s)
     return trial

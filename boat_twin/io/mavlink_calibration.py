@@ -7,7 +7,7 @@ thrust (N) and steering angle (rad), read from YAML (see ``config/mavlink/``)::
       angle_right:  {value: 0.0}
 
 A boat with its own actuators (a boat file's propulsion section) names them by their command topics instead of
-the slot roles (the same rule as a bag's per-actuator topics, :func:`~boat_twin.io.roles.actuator_slots`)::
+the slot roles (the same rule as a bag's per-actuator topics, :func:`~boat_twin.io.roles.actuator_roles`)::
 
     commands:
       thrusters/prop/cmd:  {source: SERVO3, table: [[1100, -20.0], [1500, 0.0], [1900, 20.0]]}   # rev/s
@@ -32,7 +32,7 @@ import numpy as np
 
 from boat_twin.errors import InputError
 from boat_twin.files import load_yaml
-from boat_twin.io.roles import ACTUATOR_TOPIC, COMMAND_ROLES, actuator_slots
+from boat_twin.io.roles import COMMAND_ROLES, actuator_roles
 from boat_twin.validation import number
 
 ROLE_UNITS = {"thrust_left": "N", "thrust_right": "N", "angle_left": "rad", "angle_right": "rad"}
@@ -122,7 +122,7 @@ def calibration_from_dict(data: Any, source: str = "<calibration>", order: Seque
     commands = data.get("commands")
     if not isinstance(commands, dict) or not commands:
         raise InputError(f"{source}: missing field 'commands' (role: {{source, table}} or {{value}})")
-    roles = _actuator_roles(commands, source, order)
+    roles = actuator_roles(commands, f"{source}: commands", order)
     maps = {}
     for key, entry in commands.items():
         role = roles.get(str(key), str(key))
@@ -138,24 +138,6 @@ def _unit(key: str) -> str:
     if key in ROLE_UNITS:
         return ROLE_UNITS[key]
     return {"thrust": "N", "cmd": "the thruster's unit"}.get(key.rsplit("/", 1)[-1], "rad")
-
-
-def _actuator_roles(commands: dict[Any, Any], source: str, order: Sequence[str]) -> dict[str, str]:
-    """Actuator topic → command role of a calibration naming a boat's actuators (empty: slot roles), by
-    :func:`~boat_twin.io.roles.actuator_slots`; one clear error for a mix of both or a third actuator."""
-    named = [str(k) for k in commands if ACTUATOR_TOPIC.match(str(k))]
-    if not named:
-        return {}
-    slots = [str(k) for k in commands if k in COMMAND_ROLES]
-    if slots:
-        raise InputError(f"{source}: commands.{slots[0]}: name the commands either by role (thrust_left...) or "
-                         "by the boat's actuators (thrusters/<name>/...), not both")
-    roles = {name: role for role, name in actuator_slots(named, order)}
-    extra = [k for k in named if k not in roles]
-    if extra:
-        raise InputError(f"{source}: commands.{extra[0]}: the twin has two thruster and two steering slots; this "
-                         "is one more")
-    return roles
 
 
 def _command_map(role: str, entry: Any, where: str, unit: str) -> CommandMap:

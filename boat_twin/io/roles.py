@@ -3,6 +3,8 @@
 import re
 from collections.abc import Iterable, Sequence
 
+from boat_twin.errors import InputError
+
 COMMAND_ROLES = ("thrust_left", "thrust_right", "angle_left", "angle_right")
 """Command streams, each one scalar per message (N, a thruster's own unit, or rad)."""
 SENSOR_ROLES = ("gnss_fix", "gnss_vel", "imu")
@@ -15,6 +17,8 @@ TRIAL_ROLES = COMMAND_ROLES + SENSOR_ROLES + MEASURED_INPUT_ROLES
 
 ACTUATOR_TOPIC = re.compile(r"^(thrusters/\w+/(thrust|cmd|pos)|rudders/\w+/angle)$")
 """A boat file's per-actuator command topics (:func:`~boat_twin.io.messages.command_topics`): std_msgs/Float64."""
+ONE_THRUSTER_NOTE = "thrust_right: 0 (a single thruster's topic: the boat file's second slot is empty)"
+"""The stream choice noted where a boat file's single thruster leaves the second thrust slot empty."""
 
 
 def actuator_slots(names: Iterable[str], order: Sequence[str] = ()) -> list[tuple[str, str]]:
@@ -28,3 +32,23 @@ def actuator_slots(names: Iterable[str], order: Sequence[str] = ()) -> list[tupl
     thrusts = [t for t in found if t.startswith("thrusters/") and not t.endswith("/pos")]
     angles = [t for t in found if t.startswith("rudders/")] or [t for t in found if t.endswith("/pos")]
     return [*zip(COMMAND_ROLES[:2], thrusts[:2], strict=False), *zip(COMMAND_ROLES[2:], angles[:2], strict=False)]
+
+
+def actuator_roles(keys: Iterable[str], where: str, order: Sequence[str] = ()) -> dict[str, str]:
+    """Actuator name → command role for a mapping whose keys name a boat's actuators (:data:`ACTUATOR_TOPIC`:
+    a MAVLink calibration's ``commands``, a CSV's ``columns``) instead of the slot roles; empty when none does.
+    The slots as :func:`actuator_slots` fills them; one clear error (``where``: the file and section) for a mix of
+    both namings or an actuator beyond the kernel's slots."""
+    keys = [str(k) for k in keys]
+    named = [k for k in keys if ACTUATOR_TOPIC.match(k)]
+    if not named:
+        return {}
+    slots = [k for k in keys if k in COMMAND_ROLES]
+    if slots:
+        raise InputError(f"{where}.{slots[0]}: name the commands either by role (thrust_left...) or by the boat's "
+                         "actuators (thrusters/<name>/...), not both")
+    roles = {name: role for role, name in actuator_slots(named, order)}
+    extra = [k for k in named if k not in roles]
+    if extra:
+        raise InputError(f"{where}.{extra[0]}: the twin has two thruster and two steering slots; this is one more")
+    return roles

@@ -54,7 +54,7 @@ def read_trial_file(
                              "--columns")
         from boat_twin.io.csv_trial import read_csv_trial
 
-        return read_csv_trial(path, columns)
+        return read_csv_trial(path, columns, order)
     if columns is not None:
         raise InputError(f"{path}: --columns applies to CSV trials (.csv), not to bags or MAVLink logs")
     if is_mavlink_log(path):
