@@ -113,3 +113,22 @@ def test_a_calibration_names_the_actuator_its_column_was_mapped_by(tmp_path: Pat
     spec.write_text(yaml.safe_dump(body))
     with pytest.raises(InputError, match=r"calibration for 'thrusters/aft/cmd': only mapped commands"):
         parse_columns(spec, order=("port", "stbd"))
+
+
+def test_identify_takes_the_config_boat_as_the_boat_of_its_twin(ship_csv: tuple[Path, Path, Path],
+                                                                tmp_path: Path) -> None:
+    """Without --boat, the --config boat file the trial was read with is the boat: twin.yaml keeps its screw and
+    rudder (not the default boat's two outboards) and its mass where the zigzag does not identify one."""
+    from boat_twin.config import load_twin_config
+
+    _, table, columns = ship_csv
+    out = tmp_path / "out"
+    assert main(["identify", str(table), "--columns", str(columns), "--config", str(SHIP), "--out", str(out)]) == 0
+    twin = load_twin_config(out / "twin.yaml", None, None).vessel
+    ship = load_twin_config(SHIP, None, None).vessel
+    assert twin.propulsion is not None and [t.name for t in twin.propulsion.thrusters] == ["main"]
+    assert [r.name for r in twin.propulsion.rudders] == ["rudder"]
+    assert (twin.length_m, twin.beam_m) == (ship.length_m, ship.beam_m)
+    sources = json.loads((out / "identify.json").read_text())["twin"]["sources"]
+    assert sources["length_m"] == "boat file" and sources["mass_kg"].startswith("boat file (held")
+    assert twin.mass_kg == ship.mass_kg

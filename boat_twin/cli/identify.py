@@ -88,15 +88,23 @@ def run(args: argparse.Namespace) -> int:
         return _run_trial(args, reports.staging if reports else None)
 
 
+def _boat_path(args: argparse.Namespace) -> Path | None:
+    """The file of the boat's facts: --boat, else the --config the trials were read with (a boat file's
+    thrusters and hull are the boat's), else None (the default boat carried to the identified mass)."""
+    return args.boat if args.boat is not None else args.config
+
+
 def _boat_facts(args: argparse.Namespace) -> dict[str, float] | None:
-    """The vessel facts of --boat (None without it); fields identify measures itself are said to be ignored."""
+    """The vessel facts of :func:`_boat_path` (None without one); fields identify measures itself are said to be
+    ignored."""
     from boat_twin.ident.twin_config import read_boat_file
 
-    if args.boat is None:
+    path = _boat_path(args)
+    if path is None:
         return None
-    boat_file = read_boat_file(args.boat)
+    boat_file = read_boat_file(path)
     if boat_file.ignored:
-        sys.stderr.write(f"{args.boat}: ignoring {', '.join(boat_file.ignored)} (identify measures the resistance and "
+        sys.stderr.write(f"{path}: ignoring {', '.join(boat_file.ignored)} (identify measures the resistance and "
                          "the effective mass, and reads only the vessel's facts)\n")
     return boat_file.facts
 
@@ -112,7 +120,7 @@ def _run_each(args: argparse.Namespace) -> int:
     read = read_options_from_args(args)
     job = IdentifyJob(read, args.order, min(args.max_order, 6), args.monotone, args.steady_window,
                       args.thrust_tolerance, _boat_facts(args),
-                      str(args.boat) if args.boat is not None else None, twin_config_from_args(args))
+                      str(_boat_path(args)) if _boat_path(args) is not None else None, twin_config_from_args(args))
     return run_each(args, job)
 
 
@@ -216,7 +224,8 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
         model_error, how = identified_model_error(trials, found, options, _say)
         _say(how)
         write_identify_report(out, result, found, ", ".join(map(str, args.trial)),
-                              str(args.boat) if args.boat is not None else None, args.out, model_error=model_error)
+                              str(_boat_path(args)) if _boat_path(args) is not None else None, args.out,
+                              model_error=model_error)
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0
@@ -229,7 +238,7 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
     if vessel is not None:
         lines.append(f"twin: {vessel.length_m:.3g} m x {vessel.beam_m:.3g} m, {vessel.mass_kg:.4g} kg, bollard "
                      f"{vessel.bollard_thrust_N:.4g} N per engine (geometry from "
-                     f"{args.boat or 'the default boat carried to this mass'})"
+                     f"{_boat_path(args) or 'the default boat carried to this mass'})"
                      + ("; turning from the hull's dimensions (Clarke et al. 1983: assumed, no turn stated)"
                         if vessel.turning == "hull" else "")
                      + (f"; written to {args.out / 'twin.yaml'}" if args.out is not None else ""))
@@ -310,7 +319,7 @@ def register(subparsers: Any) -> None:
         "draft_m, engine_y_m, bollard_thrust_N (SI; docs/identification.md), or a twin config as simulate --config "
         "takes (its resistance, effective mass and other sections are ignored: identify measures them); facts not "
         "given are the default boat's carried to the identified mass; its mass_kg is held when the data do not "
-        "identify the mass")
+        "identify the mass (default: the --config boat, if given)")
     p.add_argument("--json", action="store_true", help="machine-readable result on stdout")
     p.add_argument(
         "--out",

@@ -408,7 +408,8 @@ def identify_and_resimulate(trials: list[Trial], *, order: int | None = None, ma
     try:
         if found.physical_problems:
             raise InputError("the identified model is not physical: " + "; ".join(found.physical_problems))
-        result.vessel, result.vessel_sources = identified_vessel(found.model, boat, thrust_seen(trials, config.vessel))
+        result.vessel, result.vessel_sources = identified_vessel(
+            found.model, boat, thrust_seen(trials, config.vessel), mass_held=found.output_error.selected.mass_fixed)
         _identified_windage(result, boat)
     except InputError as err:
         result.twin_error = str(err)

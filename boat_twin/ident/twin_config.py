@@ -87,19 +87,21 @@ def thrust_seen(trials: list[Trial], read_through: VesselParams) -> dict[str, fl
     return {"ahead_N": ahead, "astern_N": astern, "power_W": power}
 
 
-def identified_vessel(model: dict[str, Any], given: dict[str, Any], seen: dict[str, float]
-                      ) -> tuple[VesselParams, dict[str, str]]:
+def identified_vessel(model: dict[str, Any], given: dict[str, Any], seen: dict[str, float], *,
+                      mass_held: bool = False) -> tuple[VesselParams, dict[str, str]]:
     """The vessel of the identified twin and where each of its key facts came from.
 
-    Resistance: the identified fit. Mass: the identified effective mass over (1 + surge added-mass ratio), else the
-    boat file's ``mass_kg``. Geometry: the boat file, the rest :func:`similar_boat`. Thrust limits not in the boat
-    file: the similar boat's, raised to the largest thrust and thrust power the trials' commands delivered through
-    the engines the fit read them through (``seen``: :func:`thrust_seen`), so that the twin delivers every thrust
-    the fit saw at the speed it was seen at, and no more.
+    Resistance: the identified fit. Mass: the identified effective mass over (1 + surge added-mass ratio) (with
+    ``mass_held`` the boat file's, held in the fit), else the boat file's ``mass_kg``. Geometry: the boat file,
+    the rest :func:`similar_boat`. Thrust limits not in the boat file: the similar boat's, raised to the largest
+    thrust and thrust power the trials' commands delivered through the engines the fit read them through
+    (``seen``: :func:`thrust_seen`), so that the twin delivers every thrust the fit saw at the speed it was seen
+    at, and no more.
     """
     base_ratio = given.get("surge_added_mass_ratio", VesselParams().surge_added_mass_ratio)
     if "effective_mass_kg" in model:
-        mass, mass_from = float(model["effective_mass_kg"]) / (1.0 + base_ratio), "identified (output-error fit)"
+        mass = float(model["effective_mass_kg"]) / (1.0 + base_ratio)
+        mass_from = "boat file (held: the data do not identify it)" if mass_held else "identified (output-error fit)"
     elif "mass_kg" in given:
         mass, mass_from = given["mass_kg"], "boat file"
     else:
