@@ -119,6 +119,32 @@ def test_the_manoeuvring_fit_takes_the_measured_wind_as_a_known_input() -> None:
         assert low <= getattr(truth, key) <= high, (key, getattr(truth, key), low, high)
 
 
+def test_the_manoeuvring_fit_finds_the_lateral_windage_in_the_measured_wind() -> None:
+    """The boat's lateral windage 1.5x the boat file's: with an anemometer in the log, the fit scales it (a known
+    wind, the boat's response fitted) and its interval holds 1.5, not the file's 1; the coefficients still hold."""
+    from boat_twin.ident.manoeuvring import fit_manoeuvring
+    from boat_twin.vessel.params import derive_coefficients
+
+    nominal = replace(VesselParams(), frontal_windage_area_m2=AREA_M2, steering_rate_radps=0.0)
+    truth = replace(nominal, lateral_windage_area_m2=1.5 * nominal.lateral_windage_area_m2)
+    rng = np.random.default_rng(1)
+    levels = rng.choice([300.0, 600.0, 900.0, 1200.0], size=40)
+    trial = boat_trial(truth, lambda t: float(levels[min(int(max(t, 0.0) // 30), 39)]),
+                       lambda t: 0.15 * math.copysign(1.0, math.sin(2 * math.pi * t / 40)), DURATION_S, rng,
+                       wind_mps=_wind)
+    fit = fit_manoeuvring([trial], TwinConfig(vessel=nominal))
+    low, high = fit.ci95["lateral_windage_factor"]
+    assert 1.0 < low <= 1.5 <= high, (low, high)
+    assert fit.config.vessel.lateral_windage_area_m2 == pytest.approx(
+        nominal.lateral_windage_area_m2 * fit.values["lateral_windage_factor"])
+    coefficients = derive_coefficients(truth)
+    for key in ("m22_kg", "m33_kgm2", "sway_damping_Nspm2", "yaw_damping_Nms"):
+        low, high = fit.ci95[key]
+        assert low <= getattr(coefficients, key) <= high, (key, getattr(coefficients, key), low, high)
+    calm = replace(trial, wind_east_mps=None, wind_north_mps=None)
+    assert "lateral_windage_factor" not in fit_manoeuvring([calm], TwinConfig(vessel=nominal)).fitted
+
+
 def test_the_resimulation_runs_in_the_measured_wind() -> None:
     """identify's closing of the loop: the trial's commands re-simulated with the boat's own model meet the GNSS
     speed in the measured (steady) wind; the same recording without its anemometer is re-simulated in calm air and

@@ -144,17 +144,29 @@ open-water K_T(J) measured elsewhere, or Fujii's lift slope, is rarely exact on 
 (m11, Fc), the thrust's scale is seen in the speed the thrust holds and, on a skid-steer boat, in the yaw moment of
 differential thrust; the rudder's in its sway force and yaw moment against the held m11·u·r coupling."""
 LAYOUT_FACTOR_KEYS = tuple(p.key for p in LAYOUT_FACTORS)
-FITTABLE = PARAMETERS + SURGE_FACTORS + LAYOUT_FACTORS
+WIND_FACTORS = (
+    Parameter("lateral_windage_factor", "lateral windage area (the wind's sway force and yaw moment at the centre "
+              "of windage) over the boat's, -", True),
+)
+"""The lateral wind coefficient's scale, fitted by default where a trial carries a measured wind (a known input:
+the wind's own size and direction are the anemometer's, the boat's response to it is fitted). The frontal
+coefficient is the surge identification's (:mod:`boat_twin.ident.wind_drag`); the lateral one, from the area
+the boat file states or its length carries (``lateral_windage_area_m2`` ∝ L²), is rarely exact: a superstructure,
+a mast, the trim."""
+WIND_FACTOR_KEYS = tuple(p.key for p in WIND_FACTORS)
+FITTABLE = PARAMETERS + SURGE_FACTORS + LAYOUT_FACTORS + WIND_FACTORS
 """Every parameter ``free`` may name, in the order of the correlation matrix."""
 
 
-def default_free(base: TwinConfig) -> tuple[str, ...]:
-    """What :func:`fit_manoeuvring` fits unless told: the coefficients, and on a boat file's propulsion section
-    its thrust factor and, where it has rudders, their lift factor (:data:`LAYOUT_FACTORS`)."""
+def default_free(base: TwinConfig, measured_wind: bool = False) -> tuple[str, ...]:
+    """What :func:`fit_manoeuvring` fits unless told: the coefficients, on a boat file's propulsion section its
+    thrust factor and, where it has rudders, their lift factor (:data:`LAYOUT_FACTORS`), and with a
+    ``measured_wind`` (a trial's anemometer) the lateral windage factor (:data:`WIND_FACTORS`)."""
     layout = base.vessel.propulsion
+    wind = WIND_FACTOR_KEYS if measured_wind and base.vessel.lateral_windage_area_m2 > 0.0 else ()
     if layout is None:
-        return PARAMETER_KEYS
-    return PARAMETER_KEYS + ("thrust_factor",) + (("rudder_lift_factor",) if layout.rudders else ())
+        return PARAMETER_KEYS + wind
+    return PARAMETER_KEYS + ("thrust_factor",) + (("rudder_lift_factor",) if layout.rudders else ()) + wind
 
 HELD_NOTE = ("held, not fitted: m11 and the resistance Fc(u) (surge: the thrust–speed identification or the given "
              "model), the thrust envelope and {thrust}, the outboards' position x_e, y_e")
@@ -169,6 +181,8 @@ LAYOUT_LEVER_NOTE = ("the boat file's thrusters and rudders are held as given ({
 LAYOUT_FACTOR_NOTE = ("fitted with the coefficients: {fitted} (the boat file's thrust map and rudder lift slope "
                       "scaled, their shape held; the thrust's scale rests on the held surge model m11, Fc(u): a "
                       "resistance x % off reads as a thrust x % off)")
+WIND_FACTOR_NOTE = ("fitted with the coefficients: lateral_windage_factor, the lateral windage area ({area:g} m² in "
+                    "the boat) scaled in the trials' measured wind (a known input), its centre held ({x:+.2f} m)")
 TIMING_NOTE = ("STEERING TIMING: the residuals follow the steering's timing (score test t = {t:+.1f}, limit "
                "±{t_limit:g}): the outboards act {delay_s:+.2f} s late (95 % [{low:+.2f}, {high:+.2f}] s, linearized) "
                "against the model, a command delay or actuator lag it lacks; the coefficients and their intervals "
@@ -193,7 +207,7 @@ def _start_values(base: TwinConfig) -> dict[str, float]:
     values = {key: float(getattr(coeff, key)) for key in MANOEUVRING_KEYS}
     values["lateral_centre_x_m"] = float(coeff.lateral_centre_x_m)
     values["steering_offset_rad"] = float(base.vessel.steering_offset_rad)
-    values.update({key: 1.0 for key in SURGE_FACTOR_KEYS + LAYOUT_FACTOR_KEYS})
+    values.update({key: 1.0 for key in SURGE_FACTOR_KEYS + LAYOUT_FACTOR_KEYS + WIND_FACTOR_KEYS})
     return values
 
 
@@ -413,6 +427,9 @@ class _Problem:
         if values["surge_mass_factor"] != 1.0 or values["resistance_factor"] != 1.0:
             base = _scaled_surge(base, math.log(values["surge_mass_factor"]), math.log(values["resistance_factor"]))
         base = _scaled_layout(base, values["thrust_factor"], values["rudder_lift_factor"])
+        if values["lateral_windage_factor"] != 1.0:
+            area = base.vessel.lateral_windage_area_m2 * values["lateral_windage_factor"]
+            base = replace(base, vessel=replace(base.vessel, lateral_windage_area_m2=area))
         return apply_parameters(base, values)
 
     def _replay(self, xs: Sequence[np.ndarray], nuisances: bool) -> list[list[np.ndarray]]:
@@ -549,7 +566,8 @@ class ManoeuvringFit:
     """A fit and its statistics; :meth:`to_dict` is the ``--json`` contract's ``manoeuvring`` block."""
 
     values: dict[str, float]
-    """Every parameter of :data:`PARAMETER_KEYS` as fitted, and the :data:`SURGE_FACTOR_KEYS` (1: held)."""
+    """Every parameter of :data:`PARAMETER_KEYS` as fitted, and the factors (:data:`SURGE_FACTOR_KEYS`,
+    :data:`LAYOUT_FACTOR_KEYS`, :data:`WIND_FACTOR_KEYS`; 1: held)."""
     fitted: list[str]
     ci95: dict[str, tuple[float, float]]
     stderr: dict[str, float]
@@ -575,7 +593,7 @@ class ManoeuvringFit:
         """JSON-ready result (SI)."""
         return {
             "parameters": {k: self.values[k] for k in PARAMETER_KEYS + tuple(
-                k for k in SURGE_FACTOR_KEYS + LAYOUT_FACTOR_KEYS if k in self.fitted)},
+                k for k in SURGE_FACTOR_KEYS + LAYOUT_FACTOR_KEYS + WIND_FACTOR_KEYS if k in self.fitted)},
             "ci95": {k: list(v) for k, v in self.ci95.items()},
             "fitted": list(self.fitted),
             "correlation": {"parameters": list(self.fitted), "matrix": np.round(self.correlation, 4).tolist()},
@@ -614,11 +632,14 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     """Fit the manoeuvring coefficients ``free`` (keys of :data:`PARAMETER_KEYS`, every one by default) of
     ``base`` (the prior; its surge and the others held) to ``trials``; ``free`` may name the
     :data:`SURGE_FACTOR_KEYS` too, the scale of ``base``'s surge model, which is then fitted with them (its curve's
-    shape held) instead of taken as exact, and the :data:`LAYOUT_FACTOR_KEYS`, the scale of its thrust and rudder
-    lift. None: :func:`default_free` (every coefficient, and a boat file's layout factors)."""
+    shape held) instead of taken as exact, the :data:`LAYOUT_FACTOR_KEYS`, the scale of its thrust and rudder
+    lift, and the :data:`WIND_FACTOR_KEYS`. None: :func:`default_free` (every coefficient, a boat file's layout
+    factors, and the lateral windage where a trial has a measured wind)."""
     if not trials:
         raise InputError("no trial to fit the manoeuvring coefficients to")
-    free = default_free(base) if free is None else free
+    measured_wind = any(trial.wind_east_mps is not None and np.isfinite(trial.wind_east_mps).any()
+                        for trial in trials)
+    free = default_free(base, measured_wind) if free is None else free
     unknown = sorted(set(free) - {p.key for p in FITTABLE})
     if unknown or not free:
         raise ValueError(f"manoeuvring parameters to fit: unknown {unknown}" if unknown else "nothing to fit")
@@ -672,6 +693,9 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     layout_fitted = [key for key in LAYOUT_FACTOR_KEYS if key in free]
     if layout_fitted:
         notes.append(LAYOUT_FACTOR_NOTE.format(fitted=", ".join(layout_fitted)))
+    if "lateral_windage_factor" in free:
+        notes.append(WIND_FACTOR_NOTE.format(area=base.vessel.lateral_windage_area_m2,
+                                             x=base.vessel.windage_centre_x_m))
     if timing["flagged"]:
         notes.append(TIMING_NOTE.format(**timing, low=timing["delay_ci95_s"][0], high=timing["delay_ci95_s"][1]))
     return ManoeuvringFit(
