@@ -242,13 +242,15 @@ def test_a_propulsion_section_cannot_take_the_outboards_reference_turn() -> None
 
 
 @pytest.mark.slow
-def test_a_skid_steer_boats_file_identifies_and_diagnoses_its_own_clean_trial_silently(tmp_path: Path) -> None:
-    """The verbs a new user runs, on a boat file of published facts only (config/boats): its clean trial is
-    identified into a twin, and neither the diagnosis against that twin nor the live twin following it names
-    anything."""
+@pytest.mark.parametrize("family", ["skid_steer_catamaran", "single_screw_rudder", "twin_outboards"])
+def test_each_familys_boat_file_identifies_and_diagnoses_its_own_clean_trial_silently(tmp_path: Path,
+                                                                                      family: str) -> None:
+    """The verbs a new user runs, on each family's boat file (config/boats; the skid-steer one of published facts
+    only): its clean trial is identified into a twin, and neither the diagnosis against that twin nor the live
+    twin following it names anything."""
     from boat_twin.cli import main
 
-    boat = Path(__file__).resolve().parents[1] / "config" / "boats" / "skid_steer_catamaran.yaml"
+    boat = Path(__file__).resolve().parents[1] / "config" / "boats" / f"{family}.yaml"
     trial = tmp_path / "random.mcap"
     assert main(["simulate", "random", "--config", str(boat), "--seed", "3", "--out", str(trial)]) == 0
     assert main(["identify", str(trial), "--boat", str(boat), "--out", str(tmp_path / "twin")]) == 0
