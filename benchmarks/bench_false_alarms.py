@@ -2,7 +2,7 @@
 boats with their own config, GNSS dropouts up to 30 %.
 
 Run: .venv/bin/python benchmarks/bench_false_alarms.py [--seeds 3 | --trials 190] [--duration 180] [--workers 2]
-[--json OUT.json [--resume]]
+[--families] [--json OUT.json [--resume]]
 Nothing is asserted: the script prints a Markdown table and the exact command that produced it.
 
 Each trial is clean: the true boat is the config the diagnosis is given (the default twin or another boat,
@@ -46,10 +46,11 @@ from typing import Any
 
 import numpy as np
 
-from boat_twin.config import TwinConfig
+from boat_twin.config import TwinConfig, load_twin_config
 from boat_twin.diagnose.pipeline import diagnose_trial
 from boat_twin.files import atomic_write_text
 from boat_twin.io.bags import read_trial, write_bag
+from boat_twin.io.messages import actuator_order
 from boat_twin.threads import use_one_thread
 from boat_twin.twin.sea_trial import run_sea_trial, trial_messages
 from boat_twin.vessel.params import VesselParams
@@ -61,6 +62,9 @@ BOATS: dict[str, dict[str, float]] = {
     "heavy-slow-steering": {"mass_kg": 1_700.0, "radius_of_gyration_yaw_m": 1.9, "steering_rate_radps": 0.1},
 }
 """Boats (changes of the default VesselParams), each the true boat and the model of its own trials."""
+FAMILIES = ("skid_steer_catamaran", "single_screw_rudder", "twin_outboards")
+"""The boat files of config/boats (issue 36's families), with ``--families``: each the true boat and the model."""
+BOAT_FILES = Path(__file__).resolve().parents[1] / "config" / "boats"
 DROPOUTS = (0.0, 0.1, 0.2, 0.3)
 """Probability that a GNSS fix is lost, cycled through the trials."""
 MAX_SCENARIO_S = 300.0
@@ -170,10 +174,11 @@ TWIN_SCENARIOS = tuple(name for name in SCENARIO_NAMES if name != "crash-stop")
 """The twin's scenarios run as they are: all but ``crash-stop``, run as :func:`crash_stops` (module docstring)."""
 
 
-def plan(seeds: int) -> list[tuple[str, str, int, float]]:
-    """(commands, boat, seed, dropout) of every trial: every command shape on every boat, ``seeds`` seeds each,
-    the dropout cycling through :data:`DROPOUTS`."""
-    trials = [(c, b) for c in (*TWIN_SCENARIOS, *SHAPES) for b in BOATS for _ in range(seeds)]
+def plan(seeds: int, families: bool = False) -> list[tuple[str, str, int, float]]:
+    """(commands, boat, seed, dropout) of every trial: every command shape on every boat (with ``families`` the
+    boat files' too), ``seeds`` seeds each, the dropout cycling through :data:`DROPOUTS`."""
+    boats = (*BOATS, *FAMILIES) if families else tuple(BOATS)
+    trials = [(c, b) for c in (*TWIN_SCENARIOS, *SHAPES) for b in boats for _ in range(seeds)]
     return [(c, b, 1000 + i, DROPOUTS[i % len(DROPOUTS)]) for i, (c, b) in enumerate(trials)]
 
 
@@ -191,13 +196,17 @@ def scenario(commands: str, params: VesselParams, seed: int, duration_s: float) 
 def run_trial(commands: str, boat: str, seed: int, dropout: float, duration_s: float, folder: Path
               ) -> dict[str, Any]:
     """Simulate, write, read and diagnose one clean trial; its outcome."""
-    base = TwinConfig()
-    config = replace(base, vessel=replace(base.vessel, **BOATS[boat]),
-                     gnss=replace(base.gnss, dropout_probability=dropout))
+    if boat in FAMILIES:
+        base = load_twin_config(BOAT_FILES / f"{boat}.yaml", None, None)
+        config = replace(base, gnss=replace(base.gnss, dropout_probability=dropout))
+    else:
+        base = TwinConfig()
+        config = replace(base, vessel=replace(base.vessel, **BOATS[boat]),
+                         gnss=replace(base.gnss, dropout_probability=dropout))
     bag = folder / f"{commands}-{boat}-{seed}.mcap"
     write_bag(bag, trial_messages(run_sea_trial(config, scenario(commands, config.vessel, seed, duration_s), seed),
                                   truth=False), force=True)
-    trial = read_trial(bag)
+    trial = read_trial(bag, order=actuator_order(config.vessel.propulsion))
     model = replace(config, gnss=base.gnss)  # the model of the boat; the dropouts are the sea's
     start = time.process_time()
     result = diagnose_trial(trial, model).result
@@ -281,16 +290,18 @@ def main() -> int:
     parser.add_argument("--json", type=Path, help="save every trial's outcome here (rewritten after each trial)")
     parser.add_argument("--resume", action="store_true", help="skip the trials already saved in --json")
     parser.add_argument("--tables-from", type=Path, help="print the table of a saved --json run and exit")
+    parser.add_argument("--families", action="store_true",
+                        help="also the boat files of config/boats (skid-steer, single screw + rudder, outboards)")
     args = parser.parse_args()
     if args.tables_from:
         print(table(json.loads(args.tables_from.read_text())))
         return 0
     seeds = args.seeds
     if args.trials:
-        seeds = -(-args.trials // len(plan(1)))
+        seeds = -(-args.trials // len(plan(1, args.families)))
     print("command: " + " ".join(shlex.quote(a) for a in [".venv/bin/python", *sys.argv]), flush=True)
     outcomes: list[dict[str, Any]] = []
-    planned = plan(seeds)
+    planned = plan(seeds, args.families)
     if args.resume and args.json and args.json.exists():  # only the saved trials this plan holds
         keys = {item[:3] for item in planned}
         outcomes = [o for o in json.loads(args.json.read_text()) if (o["commands"], o["boat"], o["seed"]) in keys]

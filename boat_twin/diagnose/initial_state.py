@@ -27,6 +27,7 @@ predictability horizon (:func:`predictable`), and the report says what share of 
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -163,9 +164,12 @@ def predictable(base: np.ndarray, plus: list[np.ndarray], minus: list[np.ndarray
     uncertain. ``base``, ``plus``,
     ``minus``: (rows, m) stacked normalized residuals of the replay from the measured states and from each
     nuisance ± its prior standard deviation. A window whose horizon falls before its sample ``least`` (its first
-    compared one) is compared whole: a replay that departs from linear at once is not an unstable course the
-    sensors' uncertainty explains but a model that cannot follow the data (a 55 kg boat against the default 6 m
-    twin), and a model far off its data is never an all-clear.
+    compared one) is compared whole when, over its first compared second, the data lie outside every replay
+    from those initial states (the residual beyond the replays' spread about it): a model that cannot follow the
+    data (a 55 kg boat against the default 6 m twin: residuals 3-100× the spread), and a model far off its data
+    is never an all-clear. Inside the spread it is an unstable course the sensors' uncertainty explains (a
+    hull whose yaw error grows e-fold in 0.2 s astern: residuals 0.05-0.3× the spread) and is cut there too,
+    unless that would leave no window anything to compare.
 
     On a course the model holds stably, a prior-sized error of the initial state changes the path linearly
     through the window (a heading 0.6° off turns it 0.6°) and the correction removes it: no sample is left out.
@@ -181,7 +185,22 @@ def predictable(base: np.ndarray, plus: list[np.ndarray], minus: list[np.ndarray
     rows = [i for i, s in enumerate(SIGNALS) if s in judged]
     worst = np.max(np.stack(np.split(curvature, signals))[rows], axis=0)  # (T, m)
     compared = np.cumsum(worst > NONLINEAR_LIMIT, axis=0) == 0
-    compared[:, compared.sum(axis=0) < least] = True
+    early = compared.sum(axis=0) < least
+    if np.any(early):
+        spread = np.zeros(base.shape)
+        for replay in (*plus, *minus):
+            gap = np.abs(replay - base)
+            spread = np.maximum(spread, np.where(np.isfinite(gap), gap, 0.0))
+        head = slice(max(least - 1, 0), 2 * least - 1)  # the first compared second
+        judged_rows = np.stack(np.split(np.abs(base), signals))[rows][:, head]
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # an unmeasured stretch: all-NaN
+            residual_head = np.nanmax(judged_rows, axis=(0, 1))
+        spread_head = np.max(np.stack(np.split(spread, signals))[rows][:, head], axis=(0, 1))
+        outside = ~(residual_head <= spread_head)  # NaN (nothing measured): compared whole
+        compared[:, early & outside] = True
+        if not compared[least - 1:].any():  # every window cut: nothing left to judge the model on
+            compared[:, early] = True
     return compared
 
 
