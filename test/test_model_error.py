@@ -13,8 +13,10 @@ import numpy as np
 import pytest
 
 from boat_twin.config import TwinConfig, config_from_dict, config_to_dict, load_config
-from boat_twin.diagnose.model_error import measure_model_error, normal_misfit, yardstick
+from boat_twin.diagnose.model_error import measure_model_error, normal_misfit, structure_folds, yardstick
 from boat_twin.diagnose.pipeline import diagnose_trial
+from boat_twin.diagnose.search import FOLDS
+from boat_twin.diagnose.structure import R2_THRESHOLD, structure_r2
 from boat_twin.errors import InputError
 from boat_twin.fleet.twin_error import identified_model_error
 from boat_twin.ident.manoeuvring import fit_manoeuvring
@@ -80,6 +82,8 @@ def test_zero_model_error_keeps_the_noise_as_the_yardstick() -> None:
     sigma = {s: 0.1 * (i + 1) for i, s in enumerate(SIGNALS)}
     assert yardstick(windows, sigma, ModelError()) == sigma
     assert np.all(normal_misfit(windows, ModelError()) == 1.0)
+    dealt = np.arange(windows.t_s.shape[1]) % FOLDS
+    assert np.array_equal(structure_folds(dealt, ModelError()), dealt)  # the structure test's folds as before
 
 
 def _identified(trials: list[Trial]) -> TwinConfig:
@@ -163,6 +167,26 @@ def test_a_hidden_current_is_never_named_a_wind_against_the_twins_own_error(
         assert "held-out" in result["ambiguous"]["reason"]
     else:
         assert [v["effect"] for v in result["verdict"]] == [named] and result["ambiguous"] is None
+
+
+def test_the_twins_own_error_on_one_manoeuvre_across_two_windows_is_no_structure(described: TwinConfig) -> None:
+    """Issue 42's false alarm: on clean 300 s recording 3004 the twin turns about 0.01 rad/s too fast through one
+    command hold at 5-9 m/s heading north (t 40-80 s, two windows), and its east velocity drifts the same way in
+    both. Dealt folds put the two windows in different folds, so each "predicts" the other held out: the east
+    velocity's held-out R² on the heading × time rises above the threshold and a clean file came back
+    ``unexplained``. Against a model error the structure test's folds are stretches of consecutive windows
+    (``structure_folds``): the twin's normal error is no structure, and the file is silent."""
+    diagnosis = diagnose_trial(simulate(Boat(), Hidden(), 300.0, 3004), described)
+    result = diagnosis.result
+    assert result["verdict"] == [] and result["ambiguous"] is None
+    assert not result["unexplained"] and result["signature"] == []
+    residuals = diagnosis.selection.final.residuals
+    dealt = np.arange(diagnosis.windows.t_s.shape[1]) % FOLDS
+    stretches = structure_folds(dealt, described.model_error)
+    assert sorted(np.unique(stretches)) == sorted(np.unique(dealt)) and np.all(np.diff(stretches) >= 0)
+    leaked = structure_r2(diagnosis.windows, residuals.values, residuals.prediction, dealt)["vel_east_mps"]
+    held = structure_r2(diagnosis.windows, residuals.values, residuals.prediction, stretches)["vel_east_mps"]
+    assert leaked > R2_THRESHOLD > held  # the neighbour's leak, and no structure without it
 
 
 def test_the_live_rolling_diagnosis_judges_its_window_against_the_same_error(described: TwinConfig) -> None:

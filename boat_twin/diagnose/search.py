@@ -61,7 +61,7 @@ from scipy.special import stdtrit
 from boat_twin.config import TwinConfig
 from boat_twin.diagnose.effects import EFFECTS, Effect
 from boat_twin.diagnose.initial_state import InitialStateProjection, stack_signals
-from boat_twin.diagnose.model_error import normal_misfit, yardstick
+from boat_twin.diagnose.model_error import normal_misfit, structure_folds, yardstick
 from boat_twin.diagnose.structure import MISFIT_FACTOR, Signature
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
@@ -202,6 +202,8 @@ class Diagnosis:
         """(n_signals,) the mean square misfit the twin normally has here (1: no model error, no condition)."""
         m = windows.t_s.shape[1]
         self.folds = np.arange(m) % FOLDS
+        self.structure_folds = structure_folds(self.folds, base.model_error)
+        """(m,) the structure test's folds: :attr:`folds`, or stretches of windows against a model error."""
         self.progress = progress or (lambda _msg: None)
         self.evaluations = 0
         self._motions: dict[tuple[float, ...], MeasuredMotion] = {}
