@@ -12,9 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from boat_twin.config import TwinConfig, config_from_dict, config_to_dict, load_config
-from boat_twin.diagnose.model_error import measure_model_error, normal_misfit, yardstick
+from boat_twin.config import TwinConfig, config_from_dict, config_to_dict, load_config, load_twin_config
+from boat_twin.diagnose.effects import catalogue
+from boat_twin.diagnose.model_error import measure_model_error, normal_misfit, structure_folds, yardstick
 from boat_twin.diagnose.pipeline import diagnose_trial
+from boat_twin.diagnose.search import FOLDS, RELEASED, Candidate, Fit, _wind_ambiguity, misfit_share
+from boat_twin.diagnose.structure import R2_THRESHOLD, structure_r2
 from boat_twin.errors import InputError
 from boat_twin.fleet.twin_error import identified_model_error
 from boat_twin.ident.manoeuvring import fit_manoeuvring
@@ -80,6 +83,8 @@ def test_zero_model_error_keeps_the_noise_as_the_yardstick() -> None:
     sigma = {s: 0.1 * (i + 1) for i, s in enumerate(SIGNALS)}
     assert yardstick(windows, sigma, ModelError()) == sigma
     assert np.all(normal_misfit(windows, ModelError()) == 1.0)
+    dealt = np.arange(windows.t_s.shape[1]) % FOLDS
+    assert np.array_equal(structure_folds(dealt, ModelError()), dealt)  # the structure test's folds as before
 
 
 def _identified(trials: list[Trial]) -> TwinConfig:
@@ -147,22 +152,83 @@ def test_against_the_twins_own_error_a_hidden_effect_is_named_and_a_clean_file_i
         assert abs(found - size) < 0.25 * size and low < found < high
 
 
-@pytest.mark.parametrize(("seed", "named"), [(21, None), (29, None), (20, "water_current")])
+@pytest.mark.parametrize(("seed", "named"), [(20, "water_current"), (21, "water_current"), (26, "water_current"),
+                                             (29, None)])
 def test_a_hidden_current_is_never_named_a_wind_against_the_twins_own_error(
         described: TwinConfig, seed: int, named: str | None) -> None:
     """Issue 42: the real-like boat has no wind, and a 0.35 m/s current it drifts in was named a 7-10 m/s wind:
-    on many headings a wind drifts the boat much as a current sets it. On seeds 21 and 29 both are named in the
-    first round, the wind best by ΔBIC but not by its held-out gain (the current's 35 % and 38 % against the wind's
-    31 % and 24 %): neither is named (``ambiguous``, the held-out windows not telling them apart). On seed 20 the
-    current's held-out gain is the higher by 13 %: it is named."""
+    on many headings a wind drifts the boat much as a current sets it. Where the wind removes only part of the
+    misfit (seed 21: 63 %, seed 29: 38 %) the share rule's "leaves them within 2×" clause named it beside the
+    current, both ``ambiguous``; against the twin's model error that clause reads "within its normal misfit", which
+    the wind does not reach (seed 21: north velocity m² 1.89 against 1.66). Seed 21: the current alone (73 %);
+    seed 26 (a wind alone once): the current, best by ΔBIC (−69 against −14) and held out (31 % against 9 %); seed
+    29: neither removes 70 % or leaves the velocity normal (the current 68 %): nothing named, nothing wrong."""
     result = diagnose_trial(simulate(Boat(), Hidden(current_mps=(0.25, -0.25)), 180.0, seed), described).result
     assert "wind" not in [v["effect"] for v in result["verdict"]]
-    if named is None:
-        assert result["verdict"] == [] and result["ambiguous"] is not None
-        assert set(result["ambiguous"]["effects"]) == {"wind", "water_current"}
-        assert "held-out" in result["ambiguous"]["reason"]
-    else:
-        assert [v["effect"] for v in result["verdict"]] == [named] and result["ambiguous"] is None
+    assert [v["effect"] for v in result["verdict"]] == ([named] if named else []) and result["ambiguous"] is None
+
+
+def test_a_wind_and_a_current_the_held_out_windows_do_not_tell_apart_are_ambiguous() -> None:
+    """The held-out side of the wind's ambiguity (issue 42): both would be named, the wind best by ΔBIC but the
+    current's held-out gain as high or higher (35 % against 31 %): neither is named. A current whose gain the
+    wind's trails by more than :data:`MIN_HELDOUT_GAIN` is the verdict."""
+    effects = catalogue(load_twin_config(), np.linspace(0.5, 6.0, 20))
+    fit = _judged({}, np.full(len(SIGNALS), 100.0))
+
+    def judged(name: str, delta_bic: float, gain: float) -> Candidate:
+        return Candidate(effects[name], fit, delta_bic, 1.0, False, False, heldout_gain=gain)
+
+    wind, current = judged("wind", -60.0, 0.31), judged("water_current", -50.0, 0.35)
+    assert _wind_ambiguity([wind, current], wind, one_heading=False) == [wind, current]
+    ahead = judged("water_current", -70.0, 0.35)
+    assert _wind_ambiguity([wind, ahead], ahead, one_heading=False) == []
+    assert _wind_ambiguity([wind, ahead], ahead, one_heading=True) == [ahead, wind]  # one heading: never apart
+
+
+def test_the_twins_own_error_on_one_manoeuvre_across_two_windows_is_no_structure(described: TwinConfig) -> None:
+    """Issue 42's false alarm: on clean 300 s recording 3004 the twin turns about 0.01 rad/s too fast through one
+    command hold at 5-9 m/s heading north (t 40-80 s, two windows), and its east velocity drifts the same way in
+    both. Dealt folds put the two windows in different folds, so each "predicts" the other held out: the east
+    velocity's held-out R² on the heading × time rises above the threshold and a clean file came back
+    ``unexplained``. Against a model error the structure test's folds are stretches of consecutive windows
+    (``structure_folds``): the twin's normal error is no structure, and the file is silent."""
+    diagnosis = diagnose_trial(simulate(Boat(), Hidden(), 300.0, 3004), described)
+    result = diagnosis.result
+    assert result["verdict"] == [] and result["ambiguous"] is None
+    assert not result["unexplained"] and result["signature"] == []
+    residuals = diagnosis.selection.final.residuals
+    dealt = np.arange(diagnosis.windows.t_s.shape[1]) % FOLDS
+    stretches = structure_folds(dealt, described.model_error)
+    assert sorted(np.unique(stretches)) == sorted(np.unique(dealt)) and np.all(np.diff(stretches) >= 0)
+    leaked = structure_r2(diagnosis.windows, residuals.values, residuals.prediction, dealt)["vel_east_mps"]
+    held = structure_r2(diagnosis.windows, residuals.values, residuals.prediction, stretches)["vel_east_mps"]
+    assert leaked > R2_THRESHOLD > held  # the neighbour's leak, and no structure without it
+
+
+def _judged(misfit: dict[str, float], floor: np.ndarray) -> Fit:
+    """A fit whose held-out SSE is ``misfit`` (signal → mean square over the yardstick; 3 elsewhere) × ``floor``."""
+    sse = np.array([misfit.get(s, 3.0) for s in SIGNALS]) * floor
+    return Fit(effects=[], values=np.zeros(0), stderr=np.zeros(0), sse=sse, heldout_sse=sse, residuals=RELEASED)
+
+
+def test_within_the_factor_means_within_the_twins_normal_misfit_where_that_is_lower() -> None:
+    """Issue 42: after both engines' 0.85× a 4 m/s wind removed 24 % of what was left (north velocity 1.94 → 1.74,
+    yaw rate 1.45 → 1.28, heading 1.33 → 1.24, mean squares over the yardstick) and was named by the share rule's
+    "leaves them within 2×" clause. Against the twin's normal misfit (1.48, 1.46, 1.29 there) it leaves the north
+    velocity beyond it: not within, and with 24 % it is a candidate. With no model error (normal misfit 1) the
+    clause is 2× the noise: today's rule."""
+    floor = np.full(len(SIGNALS), 2000.0)
+    claimed = ("vel_north_mps", "yaw_rate_radps", "heading_rad")
+    old = _judged(dict(zip(claimed, (1.94, 1.45, 1.33), strict=True)), floor)
+    new = _judged(dict(zip(claimed, (1.74, 1.28, 1.24), strict=True)), floor)
+    normal = np.array([{"vel_east_mps": 1.54, "vel_north_mps": 1.48, "yaw_rate_radps": 1.46,
+                        "heading_rad": 1.29}.get(s, 1.0) for s in SIGNALS])
+    claims, share, within = misfit_share(new, old, floor, normal)
+    assert claims == claimed and share < 0.3 and not within
+    assert misfit_share(new, old, floor, np.ones(len(SIGNALS)))[2]  # no model error: within 2×
+    assert misfit_share(new, old, floor)[2]
+    back = _judged(dict(zip(claimed, (1.3, 1.2, 1.1), strict=True)), floor)  # a cause leaving them normal
+    assert misfit_share(back, old, floor, normal)[2]
 
 
 def test_the_live_rolling_diagnosis_judges_its_window_against_the_same_error(described: TwinConfig) -> None:

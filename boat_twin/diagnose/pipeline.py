@@ -92,7 +92,7 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
     selection = forward_select(diagnosis, catalogue(base, trial.speed_mps))
     baseline_prediction = selection.baseline.residuals.prediction
     signatures = residual_structure(windows, selection.final.residuals.values,
-                                    selection.final.residuals.prediction, diagnosis.folds,
+                                    selection.final.residuals.prediction, diagnosis.structure_folds,
                                     {s: base.model_error.of(s).structure_r2 for s in SIGNALS})
     held_back = withheld(selection.named, signatures, misfit)
     extended, extended_prediction = _presented_model(diagnosis, selection, held_back)

@@ -8,8 +8,10 @@ After the best extensions, a residual that is only noise (and the replay's own s
 cannot be predicted from the boat's situation. A residual that an unmodelled effect leaves — a wind that
 depends on heading, a drag that depends on speed — can. Each signal's normalized residual is regressed on
 :data:`REGRESSOR_NAMES`, each also multiplied by the time since the window's start (an unmodelled force
-makes the error grow through the window), with the same leave-one-fold-out folds as the diagnosis; the
-held-out R² above :data:`R2_THRESHOLD` marks structure. The signature names the signal, the regressors that
+makes the error grow through the window), with the diagnosis' leave-one-fold-out folds (against a twin's model
+error, each fold one stretch of consecutive windows:
+:func:`~boat_twin.diagnose.model_error.structure_folds`); the held-out R² above :data:`R2_THRESHOLD` marks
+structure. The signature names the signal, the regressors that
 carry it and the time where the residual is largest.
 """
 
