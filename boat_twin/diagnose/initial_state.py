@@ -140,17 +140,21 @@ class InitialStateProjection:
         the motion signals are compared (the first signal's rows)."""
         return float(np.mean(self.compared[:self.compared.shape[0] // len(SIGNALS)]))
 
-    def corrections(self, residuals: np.ndarray) -> np.ndarray:
-        """(m, q) each window's best correction δ* of its initial state for ``residuals`` (rows, m), NaN as 0."""
-        r = np.where(np.isfinite(residuals) & self.compared, residuals, 0.0)
-        return np.einsum("mij,mj->mi", self.inverse, np.einsum("rmj,rm->mj", self.sensitivity, r))
+    def corrections(self, residuals: np.ndarray, columns: slice = slice(None)) -> np.ndarray:
+        """(m, q) each window's best correction δ* of its initial state for ``residuals`` (rows, m) of the
+        windows ``columns``, NaN as 0."""
+        compared, sensitivity = self.compared[:, columns], self.sensitivity[:, columns]
+        r = np.where(np.isfinite(residuals) & compared, residuals, 0.0)
+        return np.einsum("mij,mj->mi", self.inverse[columns], np.einsum("rmj,rm->mj", sensitivity, r))
 
-    def apply(self, residuals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(rows, m) ``residuals`` with each window's best correction removed (NaN kept NaN, the samples past
-        the window's predictability horizon NaN), and (q, m) the corrections over their prior standard
-        deviations (the prior's residuals)."""
-        step = self.corrections(residuals)
-        corrected = np.where(self.compared, residuals - np.einsum("rmi,mi->rm", self.sensitivity, step), np.nan)
+    def apply(self, residuals: np.ndarray, columns: slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, m) ``residuals`` of the windows ``columns`` with each window's best correction removed (NaN
+        kept NaN, the samples past the window's predictability horizon NaN), and (q, m) the corrections over
+        their prior standard deviations (the prior's residuals)."""
+        step = self.corrections(residuals, columns)
+        sensitivity = self.sensitivity[:, columns]
+        corrected = np.where(self.compared[:, columns], residuals - np.einsum("rmi,mi->rm", sensitivity, step),
+                             np.nan)
         return corrected, (step / self.stdev).T
 
 

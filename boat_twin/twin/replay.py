@@ -141,7 +141,8 @@ class Windows:
         of many vessels run a part of the windows at a time holds only that part's paths)."""
         part = Windows(self.t_s[:, columns], self.commands[:, columns],
                        {name: values[:, columns] for name, values in self.measured.items()},
-                       self.position[:, columns], self.trial, self.start_index[columns])
+                       self.position[:, columns], self.trial, self.start_index[columns],
+                       None if self.wind_departure_mps is None else self.wind_departure_mps[columns])
         object.__setattr__(part, "_actuators", self._actuators)
         object.__setattr__(part, "_acting", self._acting)
         return part
