@@ -86,9 +86,10 @@ class InitialStateProjection:
         self.compared = (np.ones(sensitivity.shape[:2], dtype=bool) if compared is None
                          else np.tile(compared, (sensitivity.shape[0] // compared.shape[0], 1)))
         """(rows, m) the samples within each window's predictability horizon (:func:`predictable`)."""
-        self.sensitivity = np.where(self.compared[..., None], sensitivity, 0.0)
+        sensitivity[~self.compared] = 0.0
+        self.sensitivity = sensitivity
         """(rows, m, q) ∂ normalized residual / ∂ nuisance per window (rows: signals × samples, NaN and the samples
-        past the horizon as 0)."""
+        past the horizon as 0: set so in the array given)."""
         self.stdev = stdev
         """(q,) prior standard deviations of the nuisances (:data:`NUISANCES`' units)."""
         normal = np.einsum("rmi,rmj->mij", self.sensitivity, self.sensitivity) + np.diag(stdev**-2.0)
@@ -108,9 +109,12 @@ class InitialStateProjection:
         scale = scale or dict(sigma)
         motion = measured_motion(windows, config)
         least = int(round(SETTLING_S / windows.dt_s)) + 1  # the settling second and one compared sample
-        columns, rows = [], []
-        for first in range(0, windows.start_index.size, PROJECTION_WINDOWS):
-            part = windows.part(slice(first, first + PROJECTION_WINDOWS))
+        m = windows.start_index.size
+        sensitivity = np.empty((len(SIGNALS) * windows.t_s.shape[0], m, q))
+        rows = np.empty(sensitivity.shape[:2], dtype=bool)
+        for first in range(0, m, PROJECTION_WINDOWS):
+            columns = slice(first, first + PROJECTION_WINDOWS)
+            part = windows.part(columns)
             shift = np.zeros((3 * q + 1, part.start_index.size, 6))
             for j, (_, state, step) in enumerate(NUISANCES):
                 shift[j + 1, :, state] = step
@@ -122,9 +126,8 @@ class InitialStateProjection:
                           for s, v in scale.items()}
             stacked = [stack_signals(part, p.signals, part_scale) for p in predictions]
             base = stacked[0]
-            columns.append(np.stack([np.where(np.isfinite(base) & np.isfinite(r), (r - base) / step, 0.0)
-                                     for r, (_, _, step) in zip(stacked[1:q + 1], NUISANCES, strict=True)],
-                                    axis=-1))
+            for j, (r, (_, _, step)) in enumerate(zip(stacked[1:q + 1], NUISANCES, strict=True)):
+                sensitivity[:, columns, j] = np.where(np.isfinite(base) & np.isfinite(r), (r - base) / step, 0.0)
             plus, minus = stacked[q + 1:2 * q + 1], stacked[2 * q + 1:]
             compared = predictable(base, plus, minus, least)
             # the accelerometer (0.04 m/s² noise) departs from linear a second or more before the path does, and
@@ -132,8 +135,8 @@ class InitialStateProjection:
             # predicted through (all of them on a course the model holds stably; none on a straight run astern)
             whole = np.all(compared & predictable(base, plus, minus, judged=(LONGITUDINAL_ACCEL,)), axis=0)
             accel = compared & whole[None, :]
-            rows.append(np.concatenate([accel if s == LONGITUDINAL_ACCEL else compared for s in SIGNALS]))
-        return cls(np.concatenate(columns, axis=1), stdev, np.concatenate(rows, axis=1))
+            rows[:, columns] = np.concatenate([accel if s == LONGITUDINAL_ACCEL else compared for s in SIGNALS])
+        return cls(sensitivity, stdev, rows)
 
     def compared_fraction(self) -> float:
         """The share of the windows' samples within their predictability horizons (1: every one compared), as

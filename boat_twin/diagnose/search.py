@@ -59,6 +59,7 @@ import numpy as np
 from scipy.special import stdtrit
 
 from boat_twin.config import TwinConfig
+from boat_twin.diagnose.defaults import PART_WINDOWS
 from boat_twin.diagnose.effects import EFFECTS, Effect
 from boat_twin.diagnose.initial_state import InitialStateProjection, stack_signals
 from boat_twin.diagnose.model_error import normal_misfit, yardstick
@@ -113,9 +114,6 @@ resistance_shape."""
 MAX_EVALUATIONS = 40
 """Model evaluations per least-squares fit (each a replay of every window)."""
 MOTIONS_KEPT = 4
-PART_WINDOWS = 180
-"""Windows a replay runs at a time (an hour of 20 s windows): a replay's and a fit's working arrays are those of
-this many windows, whatever the trial's length."""
 """Sensor configurations whose measured motion a diagnosis keeps (each three trial-length arrays)."""
 
 
