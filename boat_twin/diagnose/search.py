@@ -263,7 +263,10 @@ class Diagnosis:
         return Residuals(values, prediction, prior)
 
     def _fit_values(self, effects: list[Effect], start: np.ndarray, train: np.ndarray) -> np.ndarray:
-        """Least squares over the windows ``train`` (bool (m,)), in scaled parameters; returns SI values."""
+        """Least squares over the windows ``train`` (bool (m,)), in scaled parameters; returns SI values. The
+        trial-length series kept for earlier fits' configs are dropped first: a fit keeps only its own."""
+        self._motions.clear()
+        self.windows.forget()
         null = np.concatenate([e.null for e in effects])
         scale = np.concatenate([e.scale for e in effects])
         lower = (np.concatenate([e.lower for e in effects]) - null) / scale

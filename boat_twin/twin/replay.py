@@ -147,6 +147,12 @@ class Windows:
         object.__setattr__(part, "_acting", self._acting)
         return part
 
+    def forget(self) -> None:
+        """Drop the kept :meth:`actuators` and :meth:`acting` series (each trial-length): a caller whose next
+        replays are of other configs keeps only theirs."""
+        self._actuators.clear()
+        self._acting.clear()
+
     def acting(self, delay_s: float) -> tuple[np.ndarray, np.ndarray]:
         """The commands (n, 4) the boat acts on over the trial when they act ``delay_s`` after they were issued,
         and their switch times (n,), s after each sample (as
