@@ -6,3 +6,6 @@ WINDOW_S = 20.0
 short enough that a heading error from the start does not dominate."""
 EXTENDED_MODEL_NAME = "extended_model.yaml"
 """File name of the extended model a diagnosis writes into its report directory."""
+PART_WINDOWS = 180
+"""Windows a replay, a fit and the residual regression take at a time (an hour of 20 s windows): their working
+arrays are those of this many windows, whatever the trial's length."""

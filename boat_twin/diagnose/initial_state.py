@@ -87,9 +87,10 @@ class InitialStateProjection:
         self.compared = (np.ones(sensitivity.shape[:2], dtype=bool) if compared is None
                          else np.tile(compared, (sensitivity.shape[0] // compared.shape[0], 1)))
         """(rows, m) the samples within each window's predictability horizon (:func:`predictable`)."""
-        self.sensitivity = np.where(self.compared[..., None], sensitivity, 0.0)
+        sensitivity[~self.compared] = 0.0
+        self.sensitivity = sensitivity
         """(rows, m, q) ∂ normalized residual / ∂ nuisance per window (rows: signals × samples, NaN and the samples
-        past the horizon as 0)."""
+        past the horizon as 0: set so in the array given)."""
         self.stdev = stdev
         """(q,) prior standard deviations of the nuisances (:data:`NUISANCES`' units)."""
         normal = np.einsum("rmi,rmj->mij", self.sensitivity, self.sensitivity) + np.diag(stdev**-2.0)
@@ -109,9 +110,12 @@ class InitialStateProjection:
         scale = scale or dict(sigma)
         motion = measured_motion(windows, config)
         least = int(round(SETTLING_S / windows.dt_s)) + 1  # the settling second and one compared sample
-        columns, rows = [], []
-        for first in range(0, windows.start_index.size, PROJECTION_WINDOWS):
-            part = windows.part(slice(first, first + PROJECTION_WINDOWS))
+        m = windows.start_index.size
+        sensitivity = np.empty((len(SIGNALS) * windows.t_s.shape[0], m, q))
+        rows = np.empty(sensitivity.shape[:2], dtype=bool)
+        for first in range(0, m, PROJECTION_WINDOWS):
+            columns = slice(first, first + PROJECTION_WINDOWS)
+            part = windows.part(columns)
             shift = np.zeros((3 * q + 1, part.start_index.size, 6))
             for j, (_, state, step) in enumerate(NUISANCES):
                 shift[j + 1, :, state] = step
@@ -123,9 +127,8 @@ class InitialStateProjection:
                           for s, v in scale.items()}
             stacked = [stack_signals(part, p.signals, part_scale) for p in predictions]
             base = stacked[0]
-            columns.append(np.stack([np.where(np.isfinite(base) & np.isfinite(r), (r - base) / step, 0.0)
-                                     for r, (_, _, step) in zip(stacked[1:q + 1], NUISANCES, strict=True)],
-                                    axis=-1))
+            for j, (r, (_, _, step)) in enumerate(zip(stacked[1:q + 1], NUISANCES, strict=True)):
+                sensitivity[:, columns, j] = np.where(np.isfinite(base) & np.isfinite(r), (r - base) / step, 0.0)
             plus, minus = stacked[q + 1:2 * q + 1], stacked[2 * q + 1:]
             compared = predictable(base, plus, minus, least)
             # the accelerometer (0.04 m/s² noise) departs from linear a second or more before the path does, and
@@ -133,25 +136,29 @@ class InitialStateProjection:
             # predicted through (all of them on a course the model holds stably; none on a straight run astern)
             whole = np.all(compared & predictable(base, plus, minus, judged=(LONGITUDINAL_ACCEL,)), axis=0)
             accel = compared & whole[None, :]
-            rows.append(np.concatenate([accel if s == LONGITUDINAL_ACCEL else compared for s in SIGNALS]))
-        return cls(np.concatenate(columns, axis=1), stdev, np.concatenate(rows, axis=1))
+            rows[:, columns] = np.concatenate([accel if s == LONGITUDINAL_ACCEL else compared for s in SIGNALS])
+        return cls(sensitivity, stdev, rows)
 
     def compared_fraction(self) -> float:
         """The share of the windows' samples within their predictability horizons (1: every one compared), as
         the motion signals are compared (the first signal's rows)."""
         return float(np.mean(self.compared[:self.compared.shape[0] // len(SIGNALS)]))
 
-    def corrections(self, residuals: np.ndarray) -> np.ndarray:
-        """(m, q) each window's best correction δ* of its initial state for ``residuals`` (rows, m), NaN as 0."""
-        r = np.where(np.isfinite(residuals) & self.compared, residuals, 0.0)
-        return np.einsum("mij,mj->mi", self.inverse, np.einsum("rmj,rm->mj", self.sensitivity, r))
+    def corrections(self, residuals: np.ndarray, columns: slice = slice(None)) -> np.ndarray:
+        """(m, q) each window's best correction δ* of its initial state for ``residuals`` (rows, m) of the
+        windows ``columns``, NaN as 0."""
+        compared, sensitivity = self.compared[:, columns], self.sensitivity[:, columns]
+        r = np.where(np.isfinite(residuals) & compared, residuals, 0.0)
+        return np.einsum("mij,mj->mi", self.inverse[columns], np.einsum("rmj,rm->mj", sensitivity, r))
 
-    def apply(self, residuals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(rows, m) ``residuals`` with each window's best correction removed (NaN kept NaN, the samples past
-        the window's predictability horizon NaN), and (q, m) the corrections over their prior standard
-        deviations (the prior's residuals)."""
-        step = self.corrections(residuals)
-        corrected = np.where(self.compared, residuals - np.einsum("rmi,mi->rm", self.sensitivity, step), np.nan)
+    def apply(self, residuals: np.ndarray, columns: slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, m) ``residuals`` of the windows ``columns`` with each window's best correction removed (NaN
+        kept NaN, the samples past the window's predictability horizon NaN), and (q, m) the corrections over
+        their prior standard deviations (the prior's residuals)."""
+        step = self.corrections(residuals, columns)
+        sensitivity = self.sensitivity[:, columns]
+        corrected = np.where(self.compared[:, columns], residuals - np.einsum("rmi,mi->rm", sensitivity, step),
+                             np.nan)
         return corrected, (step / self.stdev).T
 
 

@@ -4,7 +4,8 @@ Method (docs/diagnosis.md states it with the numbers):
 
 - Residuals are measured − predicted (:mod:`~boat_twin.twin.replay`) per signal, divided by the signal's
   white-noise level estimated from the data itself, so signals of different units weigh by their information.
-- A model's parameters are fitted (``scipy.optimize.least_squares``) on all windows. A candidate that passes
+- A model's parameters are fitted (``scipy.optimize.least_squares``, fed part by part:
+  :mod:`~boat_twin.diagnose.streamed_lsq`) on all windows. A candidate that passes
   the in-sample conditions of the decision rule (:attr:`Candidate.plausible`) is then judged on held-out
   windows: they are dealt to :data:`FOLDS` folds in turn (window k → fold k mod FOLDS) — each window starts
   afresh from the measurements, so windows are nearly independent, and dealing them makes every fold hold
@@ -55,13 +56,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.optimize import least_squares
 from scipy.special import stdtrit
 
 from boat_twin.config import TwinConfig
+from boat_twin.diagnose.defaults import PART_WINDOWS
 from boat_twin.diagnose.effects import EFFECTS, Effect
 from boat_twin.diagnose.initial_state import InitialStateProjection, stack_signals
 from boat_twin.diagnose.model_error import normal_misfit, structure_folds, yardstick
+from boat_twin.diagnose.streamed_lsq import streamed_least_squares
 from boat_twin.diagnose.structure import MISFIT_FACTOR, Signature
 from boat_twin.errors import InputError
 from boat_twin.signal_noise import white_noise_stdev
@@ -133,6 +135,16 @@ class Residuals:
     def counts(self) -> np.ndarray:
         """(n_signals, m) samples per signal and window."""
         return np.stack([np.sum(np.isfinite(self.values[s]), axis=0) for s in SIGNALS])
+
+
+def joined(parts: list[Residuals]) -> Residuals:
+    """The residuals of consecutive parts of the windows as one."""
+    values = {s: np.concatenate([p.values[s] for p in parts], axis=1) for s in parts[0].values}
+    signals = {s: np.concatenate([p.prediction.signals[s] for p in parts], axis=1)
+               for s in parts[0].prediction.signals}
+    position = np.concatenate([p.prediction.position for p in parts], axis=1)
+    prior = None if parts[0].prior is None else np.concatenate([p.prior for p in parts], axis=1)
+    return Residuals(values, Prediction(signals, position), prior)
 
 
 RELEASED = Residuals({}, Prediction({}, np.zeros((0, 0, 2))))
@@ -226,23 +238,37 @@ class Diagnosis:
             i += effect.size
         return config
 
+    def parts(self) -> list[slice]:
+        """The windows a replay runs at a time (:data:`PART_WINDOWS`)."""
+        m = self.folds.size
+        return [slice(first, min(first + PART_WINDOWS, m)) for first in range(0, m, PART_WINDOWS)]
+
     def residuals(self, config: TwinConfig) -> Residuals:
-        """Normalized residuals of ``config`` over every window."""
+        """Normalized residuals of ``config`` over every window, replayed :meth:`parts` at a time."""
         self.evaluations += 1
+        return joined([self.part_residuals(config, columns) for columns in self.parts()])
+
+    def part_residuals(self, config: TwinConfig, columns: slice) -> Residuals:
+        """Normalized residuals of ``config`` over the windows ``columns``."""
+        windows = self.windows.part(columns)
         try:
-            prediction = predict(self.windows, config, self._motion(config))
+            prediction = predict(windows, config, self._motion(config))
         except InputError:  # parameters the boat cannot have (e.g. a reference turn it could not hold)
             # (a signal the windows do not measure stays unmeasured: NaN, as in every feasible fit)
-            infeasible = {s: np.where(np.isfinite(self.windows.measured[s]), INFEASIBLE_RESIDUAL, np.nan)
+            infeasible = {s: np.where(np.isfinite(windows.measured[s]), INFEASIBLE_RESIDUAL, np.nan)
                           for s in SIGNALS}
-            return Residuals(infeasible, Prediction(infeasible, np.zeros(self.windows.position.shape)),
-                             np.zeros((self.projection.stdev.size, self.windows.t_s.shape[1])))
-        corrected, prior = self.projection.apply(stack_signals(self.windows, prediction.signals, self.scale))
+            return Residuals(infeasible, Prediction(infeasible, np.zeros(windows.position.shape)),
+                             np.zeros((self.projection.stdev.size, windows.t_s.shape[1])))
+        scale = {s: v[:, columns] if isinstance(v, np.ndarray) else v for s, v in self.scale.items()}
+        corrected, prior = self.projection.apply(stack_signals(windows, prediction.signals, scale), columns)
         values = dict(zip(SIGNALS, np.split(corrected, len(SIGNALS)), strict=True))
         return Residuals(values, prediction, prior)
 
     def _fit_values(self, effects: list[Effect], start: np.ndarray, train: np.ndarray) -> np.ndarray:
-        """Least squares over the windows ``train`` (bool (m,)), in scaled parameters; returns SI values."""
+        """Least squares over the windows ``train`` (bool (m,)), in scaled parameters; returns SI values. The
+        trial-length series kept for earlier fits' configs are dropped first: a fit keeps only its own."""
+        self._motions.clear()
+        self.windows.forget()
         null = np.concatenate([e.null for e in effects])
         scale = np.concatenate([e.scale for e in effects])
         lower = (np.concatenate([e.lower for e in effects]) - null) / scale
@@ -251,15 +277,25 @@ class Diagnosis:
         # scale unit inside.
         x0 = np.clip((start - null) / scale, lower + np.minimum(1.0, (upper - lower) / 2), upper - 1e-9)
 
-        def fun(x: np.ndarray) -> np.ndarray:
-            res = self.residuals(self.config(effects, null + scale * x))
-            prior = [] if res.prior is None else [res.prior[:, train].ravel()]
-            stacked = np.concatenate([res.values[s][:, train].ravel() for s in SIGNALS] + prior)
-            return np.where(np.isfinite(stacked), stacked, 0.0)
+        parts = self.parts()
 
-        result = least_squares(fun, x0, bounds=(lower, upper), diff_step=0.01, max_nfev=MAX_EVALUATIONS,
-                               method="trf", x_scale=1.0, xtol=1e-3, ftol=1e-4)
-        return null + scale * result.x
+        def at(x: np.ndarray) -> Callable[[int], np.ndarray]:
+            config = self.config(effects, null + scale * x)
+
+            def part(k: int) -> np.ndarray:
+                res = self.part_residuals(config, parts[k])
+                keep = train[parts[k]]
+                prior = [] if res.prior is None else [res.prior[:, keep].ravel()]
+                stacked = np.concatenate([res.values[s][:, keep].ravel() for s in SIGNALS] + prior)
+                return np.where(np.isfinite(stacked), stacked, 0.0)
+            return part
+
+        def evaluated() -> None:
+            self.evaluations += 1
+
+        x = streamed_least_squares(at, len(parts), x0, lower, upper, evaluated, diff_step=0.01,
+                                   max_nfev=MAX_EVALUATIONS, x_scale=1.0, xtol=1e-3, ftol=1e-4)
+        return null + scale * x
 
     def fit(self, effects: list[Effect], start: np.ndarray | None = None) -> Fit:
         """Fit ``effects`` on all windows (not yet judged on held-out time: see :meth:`judge`)."""

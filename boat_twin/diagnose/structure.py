@@ -17,16 +17,20 @@ carry it and the time where the residual is largest.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import TypedDict
 
 import numpy as np
 
+from boat_twin.diagnose.defaults import PART_WINDOWS
 from boat_twin.twin.replay import SIGNALS, Prediction, Windows
 
 REGRESSOR_NAMES = ("cos_heading", "sin_heading", "speed", "yaw_rate", "thrust_sum", "thrust_difference",
                    "steering")
 """What the residual may depend on: the commands and the model's prediction."""
+NAMES = REGRESSOR_NAMES + tuple(f"{n}*time" for n in REGRESSOR_NAMES)
+"""The regressors' names (:func:`regressors`): the situation, then the situation × time into the window."""
 R2_THRESHOLD = 0.15
 """Held-out R² of a residual above this: structure the model does not explain (set above what clean trials
 of every kind give in the accuracy study, docs/diagnosis.md)."""
@@ -69,8 +73,9 @@ class Signature:
                 "correlated_with": list(self.correlated_with), "worst_time_s": self.worst_time_s}
 
 
-def regressors(windows: Windows, prediction: Prediction) -> tuple[np.ndarray, tuple[str, ...]]:
-    """(T, m, k) regressors and their names: the situation, and the situation × time into the window.
+def regressors(windows: Windows, prediction: Prediction) -> np.ndarray:
+    """(T, m, k) regressors (:data:`NAMES` and a constant): the situation, and the situation × time into the
+    window.
 
     The situation is what the boat was commanded and what the model predicts it did — never a measured
     signal, whose noise is part of the residual it would be regressed against.
@@ -83,13 +88,20 @@ def regressors(windows: Windows, prediction: Prediction) -> tuple[np.ndarray, tu
                      cmd[..., 0] + cmd[..., 1], cmd[..., 0] - cmd[..., 1], 0.5 * (cmd[..., 2] + cmd[..., 3])],
                     axis=-1)
     elapsed = (windows.t_s - windows.t_s[0])[..., None]
-    names = REGRESSOR_NAMES + tuple(f"{n}*time" for n in REGRESSOR_NAMES)
-    return np.concatenate([base, base * elapsed, np.ones(base.shape[:2] + (1,))], axis=-1), names
+    return np.concatenate([base, base * elapsed, np.ones(base.shape[:2] + (1,))], axis=-1)
 
 
-def _solve(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    gram = x.T @ x
-    return np.linalg.solve(gram + RIDGE * np.trace(gram) / gram.shape[0] * np.eye(gram.shape[0]), x.T @ y)
+def _solve(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """The ridge solution of normal equations xᵀx·w = xᵀy given as ``gram`` and ``rhs``."""
+    return np.linalg.solve(gram + RIDGE * np.trace(gram) / gram.shape[0] * np.eye(gram.shape[0]), rhs)
+
+
+def _parts(windows: Windows, prediction: Prediction) -> Iterator[tuple[slice, np.ndarray]]:
+    """(window columns, their (T, c, k) regressors) for :data:`PART_WINDOWS` windows at a time."""
+    for first in range(0, windows.start_index.size, PART_WINDOWS):
+        columns = slice(first, first + PART_WINDOWS)
+        part = Prediction({s: v[:, columns] for s, v in prediction.signals.items()}, prediction.position[:, columns])
+        yield columns, regressors(windows.part(columns), part)
 
 
 def misfit(residuals: dict[str, np.ndarray]) -> dict[str, float]:
@@ -97,36 +109,56 @@ def misfit(residuals: dict[str, np.ndarray]) -> dict[str, float]:
     return {s: float(np.sqrt(np.nanmean(residuals[s] ** 2))) for s in SIGNALS if np.isfinite(residuals[s]).any()}
 
 
-def _heldout_r2(x_all: np.ndarray, r: np.ndarray, folds: np.ndarray
+def _heldout_r2(windows: Windows, prediction: Prediction, r: np.ndarray, folds: np.ndarray
                 ) -> tuple[float, np.ndarray, np.ndarray] | None:
-    """Held-out R² of the residual ``r`` (T, m) on the regressors ``x_all`` (T, m, k), the standardized
-    regressors and the samples used; None where ``r`` has no sample (a sensor the trial has not). A fold without
-    training samples (the accelerometer, past its horizon in every other fold) predicts nothing: no evidence."""
-    ok = np.isfinite(r) & np.all(np.isfinite(x_all), axis=-1)
-    if not ok.any():
+    """Held-out R² of the residual ``r`` (T, m) on the standardized regressors of ``prediction``, and the normal
+    equations (xᵀx, xᵀr) of all its samples; None where ``r`` has no sample (a sensor the trial has not). A fold
+    without training samples (the accelerometer, past its horizon in every other fold) predicts nothing: no
+    evidence. The regressors are formed part by part (:func:`_parts`) and summed into each fold's normal
+    equations, never held for the whole trial."""
+    def samples() -> Iterator[tuple[slice, np.ndarray, np.ndarray]]:
+        for columns, x in _parts(windows, prediction):
+            yield columns, x, np.isfinite(r[:, columns]) & np.all(np.isfinite(x), axis=-1)
+
+    count = sum(int(ok.sum()) for _, _, ok in samples())
+    if count == 0:
         return None
-    mean, std = x_all[ok].mean(axis=0), x_all[ok].std(axis=0)
+    mean = sum(x[ok].sum(axis=0) for _, x, ok in samples()) / count
+    std = np.sqrt(sum(((x[ok] - mean) ** 2).sum(axis=0) for _, x, ok in samples()) / count)
     std[std == 0] = 1.0
     std[-1], mean[-1] = 1.0, 0.0
-    x = (x_all - mean) / std
-    predicted = np.full(r.shape, np.nan)
-    for k in np.unique(folds):
-        train = ok & (folds != k)[None, :]
-        test = ok & (folds == k)[None, :]
-        if train.any():
-            predicted[test] = x[test] @ _solve(x[train], r[train])
-    held = ok & np.isfinite(predicted)
-    r2 = (1.0 - np.sum((r - predicted)[held] ** 2) / np.sum((r[held] - r[held].mean()) ** 2)
-          if held.sum() > 1 else 0.0)
-    return float(r2), x, ok
+    labels = np.unique(folds)
+    k = mean.size
+    gram, rhs = np.zeros((labels.size, k, k)), np.zeros((labels.size, k))
+    trained = np.zeros(labels.size, dtype=bool)
+    for columns, x, ok in samples():
+        x = (x - mean) / std
+        for i, label in enumerate(labels):
+            use = ok & (folds[columns] == label)[None, :]
+            gram[i] += x[use].T @ x[use]
+            rhs[i] += x[use].T @ r[:, columns][use]
+            trained[i] |= bool(use.any())
+    weights = [_solve(gram[labels != label].sum(axis=0), rhs[labels != label].sum(axis=0))
+               if np.any(trained & (labels != label)) else None for label in labels]
+    held, error = [], []
+    for columns, x, ok in samples():
+        x = (x - mean) / std
+        for label, w in zip(labels, weights, strict=True):
+            if w is not None:
+                use = ok & (folds[columns] == label)[None, :]
+                held.append(r[:, columns][use])
+                error.append(held[-1] - x[use] @ w)
+    observed = np.concatenate(held) if held else np.zeros(0)
+    r2 = (1.0 - np.sum(np.concatenate(error) ** 2) / np.sum((observed - observed.mean()) ** 2)
+          if observed.size > 1 else 0.0)
+    return float(r2), gram.sum(axis=0), rhs.sum(axis=0)
 
 
 def structure_r2(windows: Windows, residuals: dict[str, np.ndarray], prediction: Prediction,
                  folds: np.ndarray) -> dict[str, float]:
     """Per signal, the held-out R² of its residual on the situation (what :func:`residual_structure` tests; 0
     for a signal the windows do not measure)."""
-    x_all, _ = regressors(windows, prediction)
-    held = {s: _heldout_r2(x_all, residuals[s], folds) for s in SIGNALS}
+    held = {s: _heldout_r2(windows, prediction, residuals[s], folds) for s in SIGNALS}
     return {s: 0.0 if h is None else h[0] for s, h in held.items()}
 
 
@@ -137,20 +169,19 @@ def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], predi
     structure it normally leaves, none by default), or their residual stays above MISFIT_FACTOR times the noise
     floor (with the twin's model error where it has one: :mod:`~boat_twin.diagnose.model_error`)."""
     ratio = misfit(residuals)
-    x_all, names = regressors(windows, prediction)
     normal_r2 = normal_r2 or {}
     found = []
     for signal in SIGNALS:
         r = residuals[signal]
-        held = _heldout_r2(x_all, r, folds)
+        held = _heldout_r2(windows, prediction, r, folds)
         if held is None:  # a sensor the trial has not (an IMU without its accelerometer)
             continue
-        r2, x, ok = held
+        r2, gram, rhs = held
         if r2 > R2_THRESHOLD + normal_r2.get(signal, 0.0) or ratio[signal] > MISFIT_FACTOR:
-            weights = _solve(x[ok], r[ok])[:-1]
+            weights = _solve(gram, rhs)[:-1]
             order = np.argsort(-np.abs(weights))[:3]
             compared = np.sum(np.isfinite(r), axis=0)  # a window may compare none (the accelerometer)
             worst = int(np.argmax(np.nansum(r**2, axis=0) / np.maximum(compared, 1)))
             middle = float(windows.t_s[windows.t_s.shape[0] // 2, worst])
-            found.append(Signature(signal, ratio[signal], float(r2), tuple(names[i] for i in order), middle))
+            found.append(Signature(signal, ratio[signal], float(r2), tuple(NAMES[i] for i in order), middle))
     return found

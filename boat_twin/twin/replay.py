@@ -141,10 +141,17 @@ class Windows:
         of many vessels run a part of the windows at a time holds only that part's paths)."""
         part = Windows(self.t_s[:, columns], self.commands[:, columns],
                        {name: values[:, columns] for name, values in self.measured.items()},
-                       self.position[:, columns], self.trial, self.start_index[columns])
+                       self.position[:, columns], self.trial, self.start_index[columns],
+                       None if self.wind_departure_mps is None else self.wind_departure_mps[columns])
         object.__setattr__(part, "_actuators", self._actuators)
         object.__setattr__(part, "_acting", self._acting)
         return part
+
+    def forget(self) -> None:
+        """Drop the kept :meth:`actuators` and :meth:`acting` series (each trial-length): a caller whose next
+        replays are of other configs keeps only theirs."""
+        self._actuators.clear()
+        self._acting.clear()
 
     def acting(self, delay_s: float) -> tuple[np.ndarray, np.ndarray]:
         """The commands (n, 4) the boat acts on over the trial when they act ``delay_s`` after they were issued,
