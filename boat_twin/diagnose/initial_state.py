@@ -176,7 +176,7 @@ def predictable(base: np.ndarray, plus: list[np.ndarray], minus: list[np.ndarray
     data (a 55 kg boat against the default 6 m twin: residuals 3-100× the spread), and a model far off its data
     is never an all-clear. Inside the spread it is an unstable course the sensors' uncertainty explains (a
     hull whose yaw error grows e-fold in 0.2 s astern: residuals 0.05-0.3× the spread) and is cut there too,
-    unless that would leave no window anything to compare.
+    unless that would leave no window of ``base`` (a part of the trial's windows) anything to compare.
 
     On a course the model holds stably, a prior-sized error of the initial state changes the path linearly
     through the window (a heading 0.6° off turns it 0.6°) and the correction removes it: no sample is left out.
