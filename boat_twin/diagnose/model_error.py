@@ -76,7 +76,8 @@ def measure_model_error(trials: Sequence[Trial], twins: Sequence[TwinConfig], he
             diagnosis = Diagnosis(windows, replace(twin, model_error=error))
             fit = diagnosis.fit([])
             speed, yaw_rate = situation(windows)
-            found = structure_r2(windows, fit.residuals.values, fit.residuals.prediction, diagnosis.structure_folds)
+            found = structure_r2(windows, fit.residuals.values, fit.residuals.prediction, diagnosis.structure_folds,
+                                 buffered=not error.zero)
             for s in SIGNALS:
                 scaled = fit.residuals.values[s]
                 si = scaled * diagnosis.scale[s]

@@ -93,7 +93,8 @@ def diagnose_trial(trial: Trial, base: TwinConfig, window_s: float = WINDOW_S,
     baseline_prediction = selection.baseline.residuals.prediction
     signatures = residual_structure(windows, selection.final.residuals.values,
                                     selection.final.residuals.prediction, diagnosis.structure_folds,
-                                    {s: base.model_error.of(s).structure_r2 for s in SIGNALS})
+                                    {s: base.model_error.of(s).structure_r2 for s in SIGNALS},
+                                    buffered=not base.model_error.zero)
     held_back = withheld(selection.named, signatures, misfit)
     extended, extended_prediction = _presented_model(diagnosis, selection, held_back)
     result = result_dict(windows, selection, baseline_prediction, extended_prediction, signatures, None,

@@ -109,13 +109,15 @@ def misfit(residuals: dict[str, np.ndarray]) -> dict[str, float]:
     return {s: float(np.sqrt(np.nanmean(residuals[s] ** 2))) for s in SIGNALS if np.isfinite(residuals[s]).any()}
 
 
-def _heldout_r2(windows: Windows, prediction: Prediction, r: np.ndarray, folds: np.ndarray
+def _heldout_r2(windows: Windows, prediction: Prediction, r: np.ndarray, folds: np.ndarray, buffered: bool = False
                 ) -> tuple[float, np.ndarray, np.ndarray] | None:
     """Held-out R² of the residual ``r`` (T, m) on the standardized regressors of ``prediction``, and the normal
     equations (xᵀx, xᵀr) of all its samples; None where ``r`` has no sample (a sensor the trial has not). A fold
     without training samples (the accelerometer, past its horizon in every other fold) predicts nothing: no
-    evidence. The regressors are formed part by part (:func:`_parts`) and summed into each fold's normal
-    equations, never held for the whole trial."""
+    evidence. With ``buffered`` (folds that are stretches of consecutive windows) a held-out stretch's
+    neighbouring windows are left out of its training too (h-block cross-validation, Burman, Chow & Nolan 1994:
+    a serially correlated error must not reach across the stretch's boundary). The regressors are formed part by
+    part (:func:`_parts`) and summed into each window's normal equations, never held for the whole trial."""
     def samples() -> Iterator[tuple[slice, np.ndarray, np.ndarray]]:
         for columns, x in _parts(windows, prediction):
             yield columns, x, np.isfinite(r[:, columns]) & np.all(np.isfinite(x), axis=-1)
@@ -127,19 +129,21 @@ def _heldout_r2(windows: Windows, prediction: Prediction, r: np.ndarray, folds: 
     std = np.sqrt(sum(((x[ok] - mean) ** 2).sum(axis=0) for _, x, ok in samples()) / count)
     std[std == 0] = 1.0
     std[-1], mean[-1] = 1.0, 0.0
-    labels = np.unique(folds)
-    k = mean.size
-    gram, rhs = np.zeros((labels.size, k, k)), np.zeros((labels.size, k))
-    trained = np.zeros(labels.size, dtype=bool)
+    m, k = folds.size, mean.size
+    gram, rhs, has = np.zeros((m, k, k)), np.zeros((m, k)), np.zeros(m, dtype=bool)
     for columns, x, ok in samples():
-        x = (x - mean) / std
-        for i, label in enumerate(labels):
-            use = ok & (folds[columns] == label)[None, :]
-            gram[i] += x[use].T @ x[use]
-            rhs[i] += x[use].T @ r[:, columns][use]
-            trained[i] |= bool(use.any())
-    weights = [_solve(gram[labels != label].sum(axis=0), rhs[labels != label].sum(axis=0))
-               if np.any(trained & (labels != label)) else None for label in labels]
+        x = np.where(ok[..., None], (x - mean) / std, 0.0)
+        gram[columns] = np.einsum("tci,tcj->cij", x, x)
+        rhs[columns] = np.einsum("tci,tc->ci", x, np.where(ok, r[:, columns], 0.0))
+        has[columns] = ok.any(axis=0)
+    labels = np.unique(folds)
+    weights = []
+    for label in labels:
+        train = folds != label
+        if buffered:
+            held = ~train
+            train &= ~(np.concatenate([[False], held[:-1]]) | np.concatenate([held[1:], [False]]))
+        weights.append(_solve(gram[train].sum(axis=0), rhs[train].sum(axis=0)) if np.any(has & train) else None)
     held, error = [], []
     for columns, x, ok in samples():
         x = (x - mean) / std
@@ -155,25 +159,27 @@ def _heldout_r2(windows: Windows, prediction: Prediction, r: np.ndarray, folds: 
 
 
 def structure_r2(windows: Windows, residuals: dict[str, np.ndarray], prediction: Prediction,
-                 folds: np.ndarray) -> dict[str, float]:
+                 folds: np.ndarray, buffered: bool = False) -> dict[str, float]:
     """Per signal, the held-out R² of its residual on the situation (what :func:`residual_structure` tests; 0
-    for a signal the windows do not measure)."""
-    held = {s: _heldout_r2(windows, prediction, residuals[s], folds) for s in SIGNALS}
+    for a signal the windows do not measure; ``buffered``: :func:`_heldout_r2`'s)."""
+    held = {s: _heldout_r2(windows, prediction, residuals[s], folds, buffered) for s in SIGNALS}
     return {s: 0.0 if h is None else h[0] for s, h in held.items()}
 
 
 def residual_structure(windows: Windows, residuals: dict[str, np.ndarray], prediction: Prediction,
-                       folds: np.ndarray, normal_r2: dict[str, float] | None = None) -> list[Signature]:
+                       folds: np.ndarray, normal_r2: dict[str, float] | None = None, buffered: bool = False
+                       ) -> list[Signature]:
     """Signals left unexplained: the situation predicts their residual on held-out folds (held-out R² above
     R2_THRESHOLD plus ``normal_r2``, the R² the twin's residual shows on its clean training recordings: the
     structure it normally leaves, none by default), or their residual stays above MISFIT_FACTOR times the noise
-    floor (with the twin's model error where it has one: :mod:`~boat_twin.diagnose.model_error`)."""
+    floor (with the twin's model error where it has one: :mod:`~boat_twin.diagnose.model_error`). ``buffered``:
+    the folds are stretches whose neighbours are left out of their training (:func:`_heldout_r2`)."""
     ratio = misfit(residuals)
     normal_r2 = normal_r2 or {}
     found = []
     for signal in SIGNALS:
         r = residuals[signal]
-        held = _heldout_r2(windows, prediction, r, folds)
+        held = _heldout_r2(windows, prediction, r, folds, buffered)
         if held is None:  # a sensor the trial has not (an IMU without its accelerometer)
             continue
         r2, gram, rhs = held
