@@ -14,6 +14,7 @@ replayed in turn: the same replays as its ``'2-point'`` Jacobian, in another ord
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import cast
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -69,13 +70,13 @@ class _Compressed:
             shifted[j][j] += h[j]
         dx = np.array([shifted[j][j] - self.x[j] for j in range(n)])
         at = [self.residual(point) for point in shifted]
-        r = np.zeros((0, n + 1))
+        r: np.ndarray = np.zeros((0, n + 1))
         for k, base in enumerate(self.f):
             block = np.empty((base.size, n + 1))
             block[:, 0] = base
             for j in range(n):
                 block[:, j + 1] = (at[j](k) - base) / dx[j]
-            r = np.linalg.qr(np.vstack([r, block]), mode="r")
+            r = cast(np.ndarray, np.linalg.qr(np.vstack([r, block]), mode="r"))  # mode "r": R alone
         for _ in range(n):
             self.evaluated()
         out = np.zeros((n + 1, n + 1))
