@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import yaml
 from independent import rk4_held
 
 from boat_twin.errors import InputError
@@ -460,3 +461,15 @@ def test_identify_manoeuvring_finds_a_ships_screw_and_rudder_scale_from_a_zigzag
     assert twin.thrust_factor_left == pytest.approx(found["parameters"]["thrust_factor"])
     assert twin.propulsion.rudders[0].lift_slope_per_rad == pytest.approx(  # type: ignore[union-attr]
         found["parameters"]["rudder_lift_factor"] * 6.13 * 1.6 / (1.6 + 2.25))
+
+
+def test_the_readmes_propulsion_examples_are_boat_files_of_each_family() -> None:
+    """Every ``yaml`` block of the README whose documents hold ``propulsion`` loads as a boat's vessel section:
+    the three families as the README shows them (skid-steer on a table, steered outboards, screw and rudder)."""
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    blocks = [b.split("```", 1)[0] for b in readme.split("```yaml\n")[1:]]
+    documents = [d for b in blocks for d in yaml.safe_load_all(b) if isinstance(d, dict) and "propulsion" in d]
+    layouts = [params_from_dict({"mass_kg": 30.0, "length_m": 1.6, "beam_m": 0.9, **d}, "README.md").propulsion
+               for d in documents]
+    assert [([t.command for t in p.thrusters], len(p.rudders)) for p in layouts] == [
+        (["table", "table"], 0), (["newtons", "newtons"], 0), (["propeller"], 1)]

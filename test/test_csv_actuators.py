@@ -109,9 +109,17 @@ def test_a_calibration_names_the_actuator_its_column_was_mapped_by(tmp_path: Pat
     columns, calibration, _ = parse_columns(spec, order=("port", "stbd"))
     assert columns["thrust_left"].column == "pwm_p" and columns["thrust_right"].column == "pwm_s"
     assert list(calibration) == ["thrust_right"]
-    body["calibration"] = {"thrusters/aft/cmd": [[1100, -1.0], [1900, 1.0]]}
+    for calibrated, message in (("thrusters/aft/cmd", r"calibration for 'thrusters/aft/cmd': only mapped commands"),
+                                ("thrust_left", r"calibration for 'thrust_left': only mapped commands "
+                                                r"\(thrusters/port/cmd, thrusters/stbd/cmd\)")):
+        body["calibration"] = {calibrated: [[1100, -1.0], [1900, 1.0]]}
+        spec.write_text(yaml.safe_dump(body))
+        with pytest.raises(InputError, match=message):
+            parse_columns(spec, order=("port", "stbd"))
+    body["calibration"] = {"thrusters/stbd/cmd": [[1100, -1.0], [1900, 1.0]]}
+    body["columns"]["thrusters/stbd/cmd"] = {"column": "pwm_s", "unit": "rpm"}
     spec.write_text(yaml.safe_dump(body))
-    with pytest.raises(InputError, match=r"calibration for 'thrusters/aft/cmd': only mapped commands"):
+    with pytest.raises(InputError, match=r"columns\.thrusters/stbd/cmd: a calibrated command's table .* drop its unit"):
         parse_columns(spec, order=("port", "stbd"))
 
 

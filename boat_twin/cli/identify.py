@@ -94,6 +94,12 @@ def _boat_path(args: argparse.Namespace) -> Path | None:
     return args.boat if args.boat is not None else args.config
 
 
+def _boat_source(args: argparse.Namespace) -> str | None:
+    """:func:`_boat_path` as the reports name it."""
+    path = _boat_path(args)
+    return None if path is None else str(path)
+
+
 def _boat_facts(args: argparse.Namespace) -> dict[str, float] | None:
     """The vessel facts of :func:`_boat_path` (None without one); fields identify measures itself are said to be
     ignored."""
@@ -120,7 +126,7 @@ def _run_each(args: argparse.Namespace) -> int:
     read = read_options_from_args(args)
     job = IdentifyJob(read, args.order, min(args.max_order, 6), args.monotone, args.steady_window,
                       args.thrust_tolerance, _boat_facts(args),
-                      str(_boat_path(args)) if _boat_path(args) is not None else None, twin_config_from_args(args))
+                      _boat_source(args), twin_config_from_args(args))
     return run_each(args, job)
 
 
@@ -224,8 +230,7 @@ def _run_trial(args: argparse.Namespace, out: Path | None) -> int:
         model_error, how = identified_model_error(trials, found, options, _say)
         _say(how)
         write_identify_report(out, result, found, ", ".join(map(str, args.trial)),
-                              str(_boat_path(args)) if _boat_path(args) is not None else None, args.out,
-                              model_error=model_error)
+                              _boat_source(args), args.out, model_error=model_error)
     if args.json:
         sys.stdout.write(to_json(result) + "\n")
         return 0

@@ -58,6 +58,7 @@ from boat_twin.twin.replay import (
     cut_windows,
     delayed_commands,
     measured_motion,
+    measured_wind_mps,
     predict,
     predict_vessels,
     residual,
@@ -637,8 +638,7 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     factors, and the lateral windage where a trial has a measured wind)."""
     if not trials:
         raise InputError("no trial to fit the manoeuvring coefficients to")
-    measured_wind = any(trial.wind_east_mps is not None and np.isfinite(trial.wind_east_mps).any()
-                        for trial in trials)
+    measured_wind = any(measured_wind_mps(trial) is not None for trial in trials)
     free = default_free(base, measured_wind) if free is None else free
     unknown = sorted(set(free) - {p.key for p in FITTABLE})
     if unknown or not free:

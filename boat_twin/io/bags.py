@@ -26,7 +26,7 @@ from boat_twin.frames import quaternion_yaw_rad
 from boat_twin.io.mcap_crc import check_chunk_crcs, fill_chunk_crcs
 from boat_twin.io.messages import TOPIC_ODOM_TRUTH, TOPIC_WIND, TOPICS, TS, topic_type
 from boat_twin.io.roles import ACTUATOR_TOPIC, COMMAND_ROLES, ONE_THRUSTER_NOTE, actuator_slots
-from boat_twin.io.trial import Stream, Trial, build_trial
+from boat_twin.io.trial import Stream, Trial, build_trial, empty_second_thruster
 
 ROLE_TOPICS = {
     "thrust_left": "thrusters/left/thrust",
@@ -351,7 +351,7 @@ def read_trial(
         raise InputError(f"{source}: cannot read bag ({type(err).__name__}: {reason})") from None
     streams = {role: rows.pop(role).stream() for role in topics}
     if ONE_THRUSTER_NOTE in notes and "thrust_left" in streams:  # a boat file's single thruster: no second slot
-        streams["thrust_right"] = Stream(streams["thrust_left"].stamps_s[:1], np.zeros((1, 1)))
+        empty_second_thruster(streams)
     trial = build_trial(streams, source, topics, origin, release=True)
     trial.metadata.stream_choices += notes
     return trial

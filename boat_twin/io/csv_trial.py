@@ -25,7 +25,7 @@ from boat_twin.errors import InputError
 from boat_twin.files import load_yaml
 from boat_twin.frames import enu_yaw_from_ned
 from boat_twin.io.roles import ONE_THRUSTER_NOTE, actuator_roles
-from boat_twin.io.trial import COMMAND_ROLES, Stream, Trial, build_trial
+from boat_twin.io.trial import COMMAND_ROLES, Stream, Trial, build_trial, empty_second_thruster
 from boat_twin.units import KGF_N, KNOT_MPS
 
 CSV_QUANTITIES = {
@@ -392,8 +392,8 @@ def read_csv_trial(path: Path, columns: str | Path, order: Sequence[str] = ()) -
             topics[role] = (f"column {name[role]}" + (f" ({actuator})" if actuator else "")
                             + (" (calibrated)" if role in calibration else ""))
     single = bool(mapping.get("thrust_left", ColumnSpec("")).actuator) and "thrust_right" not in mapping
-    if single:  # a boat file's single thruster: no second slot
-        streams["thrust_right"] = Stream(streams["thrust_left"].stamps_s[:1], np.zeros((1, 1)))
+    if single:
+        empty_second_thruster(streams)
     trial = build_trial(streams, str(path), topics, origin if local else None)
     if single:
         trial.metadata.stream_choices.append(ONE_THRUSTER_NOTE)

@@ -33,6 +33,12 @@ class Stream:
     values: np.ndarray
 
 
+def empty_second_thruster(streams: dict[str, Stream]) -> None:
+    """A boat file's single thruster (its command in ``thrust_left``): the second thrust slot in ``streams`` at
+    0 from the first command's stamp on, not missing."""
+    streams["thrust_right"] = Stream(streams["thrust_left"].stamps_s[:1], np.zeros((1, 1)))
+
+
 @dataclass
 class TrialMetadata:
     """Where a trial came from and how good its streams are."""
