@@ -12,7 +12,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1] / "boat_twin"
 LAYERS = (
     ("errors", "units", "frames", "signal_noise", "files", "validation", "lazy", "data",
-    "threads", "progress_line", "rows"),  # util: no domain knowledge
+    "threads", "progress_line", "rows", "folded_lsq", "drawn_line"),  # util: no domain knowledge
     ("cable",),  # towed body + cable (the vessel's tow load uses it)
     ("vessel",),  # params, resistance, dynamics, environment, scenarios
     ("sensors",),  # observation models: truth -> measurements

@@ -187,7 +187,7 @@ def test_a_mass_held_at_the_end_of_a_follow_is_a_warning(followed: tuple[Trial, 
 
 
 def test_an_hours_long_track_is_drawn_with_a_bounded_subset_that_keeps_its_ends_and_never_bridges_a_gap() -> None:
-    from boat_twin.view.track_map import drawn
+    from boat_twin.drawn_line import drawn
 
     short = np.column_stack([np.arange(100.0), np.arange(100.0)])
     assert drawn(short, limit=1000) is short  # a track within the limit is drawn as it is
@@ -203,3 +203,27 @@ def test_an_hours_long_track_is_drawn_with_a_bounded_subset_that_keeps_its_ends_
     steps = np.flatnonzero(finite[:-1] & finite[1:])
     for gap in gaps:  # no drawn step joins the fixes on either side of a gap
         assert not np.any((x[steps] < gap) & (x[steps + 1] > gap))
+
+
+def test_identify_s_figures_of_an_hours_long_record_draw_bounded_lines() -> None:
+    """The trial and re-simulation figures of a 6-hour record (216,000 samples) draw every line with at most
+    about DRAWN_POINTS points, its first and last sample kept (the 6-hour identify's peak memory was the
+    legend's and the renderer's copies of the whole lines)."""
+    from boat_twin.drawn_line import DRAWN_POINTS
+    from boat_twin.ident.output_error import SurgeRecord
+    from boat_twin.ident.report import trial_figure
+    from boat_twin.ident.resimulate import Resimulation, resimulation_figure
+
+    t = np.arange(216_000) * 0.1
+    speed = 3.0 + np.sin(t / 60.0)
+    record = SurgeRecord(t, 500.0 + 100.0 * np.sign(np.sin(t / 300.0)), speed)
+    result = {"output_error": {"selected": {}}, "steady_points": [], "rejected_segments": []}
+    resim = Resimulation(t_s=t, measured_mps=speed, simulated_mps=speed + 0.01, speed_noise_mps=0.02,
+                         effective_mass_kg=1000.0, mass_source="identified")
+    for fig in (trial_figure(result, [record]), resimulation_figure(resim)):
+        lines = [line for ax in fig.axes for line in ax.get_lines() if len(line.get_xdata()) > 2]
+        assert len(lines) >= 2
+        for line in lines:
+            x = np.asarray(line.get_xdata())
+            assert x.size <= DRAWN_POINTS + 1
+            assert (x[0], x[-1]) == (t[0], t[-1])

@@ -1,23 +1,17 @@
-"""Bounded least squares over residuals computed part by part, without ever holding the Jacobian.
-
-``scipy.optimize.least_squares`` (trust region reflective) needs of a residual vector f and its Jacobian J only
-fᵀf, Jᵀf and JᵀJ (the singular values and right vectors of J, and Uᵀf). The triangular factor R of [f J]
-(QR, built part by part: each part's rows are stacked under the R so far and factored again, as a tall-skinny QR)
-holds all three: with f̃ = (‖f‖, 0, …, 0) and J̃ = R's columns after the first, f̃ᵀf̃ = fᵀf, J̃ᵀf̃ = Jᵀf and J̃ᵀJ̃ = JᵀJ.
-So the solver is handed f̃ and J̃ ((n + 1) rows): the same iterates as with the whole vectors, up to rounding,
-while the memory is one part's rows, not the (rows × n) Jacobian that ``least_squares`` copied about five times
-(on a 6-hour trial 43 MB a copy for a five-parameter fit). The Jacobian's forward differences use
-``least_squares``' own steps (``diff_step`` relative, turned back at a bound), each part of every shifted point
-replayed in turn: the same replays as its ``'2-point'`` Jacobian, in another order.
+"""The diagnosis' bounded least squares by forward differences over residuals computed part by part (window
+groups), never holding the Jacobian: the triangle of [f J] folded part by part (:mod:`boat_twin.folded_lsq`) is
+what ``least_squares`` sees. The Jacobian's forward differences use ``least_squares``' own steps (``diff_step``
+relative, turned back at a bound), each part of every shifted point replayed in turn: the same replays as its
+``'2-point'`` Jacobian, in another order.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import cast
 
 import numpy as np
-from scipy.optimize import least_squares
+
+from boat_twin.folded_lsq import TriangleFold, folded_least_squares
 
 FORWARD_EPS = float(np.sqrt(np.finfo(float).eps))
 """The forward-difference step where the relative one vanishes (x = 0), as ``least_squares``' ``'2-point'``."""
@@ -41,7 +35,7 @@ def forward_steps(x: np.ndarray, diff_step: float, lower: np.ndarray, upper: np.
 
 
 class _Compressed:
-    """The residual and Jacobian ``least_squares`` sees: f̃ and J̃ of the module docstring. Keeps the parts of the
+    """The residual's norm and the triangle of [f J] (:mod:`boat_twin.folded_lsq`). Keeps the parts of the
     residual at the last point evaluated (the Jacobian's base: ``least_squares`` asks the Jacobian only there)."""
 
     def __init__(self, residual: Residual, parts: int, diff_step: float, lower: np.ndarray,
@@ -51,18 +45,16 @@ class _Compressed:
         self.x = np.full(lower.size, np.nan)
         self.f: list[np.ndarray] = []
 
-    def fun(self, x: np.ndarray) -> np.ndarray:
+    def norm(self, x: np.ndarray) -> float:
         self.x = np.array(x, dtype=float)
         at = self.residual(self.x)
         self.f = [at(k) for k in range(self.parts)]
         self.evaluated()
-        out = np.zeros(x.size + 1)
-        out[0] = np.sqrt(sum(float(np.dot(part, part)) for part in self.f))
-        return out
+        return float(np.sqrt(sum(float(np.dot(part, part)) for part in self.f)))
 
-    def jac(self, x: np.ndarray) -> np.ndarray:
+    def triangle(self, x: np.ndarray) -> np.ndarray:
         if not np.array_equal(x, self.x):
-            self.fun(x)
+            self.norm(x)
         n = x.size
         h = forward_steps(self.x, self.diff_step, self.lower, self.upper)
         shifted = [self.x.copy() for _ in range(n)]
@@ -70,20 +62,16 @@ class _Compressed:
             shifted[j][j] += h[j]
         dx = np.array([shifted[j][j] - self.x[j] for j in range(n)])
         at = [self.residual(point) for point in shifted]
-        r: np.ndarray = np.zeros((0, n + 1))
+        fold = TriangleFold(n + 1)
         for k, base in enumerate(self.f):
             block = np.empty((base.size, n + 1))
             block[:, 0] = base
             for j in range(n):
                 block[:, j + 1] = (at[j](k) - base) / dx[j]
-            r = cast(np.ndarray, np.linalg.qr(np.vstack([r, block]), mode="r"))  # mode "r": R alone
+            fold.add(block)
         for _ in range(n):
             self.evaluated()
-        out = np.zeros((n + 1, n + 1))
-        out[:r.shape[0]] = r
-        if out[0, 0] < 0.0:
-            out[0] *= -1.0
-        return out[:, 1:]
+        return fold.square()
 
 
 def streamed_least_squares(residual: Residual, parts: int, x0: np.ndarray, lower: np.ndarray,
@@ -94,5 +82,4 @@ def streamed_least_squares(residual: Residual, parts: int, x0: np.ndarray, lower
     of ``least_squares``' (max_nfev, xtol, ftol, x_scale)."""
     options = dict(options)
     problem = _Compressed(residual, parts, options.pop("diff_step"), lower, upper, evaluated)
-    result = least_squares(problem.fun, x0, jac=problem.jac, bounds=(lower, upper), method="trf", **options)
-    return result.x
+    return folded_least_squares(problem.norm, problem.triangle, x0, lower, upper, **options).x

@@ -11,13 +11,31 @@ from __future__ import annotations
 import numpy as np
 
 
+def jackknife_shift(information: np.ndarray, cluster_squares: np.ndarray, cluster_score: np.ndarray) -> np.ndarray:
+    """d_g = (I − J_gᵀJ_g)⁺·J_gᵀr_g, the step of the fit without cluster g, from the cluster's ``cluster_squares``
+    J_gᵀJ_g (p, p) and ``cluster_score`` J_gᵀr_g (p,); ``information`` I (p, p): JᵀJ of all the rows (plus a
+    penalty's). A caller that streams its rows sums I first and then each cluster's two. The pseudo-inverse is
+    taken of the matrix scaled to a unit diagonal of I (parameters in kg beside N·s/m: unscaled, its condition
+    number passes the pseudo-inverse's 1e-15 cut-off and rounding decides the spread)."""
+    diagonal = np.diag(information)
+    scale = np.where(diagonal > 0.0, 1.0 / np.sqrt(np.where(diagonal > 0.0, diagonal, 1.0)), 1.0)
+    without = (information - cluster_squares) * scale[:, None] * scale[None, :]
+    return scale * (np.linalg.pinv(without) @ (scale * cluster_score))
+
+
+def jackknife_spread(shifts: np.ndarray) -> np.ndarray:
+    """(p, p) covariance (G − 1)/G·Σ_g (d_g − d̄)(d_g − d̄)ᵀ of the G clusters' shifts ``shifts`` (G, p)."""
+    centred = shifts - shifts.mean(axis=0)
+    return (shifts.shape[0] - 1) / max(shifts.shape[0], 1) * centred.T @ centred
+
+
 def jackknife_covariance(jac: np.ndarray, residual: np.ndarray, labels: np.ndarray,
                          prior_information: np.ndarray | None = None) -> tuple[np.ndarray, int]:
-    """(p, p) covariance (G − 1)/G·Σ_g (d_g − d̄)(d_g − d̄)ᵀ of the fit with Jacobian ``jac`` (n, p) and residuals
-    ``residual`` (n,) at its solution, d_g = (JᵀJ + P − J_gᵀJ_g)⁺·J_gᵀr_g the step of the fit without cluster g
-    (rows whose ``labels`` (n,) are g); and G, the number of clusters. ``prior_information`` P (p, p; None: 0)
-    is the information of penalty rows no cluster holds (a prior the fit minimised with the data's residuals),
-    kept in every replicate: the spread is the data's alone, the caller adds the prior's own."""
+    """(p, p) covariance of the fit with Jacobian ``jac`` (n, p) and residuals ``residual`` (n,) at its solution
+    (:func:`jackknife_spread` of every cluster's :func:`jackknife_shift`, clusters the rows whose ``labels`` (n,)
+    are equal); and G, the number of clusters. ``prior_information`` P (p, p; None: 0) is the information of
+    penalty rows no cluster holds (a prior the fit minimised with the data's residuals), kept in every
+    replicate: the spread is the data's alone, the caller adds the prior's own."""
     information = jac.T @ jac + (0.0 if prior_information is None else prior_information)
     order = np.argsort(labels, kind="stable")  # each cluster's rows in their order, found once: O(n log n)
     groups, starts = np.unique(labels[order], return_index=True)  # (a mask per cluster: O(n·G))
@@ -25,6 +43,5 @@ def jackknife_covariance(jac: np.ndarray, residual: np.ndarray, labels: np.ndarr
     shifts = np.empty((groups.size, jac.shape[1]))
     for i in range(groups.size):
         rows = order[bounds[i]: bounds[i + 1]]
-        shifts[i] = np.linalg.pinv(information - jac[rows].T @ jac[rows]) @ (jac[rows].T @ residual[rows])
-    centred = shifts - shifts.mean(axis=0)
-    return (groups.size - 1) / max(groups.size, 1) * centred.T @ centred, int(groups.size)
+        shifts[i] = jackknife_shift(information, jac[rows].T @ jac[rows], jac[rows].T @ residual[rows])
+    return jackknife_spread(shifts), int(groups.size)

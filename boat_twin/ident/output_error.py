@@ -17,6 +17,7 @@ Each choice and why, with the measurements: docs/identification.md, "The model: 
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -27,7 +28,8 @@ from scipy.interpolate import BSpline
 from threadpoolctl import threadpool_limits
 
 from boat_twin.errors import InputError
-from boat_twin.ident.jackknife import jackknife_covariance
+from boat_twin.folded_lsq import FOLD_ROWS, TriangleFold, folded_least_squares
+from boat_twin.ident.jackknife import jackknife_shift, jackknife_spread
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.vessel.resistance import TableResistance
 
@@ -219,21 +221,18 @@ def _derivative(state: np.ndarray, thrust: float, coupling: float, coupled: bool
 
 
 @numba.njit(cache=True)
-def _simulate(t_s: np.ndarray, thrust: np.ndarray, coupling: np.ndarray, scale: float, coupled: bool, u0: float,
-              mass: float, coeffs: np.ndarray, table: np.ndarray, step: float, max_step: float,
-              sensitivities: bool) -> np.ndarray:
-    """Speed and its sensitivities at every sample, shape (n, p + 3 + coupled): [u, ∂u/∂w_j..., ∂u/∂m,
-    (∂u/∂c,) ∂u/∂u0] under the held thrust + ``scale``·``coupling``; without ``sensitivities`` the speed alone,
-    shape (n, 1), the same values (its RK4 stages do not depend on the rest)."""
+def _simulate(t_s: np.ndarray, thrust: np.ndarray, coupling: np.ndarray, scale: float, coupled: bool,
+              start: np.ndarray, mass: float, coeffs: np.ndarray, table: np.ndarray, step: float,
+              max_step: float) -> np.ndarray:
+    """The state at every sample from ``start`` at ``t_s[0]`` under the held thrust + ``scale``·``coupling``: with
+    sensitivities (``start`` of p + 3 + coupled) [u, ∂u/∂w_j..., ∂u/∂m, (∂u/∂c,) ∂u/∂u0], else (``start`` of 1)
+    the speed alone, the same values (its RK4 stages do not depend on the rest); shape (n, start's size). A run
+    continued from its last row is the whole run, bit for bit."""
     n = t_s.shape[0]
-    p = coeffs.shape[0]
-    width = p + 3 + int(coupled) if sensitivities else 1
+    width = start.shape[0]
     out = np.empty((n, width))
-    state = np.zeros(width)
-    if sensitivities:
-        state[width - 1] = 1.0
-    state[0] = u0
-    row = np.empty(2 * p)
+    state = start.copy()
+    row = np.empty(2 * coeffs.shape[0])
     k1, k2, k3, k4, tmp = np.empty(width), np.empty(width), np.empty(width), np.empty(width), np.empty(width)
     out[0] = state
     for i in range(n - 1):
@@ -428,73 +427,97 @@ class _Problem:
         return (list(range(1, 1 + self.p)) + ([1 + self.p] if self.mass_given is None else [])
                 + ([2 + self.p] if self.coupled else []))
 
-    def _run(self, x: np.ndarray, s: int, sensitivities: bool) -> np.ndarray:
-        """Segment ``s`` simulated at ``x`` (:func:`_simulate`'s columns)."""
-        coeffs, mass, u0 = self.unpack(x)
+    def _run(self, x: np.ndarray, s: int, start: np.ndarray, rows: slice) -> np.ndarray:
+        """Samples ``rows`` of segment ``s`` simulated at ``x`` from the state ``start`` at the first of them
+        (:func:`_simulate`'s columns)."""
+        coeffs, mass, _ = self.unpack(x)
         seg = self.segments[s]
         rec = self.records[seg.record]
-        return _simulate(rec.t_s[seg.start:seg.stop], rec.thrust_N[seg.start:seg.stop],
-                         self.couplings[seg.record][seg.start:seg.stop], self.scale(x), self.coupled, float(u0[s]),
-                         mass, np.ascontiguousarray(coeffs, dtype=float), self.table, self.step, MAX_STEP_S,
-                         sensitivities)
+        at = slice(seg.start + rows.start, seg.start + rows.stop)
+        return _simulate(rec.t_s[at], rec.thrust_N[at], self.couplings[seg.record][at], self.scale(x), self.coupled,
+                         start, mass, np.ascontiguousarray(coeffs, dtype=float), self.table, self.step, MAX_STEP_S)
 
     def residual(self, x: np.ndarray) -> np.ndarray:
         """Residuals (simulated |u| − measured) alone: :meth:`simulate`'s first value, at a fraction of its cost."""
         self.evaluations += 1
         rows = []
         for s, seg in enumerate(self.segments):
-            speed, _ = rice_mean(self._run(x, s, False)[:, 0], self.noise_mps[seg.record])
+            run = self._run(x, s, np.array([self.unpack(x)[2][s]]), slice(0, seg.stop - seg.start))
+            speed, _ = rice_mean(run[:, 0], self.noise_mps[seg.record])
             rows.append(speed - self.records[seg.record].speed_mps[seg.start:seg.stop])
         return np.concatenate(rows)
 
-    def simulate(self, x: np.ndarray, extra_rows: int = 0) -> tuple[np.ndarray, np.ndarray]:
-        """Residuals (simulated |u| − measured) and their Jacobian with respect to ``x``, built in place (one
-        samples × parameters array: on hours of data with gaps it is the fit's largest); ``extra_rows`` zero rows
-        after the data's (a prior's pseudo-observation)."""
-        self.evaluations += 1
-        n_free = self.heads
+    def segment_rows(self, x: np.ndarray) -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
+        """The residuals (simulated |u| − measured) and their rows of the Jacobian with respect to ``x`` (the
+        parameters before the initial speeds, then one column per segment's initial speed), simulated with
+        sensitivities :data:`FOLD_ROWS` samples at a time: (segment, first row in the segment, residuals,
+        Jacobian rows). On hours of data never the whole samples × parameters array."""
         columns = self.sensitivity_columns()
-        n_rows = sum(seg.stop - seg.start for seg in self.segments)
-        residual = np.empty(n_rows)
-        jac = np.zeros((n_rows + extra_rows, n_free + len(self.segments)))
-        row = 0
+        width = self.heads + len(self.segments)
         for s, seg in enumerate(self.segments):
-            rec = self.records[seg.record]
-            out = self._run(x, s, True)
-            speed, slope = rice_mean(out[:, 0], self.noise_mps[seg.record])
-            end = row + out.shape[0]
-            residual[row:end] = speed - rec.speed_mps[seg.start:seg.stop]
-            jac[row:end, : n_free] = slope[:, None] * out[:, columns]
-            jac[row:end, n_free + s] = slope * out[:, -1]
-            row = end
-        return residual, jac
+            start = np.zeros(self.p + 3 + int(self.coupled))
+            start[0], start[-1] = self.unpack(x)[2][s], 1.0
+            measured = self.records[seg.record].speed_mps[seg.start:seg.stop]
+            for first in range(0, measured.size, FOLD_ROWS):
+                last = min(first + FOLD_ROWS, measured.size)
+                run = self._run(x, s, start, slice(first, min(last + 1, measured.size)))  # and the next start
+                start = run[-1]
+                out = run[: last - first]
+                speed, slope = rice_mean(out[:, 0], self.noise_mps[seg.record])
+                jac = np.zeros((last - first, width))
+                jac[:, : self.heads] = slope[:, None] * out[:, columns]
+                jac[:, self.heads + s] = slope * out[:, -1]
+                yield s, first, speed - measured[first:last], jac
 
-    def measured(self) -> np.ndarray:
-        """Measured speeds of the fitted samples, in residual order, m/s."""
-        return np.concatenate([self.records[g.record].speed_mps[g.start:g.stop] for g in self.segments])
+    def folded(self, x: np.ndarray, prior_row: tuple[float, int] | None = None) -> tuple[float, np.ndarray]:
+        """The residuals' norm and the triangle of [f J] at ``x`` (:mod:`boat_twin.folded_lsq`); ``prior_row``
+        (weight w, parameter index): a pseudo-observation w·(x_index − 1) after the data's rows. The norm is nan
+        where the residuals are not finite or the squares of the sensitivities overflow (a stiff, near-massless
+        trial point: the solver's scaling squares them)."""
+        self.evaluations += 1
+        size = x.size
+        fold = TriangleFold(size + 1)
+        squares, square_sum = 0.0, 0.0
+        with np.errstate(over="ignore", invalid="ignore"):
+            for _, _, residual, jac in self.segment_rows(x):
+                squares += float(residual @ residual)
+                square_sum += float(np.sum(np.square(jac)))
+                if np.isfinite(squares) and np.isfinite(square_sum):
+                    fold.add(np.column_stack([residual, jac]))
+            if prior_row is not None:
+                weight, index = prior_row
+                row = np.zeros((1, size + 1))
+                row[0, 0], row[0, 1 + index] = weight * (x[index] - 1.0), weight
+                squares += float(row[0, 0] ** 2)
+                fold.add(row)
+        if not (np.isfinite(squares) and np.isfinite(square_sum)):
+            return float("nan"), np.full((size + 1, size + 1), np.nan)
+        return float(np.sqrt(squares)), fold.square()
 
     def times(self) -> np.ndarray:
         """Sample times in residual order, s (each recording's own clock)."""
         return np.concatenate([self.records[g.record].t_s[g.start:g.stop] for g in self.segments])
 
 
-def _finite_squares(jac: np.ndarray) -> bool:
-    """Whether the squares of the sensitivities are finite: the solver's scaling and SVD square them (a
-    sensitivity of 1e200 m/s per parameter, where a trial mass near zero makes the model stiff, overflows)."""
-    with np.errstate(over="ignore", invalid="ignore"):
-        return bool(np.isfinite(np.sum(np.square(jac))))
+def _speeds_and_thrusts(problem: _Problem) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """The fitted samples' measured speeds (m/s) and thrusts plus couplings (N), :data:`FOLD_ROWS` at a time."""
+    for g in problem.segments:
+        record = problem.records[g.record]
+        for start in range(g.start, g.stop, FOLD_ROWS):
+            rows = slice(start, min(start + FOLD_ROWS, g.stop))
+            yield record.speed_mps[rows], record.thrust_N[rows] + problem.couplings[g.record][rows]
 
 
 def _initial_guess(problem: _Problem, mass_start_kg: float | None = None) -> np.ndarray:
-    """Coefficients from the quasi-steady balance T ≈ Fc(speed) (NNLS over all samples), then the mass from a
-    scan of time constants 0.3-300 s at the median speed, or ``mass_start_kg`` when given (where it keeps the
-    simulation finite); initial speeds: each segment's first measurement."""
-    speeds = problem.measured()
-    thrust = np.concatenate([problem.records[g.record].thrust_N[g.start:g.stop]
-                             + problem.couplings[g.record][g.start:g.stop] for g in problem.segments])
-    values, slopes = problem.basis.design(speeds)
-    sign = np.where(thrust >= 0.0, 1.0, -1.0)
-    coeffs, _ = optimize.nnls(values * sign[:, None], thrust, maxiter=50 * values.shape[1])
+    """Coefficients from the quasi-steady balance T ≈ Fc(speed) (NNLS over all samples, on their folded
+    triangle), then the mass from a scan of time constants 0.3-300 s at the median speed, or ``mass_start_kg``
+    when given (where it keeps the simulation finite); initial speeds: each segment's first measurement."""
+    fold = TriangleFold(problem.p + 1)  # of [sign·φ(speed), T]: NNLS on its triangle, the samples' minimiser
+    for speed, thrust in _speeds_and_thrusts(problem):
+        values, _ = problem.basis.design(speed)
+        fold.add(np.column_stack([values * np.where(thrust >= 0.0, 1.0, -1.0)[:, None], thrust]))
+    triangle = fold.square()
+    coeffs, _ = optimize.nnls(triangle[:, : problem.p], triangle[:, problem.p], maxiter=50 * problem.p)
     if not np.any(coeffs > 0):
         coeffs = np.full(problem.p, 1.0)
     coeffs = np.maximum(coeffs, 1e-6 * float(np.max(coeffs)))
@@ -504,14 +527,15 @@ def _initial_guess(problem: _Problem, mass_start_kg: float | None = None) -> np.
     if mass_start_kg is not None:
         start = problem.pack(coeffs, mass_start_kg, 1.0, u0)
         with np.errstate(over="ignore", invalid="ignore"):
-            if np.all(np.isfinite(problem.residual(start))) and _finite_squares(problem.simulate(start)[1]):
+            if np.all(np.isfinite(problem.residual(start))) and np.isfinite(problem.folded(start)[0]):
                 return start
-    slope = float(np.median(slopes @ coeffs)) or 1.0
+    slope = float(np.median(np.concatenate([problem.basis.design(speed)[1] @ coeffs
+                                            for speed, _ in _speeds_and_thrusts(problem)]))) or 1.0
     trials = [problem.pack(coeffs, tau_s * slope, 1.0, u0) for tau_s in np.geomspace(0.3, 300.0, 13)]
     with np.errstate(over="ignore", invalid="ignore"):
         costs = [float(np.sum(problem.residual(x) ** 2)) for x in trials]
     for k in np.argsort(costs, kind="stable"):  # the cheapest whose sensitivities stay finite
-        if np.isfinite(costs[k]) and _finite_squares(problem.simulate(trials[k])[1]):
+        if np.isfinite(costs[k]) and np.isfinite(problem.folded(trials[k])[0]):
             return trials[k]
     raise InputError("the surge model diverges for every trial mass: check the thrust and speed units")
 
@@ -539,22 +563,35 @@ def _correlation_time_s(problem: _Problem, residual: np.ndarray) -> tuple[float,
     return dt, dt * (1.0 + 2.0 * float(np.sum(lags)))
 
 
-def _cluster_covariance(problem: _Problem, residual: np.ndarray, jac: np.ndarray, free: np.ndarray,
-                        prior_information: np.ndarray | None = None) -> tuple[np.ndarray, int, float]:
-    """Cluster-robust covariance of the free parameters, the number of clusters and their length (s);
-    ``prior_information`` (free × free): a penalty's, kept in every replicate (:func:`jackknife_covariance`)."""
+def _cluster_covariance(problem: _Problem, x: np.ndarray, residual: np.ndarray, free: np.ndarray,
+                        prior_information: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, float]:
+    """Cluster-robust covariance of the free parameters at the solution ``x`` with ``residual``, the information
+    JᵀJ + P of the free parameters, the number of clusters and their length (s); ``prior_information`` P (free ×
+    free): a penalty's, kept in every replicate (:mod:`boat_twin.ident.jackknife`). Two passes over the
+    segments' rows (the information, then each cluster's shift), never the whole Jacobian."""
     _, correlation_s = _correlation_time_s(problem, residual)
     cluster_s = max(MIN_CLUSTER_S, 5.0 * correlation_s)
-    labels = np.empty(residual.size, dtype=int)
-    offset, label = 0, 0
-    for seg in problem.segments:
+    information = prior_information.copy()
+    for _, _, _, jac in problem.segment_rows(x):
+        information += jac[:, free].T @ jac[:, free]
+    shifts = []
+    cluster: tuple[int, int] | None = None  # (segment, block) of the cluster being summed
+    squares, score = np.zeros_like(information), np.zeros(information.shape[0])
+    for s, first, seg_residual, jac in problem.segment_rows(x):
+        seg = problem.segments[s]
         t = problem.records[seg.record].t_s[seg.start:seg.stop]
-        block = np.floor((t - t[0]) / cluster_s).astype(int)
-        labels[offset: offset + t.size] = label + block
-        label += int(block[-1]) + 1
-        offset += t.size
-    cov, _ = jackknife_covariance(jac[:, free], residual, labels, prior_information)
-    return cov, label, cluster_s
+        block = np.floor((t[first: first + seg_residual.size] - t[0]) / cluster_s).astype(int)
+        bounds = np.concatenate([[0], np.flatnonzero(np.diff(block)) + 1, [block.size]])
+        for a, b in zip(bounds[:-1], bounds[1:], strict=True):  # runs of rows of one cluster (non-decreasing)
+            if cluster != (s, int(block[a])):
+                if cluster is not None:
+                    shifts.append(jackknife_shift(information, squares, score))
+                cluster, squares, score = (s, int(block[a])), np.zeros_like(squares), np.zeros_like(score)
+            squares += jac[a:b, free].T @ jac[a:b, free]
+            score += jac[a:b, free].T @ seg_residual[a:b]
+    if cluster is not None:
+        shifts.append(jackknife_shift(information, squares, score))
+    return jackknife_spread(np.array(shifts)), information, len(shifts), cluster_s
 
 
 def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: list[Segment] | None = None,
@@ -587,45 +624,36 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
     lower = np.concatenate([np.zeros(problem.p), [1e-6 * x0[problem.p]] if mass_kg is None else [],
                             [-np.inf] if problem.coupled else [], np.full(len(segments), -np.inf)])
     upper = np.full(x0.size, np.inf)
-    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+    cache: dict[bytes, tuple[float, np.ndarray]] = {}
     scale_at = problem.heads - 1  # c's place in the vector (when coupled)
     prior_sd = float(coupling_sd) if problem.coupled and coupling_sd is not None and coupling_sd > 0.0 else 0.0
     weight = [0.0]  # the prior row's weight w, m/s per unit of c (0: no prior)
 
-    def evaluate(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def evaluate(x: np.ndarray) -> tuple[float, np.ndarray]:
         key = x.tobytes()
         if key not in cache:
             cache.clear()
-            prior_row = weight[0] > 0.0  # the prior on c: one pseudo-observation w·(c − 1)
-            residual, jac = problem.simulate(x, extra_rows=int(prior_row))
-            if not _finite_squares(jac):  # sensitivities blew up (a stiff, near-massless trial point): a
-                residual = np.full_like(residual, np.nan)  # failed step, which the solver shrinks away from
-            if prior_row:
-                jac[-1, scale_at] = weight[0]
-                residual = np.append(residual, weight[0] * (x[scale_at] - 1.0))
-            cache[key] = residual, jac
+            cache[key] = problem.folded(x, (weight[0], scale_at) if weight[0] > 0.0 else None)
         return cache[key]
 
     def solve(start: np.ndarray) -> optimize.OptimizeResult:
         cache.clear()
-        return optimize.least_squares(lambda x: evaluate(x)[0], np.clip(start, lower, upper),
-                                      jac=lambda x: evaluate(x)[1], bounds=(lower, upper), x_scale="jac",
-                                      method="trf", max_nfev=200, ftol=cost_tolerance)
+        return folded_least_squares(lambda x: evaluate(x)[0], lambda x: evaluate(x)[1], np.clip(start, lower, upper),
+                                    lower, upper, x_scale="jac", max_nfev=200, ftol=cost_tolerance)
 
-    # The solver's matrices are small (parameters × samples): BLAS threads only spin (0.18 s per SVD on a busy
-    # machine against 3 ms on one thread), so the fit runs on one.
+    # The solver's matrices are small ((parameters + 1)², :mod:`boat_twin.folded_lsq`): BLAS threads only spin,
+    # so the fit runs on one.
     with np.errstate(over="ignore", invalid="ignore"), threadpool_limits(limits=1, user_api="blas"):
         if prior_sd > 0.0:
             weight[0] = float(np.sqrt(np.mean(np.square(problem.noise_mps)))) / prior_sd
             first = solve(x0)
-            data = evaluate(first.x)[0][: problem.measured().size]
+            data = problem.residual(first.x)
             x0 = first.x if np.all(np.isfinite(data)) else x0
             if np.all(np.isfinite(data)):
                 weight[0] = _long_run_sd(problem, data) / prior_sd
         result = solve(x0)
-    residual, jac = evaluate(result.x)
-    n_data = problem.measured().size  # the prior's row, when there is one, after the data's
-    residual, jac = residual[:n_data], jac[:n_data]
+        evaluations = problem.evaluations
+        residual = problem.residual(result.x)
     if not np.all(np.isfinite(residual)):
         raise InputError("the surge model diverged while fitting (non-finite speeds): check the recording's units")
     coeffs, mass, u0 = problem.unpack(result.x)
@@ -635,9 +663,10 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
     if prior_sd > 0.0:
         at = int(np.count_nonzero(free[:scale_at]))
         prior[at, at] = weight[0] ** 2
-    cov_free, clusters, cluster_s = _cluster_covariance(problem, residual, jac, free, prior)
+    with threadpool_limits(limits=1, user_api="blas"):
+        cov_free, information, clusters, cluster_s = _cluster_covariance(problem, result.x, residual, free, prior)
     if prior_sd > 0.0:  # the prior's own variance, (w·σ_c)² = s² on its row, through H⁻¹
-        response = np.linalg.pinv(jac[:, free].T @ jac[:, free] + prior)[:, at] * weight[0]
+        response = np.linalg.pinv(information)[:, at] * weight[0]
         cov_free = cov_free + np.outer(response, response) * (weight[0] * prior_sd) ** 2
     cov = np.zeros((result.x.size, result.x.size))
     cov[np.ix_(free, free)] = cov_free
@@ -647,7 +676,7 @@ def fit_surge(records: list[SurgeRecord], basis: ResistanceBasis, *, segments: l
     scale_sd = float(np.sqrt(max(cov[scale_at, scale_at], 0.0))) if problem.coupled else 0.0
     return SurgeFit(basis=basis, coefficients=np.array(coeffs), mass_kg=mass, mass_fixed=mass_kg is not None,
                     initial_speeds_mps=np.array(u0), residual_mps=residual, covariance=param_cov, clusters=clusters,
-                    cluster_s=cluster_s, top_speed_mps=top, evaluations=problem.evaluations,
+                    cluster_s=cluster_s, top_speed_mps=top, evaluations=evaluations,
                     coupling_fitted=problem.coupled, coupling_scale=problem.scale(result.x),
                     coupling_scale_sd=scale_sd, coupling_prior_sd=prior_sd)
 
@@ -666,7 +695,7 @@ def predict(fit: SurgeFit, record: SurgeRecord, segment: Segment) -> np.ndarray:
     problem = _Problem([record], [Segment(0, segment.start, segment.stop)], fit.basis, fit.top_speed_mps,
                        fit.mass_kg)
     u0 = float(np.mean(record.speed_mps[segment.start: segment.start + 5]))
-    residual, _ = problem.simulate(problem.pack(fit.coefficients, fit.mass_kg, fit.coupling_scale, np.array([u0])))
+    residual = problem.residual(problem.pack(fit.coefficients, fit.mass_kg, fit.coupling_scale, np.array([u0])))
     return residual + record.speed_mps[segment.start:segment.stop]
 
 

@@ -12,6 +12,7 @@ from matplotlib.figure import Figure
 from boat_twin.config import TwinConfig, save_config
 from boat_twin.data import dyda2021_table1
 from boat_twin.data.dyda2021 import PAPER_COEFFICIENTS, PAPER_FISHER, PAPER_ORDERS
+from boat_twin.drawn_line import drawn_series
 from boat_twin.files import atomic_save_figure, atomic_write_text, ensure_out_dir, to_json
 from boat_twin.ident.output_error import SurgeRecord
 from boat_twin.ident.paper import paper_model_values
@@ -68,14 +69,14 @@ def trial_figure(result: IdentifyResult, records: Sequence[SurgeRecord]) -> Figu
     scale = result["output_error"]["selected"].get("coupling_scale", 1.0)
     coupled = False
     for k, rec in enumerate(records):
-        ax_v.plot(rec.t_s, rec.speed_mps, lw=0.6, color="0.4")
-        ax_f.plot(rec.t_s, rec.thrust_N, color="tab:blue", drawstyle="steps-post",
+        ax_v.plot(*drawn_series(rec.t_s, rec.speed_mps), lw=0.6, color="0.4")
+        ax_f.plot(*drawn_series(rec.t_s, rec.thrust_N), color="tab:blue", drawstyle="steps-post",
                   label="thrust" if k == 0 else None)
         if rec.coupling_N is not None:
             label = (f"measured wind's force k·(|Va|·ua + |V|·u), k = {scale:.3g} N·s²/m²" if "wind_drag" in result
                      else f"coupling c·m22·v·r, c = {scale:.2f}")
-            ax_f.plot(rec.t_s, scale * rec.coupling_N, lw=0.8, color="tab:orange", drawstyle="steps-post",
-                      label=None if coupled else label)
+            ax_f.plot(*drawn_series(rec.t_s, scale * rec.coupling_N), lw=0.8, color="tab:orange",
+                      drawstyle="steps-post", label=None if coupled else label)
             coupled = True
     for k, seg in enumerate(result["steady_points"]):
         ax_v.axvspan(seg["end_s"] - seg["duration_s"], seg["end_s"], color="tab:green", alpha=0.25,

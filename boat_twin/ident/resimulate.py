@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from boat_twin.drawn_line import drawn_series
 from boat_twin.errors import InputError
 from boat_twin.io.trial import COMMAND_ROLES, Trial
 from boat_twin.signal_noise import white_noise_stdev
@@ -142,12 +143,14 @@ def resimulation_figure(resim: Resimulation) -> Figure:
     summary = resim.to_dict()
     fig = Figure(figsize=(9, 6))
     ax_v, ax_e = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
-    ax_v.plot(resim.t_s, resim.measured_mps, lw=0.5, color="0.55", label="measured (GNSS speed over ground)")
-    ax_v.plot(resim.t_s, resim.simulated_mps, lw=1.2, color="tab:orange", label="re-simulated, identified model")
+    t_s, measured, simulated, error = drawn_series(resim.t_s, resim.measured_mps, resim.simulated_mps,
+                                                   resim.error_mps)
+    ax_v.plot(t_s, measured, lw=0.5, color="0.55", label="measured (GNSS speed over ground)")
+    ax_v.plot(t_s, simulated, lw=1.2, color="tab:orange", label="re-simulated, identified model")
     ax_v.set_ylabel("speed, m/s")
     ax_v.set_title("measured vs re-simulated speed")
     ax_v.legend(loc="upper left")
-    ax_e.plot(resim.t_s, resim.error_mps, lw=0.5, color="tab:red")
+    ax_e.plot(t_s, error, lw=0.5, color="tab:red")
     ax_e.axhline(0.0, color="0.3", lw=0.8)
     ax_e.set_ylabel("re-simulated − measured, m/s")
     ax_e.set_xlabel("time, s")

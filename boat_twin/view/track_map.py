@@ -12,32 +12,12 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from boat_twin.diagnose.pipeline import TrialDiagnosis
+from boat_twin.drawn_line import drawn
 
 if TYPE_CHECKING:  # the live twin (and scipy.stats with it): follow's map only
     from boat_twin.shadow.follow import FollowResult
 
 MEASURED_COLOR, PREDICTED_COLOR, BASELINE_COLOR = "tab:blue", "tab:orange", "tab:gray"
-DRAWN_POINTS = 20_000
-"""Most points a track line is drawn with: an hours-long track (216,000 fixes in 6 h at 10 Hz) is drawn with an
-evenly spaced subset, its breaks kept (on the 8-inch map that is still several points a pixel; the legend's
-placement search and the renderer otherwise hold every vertex several times over)."""
-
-
-def drawn(points: np.ndarray, limit: int = DRAWN_POINTS) -> np.ndarray:
-    """``points`` (n, 2) as drawn: every k-th row (k the least that leaves at most about ``limit``), the last one,
-    and every break (a row with a NaN) with the rows on either side of it, so that no gap is bridged."""
-    n = points.shape[0]
-    if n <= limit:
-        return points
-    keep = np.zeros(n, dtype=bool)
-    keep[:: -(-n // limit)] = True
-    keep[-1] = True
-    breaks = np.flatnonzero(~np.all(np.isfinite(points), axis=1))
-    for shift in (-1, 0, 1):
-        keep[np.clip(breaks + shift, 0, n - 1)] = True
-    return points[keep]
-
-
 def track_figure(measured_m: np.ndarray, predicted_m: list[np.ndarray], title: str, predicted_label: str,
                  baseline_m: list[np.ndarray] | None = None, baseline_label: str = "") -> Figure:
     """``measured_m`` (n, 2) east, north; ``predicted_m`` segments (k, 2) each (``baseline_m`` likewise, dashed)."""
