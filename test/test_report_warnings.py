@@ -227,3 +227,20 @@ def test_identify_s_figures_of_an_hours_long_record_draw_bounded_lines() -> None
             x = np.asarray(line.get_xdata())
             assert x.size <= DRAWN_POINTS + 1
             assert (x[0], x[-1]) == (t[0], t[-1])
+
+
+def test_diagnose_s_signal_lines_of_six_hours_of_windows_are_bounded_and_break_between_windows() -> None:
+    """1,080 replay windows of 201 samples (6 hours): the signal figures' joined line keeps a break after every
+    window and at most about DRAWN_POINTS points besides the breaks and their neighbours; 30 windows (a
+    10-minute trial) are drawn whole."""
+    from types import SimpleNamespace
+
+    from boat_twin.diagnose.report import window_series
+    from boat_twin.drawn_line import DRAWN_POINTS
+
+    for count, whole in ((30, True), (1080, False)):
+        t = np.arange(count)[None, :] * 20.0 + np.arange(201)[:, None] * 0.1  # (samples, windows), as Windows.t_s
+        t_drawn, v_drawn = window_series(SimpleNamespace(t_s=t), np.sin(t))
+        assert np.count_nonzero(np.isnan(v_drawn)) == count
+        assert (t_drawn.size == count * 202) is whole
+        assert t_drawn.size <= DRAWN_POINTS + 3 * count + 1

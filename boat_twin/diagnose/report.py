@@ -18,6 +18,7 @@ from boat_twin.diagnose.search import (
 )
 from boat_twin.diagnose.structure import MISFIT_FACTOR, Signature, SignatureResult
 from boat_twin.diagnose.table import TableDiagnosis
+from boat_twin.drawn_line import drawn_series
 from boat_twin.twin.replay import SIGNALS, Prediction, Windows, measured_signals, residual
 
 if TYPE_CHECKING:  # matplotlib is imported by the figures only: `diagnose --json` draws none
@@ -349,13 +350,15 @@ def text_report(result: DiagnosisResult) -> str:
 
 def window_series(windows: Windows, values: np.ndarray, angle: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Windows joined along trial time, NaN between them so lines break; an ``angle`` (rad) also breaks where it
-    jumps by more than π (wrapped across ±π: not a change of the signal, and no line is drawn across it)."""
+    jumps by more than π (wrapped across ±π: not a change of the signal, and no line is drawn across it). Drawn
+    with a bounded subset that keeps every break on hours of windows (:func:`boat_twin.drawn_line.drawn`)."""
     t = np.vstack([windows.t_s, np.full((1, windows.t_s.shape[1]), np.nan)]).T.ravel()
     v = np.vstack([values, np.full((1, values.shape[1]), np.nan)]).T.ravel()
     if angle:
         with np.errstate(invalid="ignore"):
             wraps = np.flatnonzero(np.abs(np.diff(v)) > np.pi) + 1
         t, v = np.insert(t, wraps, np.nan), np.insert(v, wraps, np.nan)
+    t, v = drawn_series(t, v)
     return t, v
 
 

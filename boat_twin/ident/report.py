@@ -7,7 +7,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 
 from boat_twin.config import TwinConfig, save_config
 from boat_twin.data import dyda2021_table1
@@ -78,12 +81,11 @@ def trial_figure(result: IdentifyResult, records: Sequence[SurgeRecord]) -> Figu
             ax_f.plot(*drawn_series(rec.t_s, scale * rec.coupling_N), lw=0.8, color="tab:orange",
                       drawstyle="steps-post", label=None if coupled else label)
             coupled = True
-    for k, seg in enumerate(result["steady_points"]):
-        ax_v.axvspan(seg["end_s"] - seg["duration_s"], seg["end_s"], color="tab:green", alpha=0.25,
-                     label="steady point (its settled tail)" if k == 0 else None)
-    for k, seg in enumerate(result["rejected_segments"]):  # the fit reads them too: no alarm colour
-        ax_v.axvspan(seg["start_s"], seg["end_s"], facecolor="none", edgecolor="0.6", hatch="//", lw=0.0,
-                     label="no steady point (too short or not settled: in the fit all the same)" if k == 0 else None)
+    _spans(ax_v, [(seg["end_s"] - seg["duration_s"], seg["end_s"]) for seg in result["steady_points"]],
+           label="steady point (its settled tail)", facecolor="tab:green", alpha=0.25, lw=0.0)
+    _spans(ax_v, [(seg["start_s"], seg["end_s"]) for seg in result["rejected_segments"]],  # in the fit too: no alarm
+           label="no steady point (too short or not settled: in the fit all the same)", facecolor="none",
+           edgecolor="0.6", hatch="//", lw=0.0)
     ax_v.set_ylabel("speed as fitted, m/s")
     ax_v.set_title("the record fitted, every sample; the steady-point view shaded", fontsize=10)
     if result["steady_points"] or result["rejected_segments"]:
@@ -93,6 +95,15 @@ def trial_figure(result: IdentifyResult, records: Sequence[SurgeRecord]) -> Figu
     if coupled:
         ax_f.legend(fontsize=8)
     return fig
+
+
+def _spans(ax: Axes, spans: list[tuple[float, float]], label: str, **style: Any) -> None:
+    """Time spans (start, end) in s shaded over the axes' height as one artist (an hours-long trial has hundreds:
+    one patch each made the legend's placement search and the renderer hold them all several times over)."""
+    if spans:
+        ax.add_collection(PolyCollection([[(a, 0.0), (a, 1.0), (b, 1.0), (b, 0.0)] for a, b in spans],
+                                         transform=ax.get_xaxis_transform(), **style))
+        ax.add_patch(Rectangle((spans[0][0], 0.0), 0.0, 0.0, label=label, **style))  # the legend's entry
 
 
 def unvisited_bands(speeds_mps: np.ndarray) -> list[tuple[float, float]]:
