@@ -19,9 +19,6 @@ from typing import Any, cast
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
 
-FOLD_ROWS = 8192
-"""Rows folded into the triangle at a time by :meth:`TriangleFold.add_rows` (a few MB of temporaries)."""
-
 
 class TriangleFold:
     """The triangular factor R of the rows [f_i, J_i] stacked so far (their order does not matter)."""
@@ -32,17 +29,6 @@ class TriangleFold:
     def add(self, rows: np.ndarray) -> None:
         """Stack ``rows`` (k × columns) under the rows so far."""
         self.r = cast(np.ndarray, np.linalg.qr(np.vstack([self.r, rows]), mode="r"))  # mode "r": R alone
-
-    def add_rows(self, residual: np.ndarray, jacobian: Callable[[slice], np.ndarray]) -> None:
-        """Stack the rows of ``residual`` (k,) beside ``jacobian(rows)`` (their Jacobian rows, built per slice),
-        :data:`FOLD_ROWS` at a time."""
-        columns = self.r.shape[1]
-        for start in range(0, residual.size, FOLD_ROWS):
-            rows = slice(start, min(start + FOLD_ROWS, residual.size))
-            block = np.empty((rows.stop - rows.start, columns))
-            block[:, 0] = residual[rows]
-            block[:, 1:] = jacobian(rows)
-            self.add(block)
 
     def square(self) -> np.ndarray:
         """R as (columns × columns), zero rows below the rows stacked, its first diagonal element ‖f‖ ≥ 0."""

@@ -18,7 +18,8 @@ def jackknife_shift(information: np.ndarray, cluster_squares: np.ndarray, cluste
     taken of the matrix scaled to a unit diagonal of I (parameters in kg beside N·s/m: unscaled, its condition
     number passes the pseudo-inverse's 1e-15 cut-off and rounding decides the spread)."""
     diagonal = np.diag(information)
-    scale = np.where(diagonal > 0.0, 1.0 / np.sqrt(np.where(diagonal > 0.0, diagonal, 1.0)), 1.0)
+    scale = np.ones_like(diagonal)
+    scale[diagonal > 0.0] = diagonal[diagonal > 0.0] ** -0.5
     without = (information - cluster_squares) * scale[:, None] * scale[None, :]
     return scale * (np.linalg.pinv(without) @ (scale * cluster_score))
 

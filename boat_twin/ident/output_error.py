@@ -28,7 +28,7 @@ from scipy.interpolate import BSpline
 from threadpoolctl import threadpool_limits
 
 from boat_twin.errors import InputError
-from boat_twin.folded_lsq import FOLD_ROWS, TriangleFold, folded_least_squares
+from boat_twin.folded_lsq import TriangleFold, folded_least_squares
 from boat_twin.ident.jackknife import jackknife_shift, jackknife_spread
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.vessel.resistance import TableResistance
@@ -53,6 +53,9 @@ MAX_GAP_S = 1.0
 """A sampling gap longer than this starts a new segment (its own initial speed), s."""
 MIN_SEGMENT_SAMPLES = 20
 """Segments shorter than this are left out of the fit."""
+FOLD_ROWS = 8192
+"""Samples simulated with their sensitivities and folded into the solver's triangle at a time
+(:meth:`_Problem.segment_rows`): about 1 MB of sensitivities, whatever the recording's length."""
 MIN_CLUSTER_S = 10.0
 """Shortest block of the cluster-robust covariance, s."""
 MASS_RELATIVE_LIMIT = 0.5
@@ -438,7 +441,8 @@ class _Problem:
                          start, mass, np.ascontiguousarray(coeffs, dtype=float), self.table, self.step, MAX_STEP_S)
 
     def residual(self, x: np.ndarray) -> np.ndarray:
-        """Residuals (simulated |u| − measured) alone: :meth:`simulate`'s first value, at a fraction of its cost."""
+        """Residuals (simulated |u| − measured) alone, the speed simulated without its sensitivities: those of
+        :meth:`segment_rows` at a fraction of the cost."""
         self.evaluations += 1
         rows = []
         for s, seg in enumerate(self.segments):
