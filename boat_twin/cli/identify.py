@@ -135,6 +135,7 @@ def _run_manoeuvring(args: argparse.Namespace, out: Path | None) -> int:
     trials with the fit, report; --out writes the result and a twin config ``simulate --config`` loads."""
     from boat_twin.config import save_config
     from boat_twin.ident.manoeuvring import WINDOW_S, fit_manoeuvring, validate
+    from boat_twin.ident.trial_advice import advise_next_trial
 
     window_s = WINDOW_S if args.window is None else args.window
     if not (math.isfinite(window_s) and window_s > 0.0):
@@ -149,6 +150,8 @@ def _run_manoeuvring(args: argparse.Namespace, out: Path | None) -> int:
     fit = fit_manoeuvring(trials, base, window_s)
     block = fit.to_dict()
     block["validation"] = [validate(trial, fit.config) for trial in held_out]
+    advice = advise_next_trial(fit, base, trials, window_s)
+    block["next_trial"] = advice.to_dict()
     result = {"manoeuvring": block}
     if out is not None:
         atomic_write_text(out / "manoeuvring.json", to_json(result) + "\n")
@@ -184,6 +187,7 @@ def _run_manoeuvring(args: argparse.Namespace, out: Path | None) -> int:
             d = check["tactical_diameter_m"]
             line += f", tactical diameter {d['predicted']:.1f} m predicted vs {d['measured']:.1f} m measured"
         lines.append(line)
+    lines.append(f"next trial: {advice.summary()}")
     lines += [f"note: {note}" for note in block["notes"]]
     sys.stdout.write("\n".join(lines) + "\n")
     return 0

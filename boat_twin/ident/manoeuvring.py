@@ -83,6 +83,10 @@ NOT_IDENTIFIED_FACTOR = 2.0
 identified: the trials leave it free by more than its own size."""
 NOT_IDENTIFIED_ABSOLUTE = {"lateral_centre_x_m": 0.5, "steering_offset_rad": math.radians(2.0)}
 """Half-interval above which a signed parameter is not identified (m; rad)."""
+RUNAWAY_FACTOR = 1e3
+"""A positive coefficient fitted beyond this factor of its start (either way) ran off towards 0 or ∞: its
+sensitivity vanished with it, so the jackknife's spread is rounding (a cross-flow drag driven to 1e-24 N·s²/m² came
+back with a zero-width interval on two 90 s zigzags). It is not identified and its interval is unbounded."""
 TIMING_SHIFT_SAMPLES = 1
 """The steering commands are replayed this many samples late (0.1 s at 10 Hz) for the timing check's regressor:
 the finite-difference sensitivity of every residual to a steering delay."""
@@ -274,9 +278,10 @@ def turning_at_start(trial: Trial) -> bool:
     return bool(abs(float(np.mean(first))) > 3.0 * noise / math.sqrt(first.size))
 
 
-def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
+def prepare(trial: Trial, window_s: float = WINDOW_S, noise: dict[str, float] | None = None) -> TrialData:
     """Cut ``trial`` into windows and measure its sensors' noise floor (a trial without a lateral accelerometer
-    is fitted without it).
+    is fitted without it); ``noise`` (signal → white-noise standard deviation, SI) is taken instead of measured: a
+    noise-free simulated trial weighted as a recorded one would be (:mod:`boat_twin.ident.trial_advice`).
 
     The commands act when they were issued (:attr:`~boat_twin.io.trial.Trial.command_switch_s`, which the replay
     integrates across; issue 25): replayed on the log's grid, a helm changing them between samples biased the
@@ -290,6 +295,8 @@ def prepare(trial: Trial, window_s: float = WINDOW_S) -> TrialData:
         windows = cut_windows(trial, window_s)
     index = windows.start_index[None, :] + np.arange(windows.t_s.shape[0])[:, None]
     measured = {**{s: windows.measured[s] for s in MOTION_SIGNALS}, LATERAL_ACCEL: trial.accel_y_mps2[index]}
+    if noise is not None:
+        return TrialData(windows, {s: measured[s] for s in noise}, dict(noise))
     noise = {}
     for s in FIT_SIGNALS:
         sigma = white_noise_stdev(measured[s])
@@ -414,6 +421,11 @@ class _Problem:
         self.motion = [measured_motion(d.windows, base) for d in data]  # the vessel does not change it
         self.priors = [nuisance_prior_stdev(d) for d in data]
         self._last: tuple[np.ndarray, list[np.ndarray], list[_Projection], list[np.ndarray]] | None = None
+
+    def coordinates(self, values: dict[str, float]) -> np.ndarray:
+        """The fitted coordinates of ``values`` (the inverse of :meth:`values`)."""
+        return np.array([math.log(values[p.key] / self.start[p.key]) if p.logarithmic
+                         else (values[p.key] - self.start[p.key]) / p.scale for p in self.free])
 
     def values(self, x: np.ndarray) -> dict[str, float]:
         values = dict(self.start)
@@ -575,6 +587,9 @@ class ManoeuvringFit:
     """Standard error in fitted coordinates (relative for the logarithmic ones)."""
     correlation: np.ndarray
     """Correlation of the fitted parameters (order of :attr:`fitted`)."""
+    information: np.ndarray
+    """JᵀJ of the normalized, projected residuals at the solution, fitted coordinates (order of :attr:`fitted`):
+    the Gauss-Newton information :mod:`boat_twin.ident.trial_advice` adds a candidate trial's to."""
     not_identified: dict[str, str]
     not_separated: list[dict[str, Any]]
     residual_to_noise: dict[str, float]
@@ -656,8 +671,14 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     quantile = float(stdtrit(max(groups - len(free), 1), 0.975))
     values = problem.values(x)
     not_identified = {}
+    runaway = {p.key for p, xi in zip(problem.free, x, strict=True)
+               if p.logarithmic and abs(xi) > math.log(RUNAWAY_FACTOR)}
     for p, se in zip(problem.free, stderr, strict=True):
-        if p.logarithmic and not quantile * se <= math.log(NOT_IDENTIFIED_FACTOR):
+        if p.key in runaway:
+            not_identified[p.key] = (f"fitted to {values[p.key]:.3g}, beyond a factor {RUNAWAY_FACTOR:g} of its start "
+                                     f"{problem.start[p.key]:.3g}: these trials do not bound it (its effect vanished "
+                                     "with it), the interval is unbounded")
+        elif p.logarithmic and not quantile * se <= math.log(NOT_IDENTIFIED_FACTOR):
             not_identified[p.key] = (f"95 % interval ×/÷ {_factor(quantile * se):.3g}: these trials do not "
                                      "determine it (the value is the best fit, not a measurement)")
         elif not p.logarithmic and not quantile * p.scale * se <= NOT_IDENTIFIED_ABSOLUTE[p.key]:
@@ -672,7 +693,8 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     ci95: dict[str, tuple[float, float]] = {}
     for p, se in zip(problem.free, stderr, strict=True):
         v = values[p.key]
-        ci95[p.key] = ((v / _factor(quantile * se), v * _factor(quantile * se)) if p.logarithmic
+        ci95[p.key] = ((0.0, math.inf) if p.key in runaway
+                       else (v / _factor(quantile * se), v * _factor(quantile * se)) if p.logarithmic
                        else (v - quantile * p.scale * se, v + quantile * p.scale * se))
     scale = np.where(stderr > 0, stderr, 1.0)
     correlation = cov / np.outer(scale, scale)
@@ -701,12 +723,20 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     return ManoeuvringFit(
         values=values, fitted=list(free), ci95=ci95,
         stderr={p.key: float(se) for p, se in zip(problem.free, stderr, strict=True)},
-        correlation=correlation, not_identified=not_identified,
+        correlation=correlation, information=jac.T @ jac, not_identified=not_identified,
         not_separated=_not_separated(free, correlation),
         residual_to_noise=ratio, noise=noise, misfit=any(r > MISFIT_RATIO[s] for s, r in ratio.items()),
         windows=groups, trials=[str(t.metadata.source) for t in trials], evaluations=evaluations + 1,
         fit_time_s=time.perf_counter() - started, config=config, notes=notes, steering_timing=timing,
     )
+
+
+def trial_information(fit: ManoeuvringFit, base: TwinConfig, data: Sequence[TrialData]) -> np.ndarray:
+    """JᵀJ of ``data``'s normalized, projected residuals at ``fit``'s solution (fitted coordinates of ``fit``,
+    ``base`` its prior): what those trials would add to :attr:`ManoeuvringFit.information`."""
+    problem = _Problem(data, base, _start_values(base), fit.fitted)
+    jac = problem.jacobian(problem.coordinates(fit.values))
+    return jac.T @ jac
 
 
 def _factor(log_half_width: float) -> float:
