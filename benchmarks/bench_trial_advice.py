@@ -85,7 +85,7 @@ def main() -> int:
             with_repeat = fit_manoeuvring([*trials, repeat], base)
         for name, f in zip(SETS, (fit, with_advised, with_repeat), strict=True):
             rows[name].append(score(f, truth))
-        achieved = half_widths(with_advised, with_advised.stderr, with_advised.windows)
+        achieved = half_widths(with_advised, with_advised.stderr, with_advised.degrees_of_freedom)
         for k in KEYS:
             predicted_over_achieved[k].append(best.half_width[k] / achieved[k])
         x_err, a_err, *_ = rows[SETS[1]][-1]

@@ -289,7 +289,10 @@ def test_ensemble_rows_do_not_depend_on_the_chunking_or_the_workers(tmp_path) ->
         out = tmp_path / f"w{workers}"
         with engine.open_client(engine.LOCAL, workers, quiet=True) as client:
             rows = run_ensemble(EnsembleSpec(**{**SPEC.__dict__, "chunk_boats": chunk}), out, client)
-        assert len({r["worker"] for r in rows}) == min(workers, len(rows))
+            cluster_workers = len(client.scheduler_info()["workers"])
+        # Which worker runs which chunk is the scheduler's choice (on a loaded machine one worker may take them
+        # all before the other starts): the rows must not depend on it.
+        assert cluster_workers == workers and 1 <= len({r["worker"] for r in rows}) <= workers, rows
         assert ensemble_rows(out) == reference  # every float written to round-trip: bit-identical
     other = run_ensemble(EnsembleSpec(**{**SPEC.__dict__, "seed": 6}), tmp_path / "other")
     assert other and ensemble_rows(tmp_path / "other") != reference

@@ -46,3 +46,34 @@ def jackknife_covariance(jac: np.ndarray, residual: np.ndarray, labels: np.ndarr
         rows = order[bounds[i]: bounds[i + 1]]
         shifts[i] = jackknife_shift(information, jac[rows].T @ jac[rows], jac[rows].T @ residual[rows])
     return jackknife_spread(shifts), int(groups.size)
+
+
+def cluster_degrees_of_freedom(information: np.ndarray, cluster_squares: np.ndarray) -> np.ndarray:
+    """(p,) degrees of freedom of each coefficient's cluster-robust t statistic (Imbens & Kolesár 2016, the
+    Bell-McCaffrey adjustment under a working model of independent unit-variance residuals), from the information
+    I (p, p) and each cluster's J_gᵀJ_g ``cluster_squares`` (G, p, p): K = (Σλ)² / Σλ², λ the eigenvalues of GᵀG,
+    G's column g the residual maker's cluster-g block times (I − H_gg)^(-1/2)·J_g·I⁻¹·e_k. Equal clusters give
+    about G − 1; a few clusters that carry a coefficient's information give about their number, where G − p
+    would promise far more precision of the variance estimate than those few clusters hold."""
+    diagonal = np.diag(information)
+    scale = np.where(diagonal > 0.0, diagonal, 1.0) ** -0.5
+    inverse = scale[:, None] * np.linalg.pinv(information * scale[:, None] * scale[None, :]) * scale[None, :]
+    p = information.shape[0]
+    first = np.empty((cluster_squares.shape[0], p, p))   # J_gᵀ A_g J_g
+    second = np.empty((cluster_squares.shape[0], p, p))  # J_gᵀ A_g² J_g
+    for g, squares in enumerate(cluster_squares):
+        values, vectors = np.linalg.eigh(squares)
+        kept = values > values.max(initial=0.0) * 1e-12
+        root = np.sqrt(values[kept])[:, None] * vectors[:, kept].T  # R with RᵀR = J_gᵀJ_g
+        leverage, basis = np.linalg.eigh(root @ inverse @ root.T)  # eigenvalues of H_gg's non-zero part
+        remaining = np.maximum(1.0 - leverage, 1e-9)
+        first[g] = root.T @ (basis * remaining**-0.5) @ basis.T @ root
+        second[g] = root.T @ (basis * remaining**-1.0) @ basis.T @ root
+    out = np.empty(p)
+    for k in range(p):
+        m = inverse[:, k]
+        c = first @ m  # (G, p)
+        gram = np.diag(second @ m @ m) - c @ inverse @ c.T
+        trace = float(np.trace(gram))
+        out[k] = trace**2 / float(np.sum(gram**2)) if trace > 0.0 else 1.0
+    return out

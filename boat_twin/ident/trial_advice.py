@@ -6,9 +6,10 @@ drift v follows the yaw rate r, as it does at one speed (issue 38: x_c 0.12-0.16
 Each candidate — a 20°/20° or 10°/10° zigzag or a turning circle at the trials' speed or another one — is simulated
 noise-free with the *fitted* boat, cut into the fit's windows and weighted by the noise the fit measured; the
 Gauss-Newton information of its residuals at the solution, I_c = J_cᵀJ_c (:func:`~boat_twin.ident.manoeuvring.
-trial_information`), is added to the fit's I, and each coefficient's standard error is scaled by how much that
+window_information`), is added to the fit's I, and each coefficient's standard error is scaled by how much that
 shrinks it: se'_k = se_k·√([(I + I_c)⁻¹]_kk / [I⁻¹]_kk) (se_k the window jackknife's, so its robustness to each
-window's error is kept), its 95 % half-width with the t quantile of the windows it would then have. The goals are
+window's error is kept), its 95 % half-width with the t quantile of the degrees of freedom the windows would then
+give (:func:`~boat_twin.ident.manoeuvring.interval_degrees_of_freedom`). The goals are
 the issue's targets (:data:`PRECISION_GOALS`; x_c's scaled with the boat's length). The prediction is only as good
 as the fit it starts from: a misfit or a coefficient far off makes it a guess, which the advice says.
 """
@@ -24,7 +25,14 @@ import numpy as np
 from scipy.special import stdtrit
 
 from boat_twin.config import TwinConfig
-from boat_twin.ident.manoeuvring import PARAMETERS, WINDOW_S, ManoeuvringFit, prepare, trial_information
+from boat_twin.ident.manoeuvring import (
+    PARAMETERS,
+    WINDOW_S,
+    ManoeuvringFit,
+    interval_degrees_of_freedom,
+    prepare,
+    window_information,
+)
 from boat_twin.io.trial import Trial
 from boat_twin.twin.sea_trial import measured_trial
 from boat_twin.vessel.params import top_speed_mps
@@ -55,15 +63,15 @@ def goals(base: TwinConfig) -> dict[str, float]:
     return {**PRECISION_GOALS, "lateral_centre_x_m": LATERAL_CENTRE_GOAL_PER_LENGTH * base.vessel.length_m}
 
 
-def half_widths(fit: ManoeuvringFit, stderr: dict[str, float], windows: int) -> dict[str, float]:
+def half_widths(fit: ManoeuvringFit, stderr: dict[str, float], dof: dict[str, float]) -> dict[str, float]:
     """Key → 95 % half-width of each goal coefficient with standard errors ``stderr`` (fitted coordinates) and
-    ``windows`` windows: relative (×/÷ factor − 1) for the positive ones, absolute for the signed; inf where the
-    fit leaves it unbounded."""
-    quantile = float(stdtrit(max(windows - len(fit.fitted), 1), 0.975))
+    t degrees of freedom ``dof``: relative (×/÷ factor − 1) for the positive ones, absolute for the signed; inf
+    where the fit leaves it unbounded."""
     out = {}
     for p in PARAMETERS:  # every coefficient has a goal; the factors (surge, layout, windage) have none
         if p.key not in fit.fitted:
             continue
+        quantile = float(stdtrit(dof[p.key], 0.975))
         if not math.isfinite(fit.ci95[p.key][1]):
             out[p.key] = math.inf
         elif p.logarithmic:
@@ -173,18 +181,21 @@ def advise_next_trial(fit: ManoeuvringFit, base: TwinConfig, trials: Sequence[Tr
     """The candidate trials ranked by what they would leave of the goal coefficients' intervals (most goals met,
     then the smallest sum of squared half-width over goal); ``base`` the fit's prior, ``trials`` its trials."""
     target = {k: v for k, v in goals(base).items() if k in fit.fitted}
-    now = half_widths(fit, fit.stderr, fit.windows)
-    inverse = np.linalg.pinv(fit.information)
+    now = half_widths(fit, fit.stderr, fit.degrees_of_freedom)
+    information = fit.window_squares.sum(axis=0)
+    inverse = np.linalg.pinv(information)
     config = fit.config
     candidates = []
     for name, speed, scenario in candidate_scenarios(config, approach_speed_mps(trials)):
         record = simulate(config.vessel, scenario, config.environment)
         trial = measured_trial(record, 0, config, np.random.default_rng(0), noise=False)
         data = prepare(trial, window_s, noise=fit.noise)
-        added = np.linalg.pinv(fit.information + trial_information(fit, base, [data]))
+        squares = np.concatenate([fit.window_squares, window_information(fit, base, [data])])
+        added = np.linalg.pinv(squares.sum(axis=0))
         ratio = np.sqrt(np.maximum(np.diag(added), 0.0) / np.where(np.diag(inverse) > 0.0, np.diag(inverse), np.inf))
         stderr = {key: fit.stderr[key] * float(r) for key, r in zip(fit.fitted, ratio, strict=True)}
-        half = half_widths(fit, stderr, fit.windows + data.windows.start_index.size)
+        dof = dict(zip(fit.fitted, interval_degrees_of_freedom(squares).tolist(), strict=True))
+        half = half_widths(fit, stderr, dof)
         half = {k: (math.inf if not math.isfinite(now[k]) else h) for k, h in half.items()}
         candidates.append(Candidate(name, speed, half, sum(half[k] <= g for k, g in target.items())))
     candidates.sort(key=lambda c: (-c.met, sum(min(c.half_width[k] / g, 1e6) ** 2 for k, g in target.items())))
