@@ -17,7 +17,6 @@ the achieved one (median).
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import tempfile
 from pathlib import Path
@@ -27,21 +26,13 @@ import numpy as np
 from boat_twin.config import TwinConfig
 from boat_twin.ident.manoeuvring import PARAMETER_KEYS, ManoeuvringFit, fit_manoeuvring
 from boat_twin.ident.manoeuvring_trials import draw_boat, recorded
-from boat_twin.ident.trial_advice import CANDIDATE_S, advise_next_trial, half_widths
+from boat_twin.ident.trial_advice import advise_next_trial, candidate_scenario, half_widths
 from boat_twin.io.trial import Trial
 from boat_twin.twin.sea_trial import run_sea_trial
-from boat_twin.vessel.scenarios import Scenario, Zigzag, make_scenario, turning_circle
+from boat_twin.vessel.scenarios import Scenario, make_scenario
 
 SETS = ("two zigzags", "+ advised trial", "+ third zigzag 20°/20°, same speed")
 KEYS = ("lateral_centre_x_m", "yaw_damping_Nms")
-
-
-def manoeuvre(config: TwinConfig, name: str, speed_mps: float) -> Scenario:
-    """The scenario ``name`` at ``speed_mps`` as a user would run it (the helm at the integration step)."""
-    if name == "turning-circle":
-        return turning_circle(config.vessel, speed_mps, turn_s=CANDIDATE_S - 10.0)
-    angle = math.radians(float(name.split("-")[1]))
-    return Zigzag(config.vessel, angle, angle, speed_mps=speed_mps, duration_s=CANDIDATE_S, name=name)
 
 
 def run(true: TwinConfig, scenario: Scenario, seed: int, where: Path) -> Trial:
@@ -79,8 +70,10 @@ def main() -> int:
             advice = advise_next_trial(fit, base, trials)
             best = advice.candidates[0]
             advised[best.describe()] = advised.get(best.describe(), 0) + 1
-            extra = run(true, manoeuvre(true, best.manoeuvre, best.speed_mps), 9000 + seed, where)
-            repeat = run(true, manoeuvre(true, "zigzag-20-20", true.vessel.turn_speed_mps), 9500 + seed, where)
+            # sailed as a user would (a helm deciding at every integration step, not at the log rate)
+            extra = run(true, candidate_scenario(true, best.manoeuvre, best.speed_mps, 0.0), 9000 + seed, where)
+            speed = true.vessel.turn_speed_mps
+            repeat = run(true, candidate_scenario(true, "zigzag-20-20", speed, 0.0), 9500 + seed, where)
             with_advised = fit_manoeuvring([*trials, extra], base)
             with_repeat = fit_manoeuvring([*trials, repeat], base)
         for name, f in zip(SETS, (fit, with_advised, with_repeat), strict=True):

@@ -6,12 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from boat_twin.ident.jackknife import cluster_degrees_of_freedom, jackknife_covariance
-from boat_twin.ident.manoeuvring import window_squares
+from boat_twin.ident.jackknife import cluster_degrees_of_freedom, cluster_squares, jackknife_covariance
 
 
 def _squares(design: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return design.T @ design, window_squares(design, labels)
+    return design.T @ design, cluster_squares(design, labels)
 
 
 def test_equal_clusters_give_one_less_than_their_number() -> None:

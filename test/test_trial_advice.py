@@ -15,7 +15,7 @@ from boat_twin.cli import main
 from boat_twin.config import TwinConfig
 from boat_twin.ident.manoeuvring import RUNAWAY_FACTOR, fit_manoeuvring
 from boat_twin.ident.manoeuvring_trials import draw_boat, zigzag_set
-from boat_twin.ident.trial_advice import advise_next_trial, candidate_scenarios, half_widths
+from boat_twin.ident.trial_advice import advise_next_trial, candidate_scenario, half_widths
 from boat_twin.io.trial import Trial
 from boat_twin.vessel.params import VesselParams, derive_coefficients
 from boat_twin.vessel.simulate import simulate
@@ -77,8 +77,7 @@ def test_the_advised_trial_narrows_what_two_zigzags_leave_wide_as_predicted(two_
     assert best.half_width["lateral_centre_x_m"] < 0.7 * advice.half_width["lateral_centre_x_m"], best
     # The advised manoeuvre as a pre-programmed helm: its commands, from the fitted boat's simulation, replayed
     # open loop on the independent boat.
-    scenario = next(s for name, speed, s in candidate_scenarios(fit.config, best.speed_mps)
-                    if name == best.manoeuvre and speed == best.speed_mps)
+    scenario = candidate_scenario(fit.config, best.manoeuvre, best.speed_mps)
     record = simulate(fit.config.vessel, scenario, fit.config.environment)
     thrust = _held(record.t_s, record.commands[:, 0, 0])
     steering = _held(record.t_s, record.commands[:, 0, 2])

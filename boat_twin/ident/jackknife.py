@@ -11,15 +11,35 @@ from __future__ import annotations
 import numpy as np
 
 
+def _unit_diagonal_scale(information: np.ndarray) -> np.ndarray:
+    """(p,) 1/√I_kk (1 where I_kk is not positive): the scaling to a unit diagonal under which the pseudo-inverse's
+    cut-off sees the information's structure, not its units (parameters in kg beside N·s/m)."""
+    diagonal = np.diag(information)
+    scale = np.ones_like(diagonal)
+    scale[diagonal > 0.0] = diagonal[diagonal > 0.0] ** -0.5
+    return scale
+
+
+def cluster_rows(labels: np.ndarray) -> list[np.ndarray]:
+    """Each cluster's row indices (in row order), clusters in label order: one sort, O(n log n) (a mask per
+    cluster would be O(n·G))."""
+    order = np.argsort(labels, kind="stable")
+    bounds = np.append(np.unique(labels[order], return_index=True)[1], labels.size)
+    return [order[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
+def cluster_squares(jac: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """(G, p, p) J_gᵀJ_g of each cluster's rows of ``jac`` (``labels`` (n,): the cluster of every row)."""
+    return np.array([jac[rows].T @ jac[rows] for rows in cluster_rows(labels)])
+
+
 def jackknife_shift(information: np.ndarray, cluster_squares: np.ndarray, cluster_score: np.ndarray) -> np.ndarray:
     """d_g = (I − J_gᵀJ_g)⁺·J_gᵀr_g, the step of the fit without cluster g, from the cluster's ``cluster_squares``
     J_gᵀJ_g (p, p) and ``cluster_score`` J_gᵀr_g (p,); ``information`` I (p, p): JᵀJ of all the rows (plus a
     penalty's). A caller that streams its rows sums I first and then each cluster's two. The pseudo-inverse is
     taken of the matrix scaled to a unit diagonal of I (parameters in kg beside N·s/m: unscaled, its condition
     number passes the pseudo-inverse's 1e-15 cut-off and rounding decides the spread)."""
-    diagonal = np.diag(information)
-    scale = np.ones_like(diagonal)
-    scale[diagonal > 0.0] = diagonal[diagonal > 0.0] ** -0.5
+    scale = _unit_diagonal_scale(information)
     without = (information - cluster_squares) * scale[:, None] * scale[None, :]
     return scale * (np.linalg.pinv(without) @ (scale * cluster_score))
 
@@ -38,14 +58,10 @@ def jackknife_covariance(jac: np.ndarray, residual: np.ndarray, labels: np.ndarr
     penalty rows no cluster holds (a prior the fit minimised with the data's residuals), kept in every
     replicate: the spread is the data's alone, the caller adds the prior's own."""
     information = jac.T @ jac + (0.0 if prior_information is None else prior_information)
-    order = np.argsort(labels, kind="stable")  # each cluster's rows in their order, found once: O(n log n)
-    groups, starts = np.unique(labels[order], return_index=True)  # (a mask per cluster: O(n·G))
-    bounds = np.append(starts, labels.size)
-    shifts = np.empty((groups.size, jac.shape[1]))
-    for i in range(groups.size):
-        rows = order[bounds[i]: bounds[i + 1]]
-        shifts[i] = jackknife_shift(information, jac[rows].T @ jac[rows], jac[rows].T @ residual[rows])
-    return jackknife_spread(shifts), int(groups.size)
+    clusters = cluster_rows(labels)
+    shifts = np.array([jackknife_shift(information, jac[rows].T @ jac[rows], jac[rows].T @ residual[rows])
+                       for rows in clusters])
+    return jackknife_spread(shifts), len(clusters)
 
 
 def cluster_degrees_of_freedom(information: np.ndarray, cluster_squares: np.ndarray) -> np.ndarray:
@@ -55,8 +71,7 @@ def cluster_degrees_of_freedom(information: np.ndarray, cluster_squares: np.ndar
     G's column g the residual maker's cluster-g block times (I − H_gg)^(-1/2)·J_g·I⁻¹·e_k. Equal clusters give
     about G − 1; a few clusters that carry a coefficient's information give about their number, where G − p
     would promise far more precision of the variance estimate than those few clusters hold."""
-    diagonal = np.diag(information)
-    scale = np.where(diagonal > 0.0, diagonal, 1.0) ** -0.5
+    scale = _unit_diagonal_scale(information)
     inverse = scale[:, None] * np.linalg.pinv(information * scale[:, None] * scale[None, :]) * scale[None, :]
     p = information.shape[0]
     first = np.empty((cluster_squares.shape[0], p, p))   # J_gᵀ A_g J_g

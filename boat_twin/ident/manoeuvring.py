@@ -44,7 +44,7 @@ from scipy.special import stdtrit
 
 from boat_twin.config import TwinConfig
 from boat_twin.errors import InputError
-from boat_twin.ident.jackknife import cluster_degrees_of_freedom, jackknife_covariance
+from boat_twin.ident.jackknife import cluster_degrees_of_freedom, cluster_squares, jackknife_covariance
 from boat_twin.io.trial import Trial
 from boat_twin.signal_noise import white_noise_stdev
 from boat_twin.twin.replay import (
@@ -671,9 +671,10 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     problem = _Problem(data, base, start, free)
     x, jac, fun = _solve(problem)
     evaluations = problem.evaluations
-    cov, groups = jackknife_covariance(jac, fun, problem.clusters())
+    clusters = problem.clusters()
+    cov, groups = jackknife_covariance(jac, fun, clusters)
     stderr = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    squares = window_squares(jac, problem.clusters())
+    squares = cluster_squares(jac, clusters)
     dof = interval_degrees_of_freedom(squares)
     quantiles = stdtrit(dof, 0.975)
     values = problem.values(x)
@@ -740,19 +741,12 @@ def fit_manoeuvring(trials: Sequence[Trial], base: TwinConfig, window_s: float =
     )
 
 
-def window_squares(jac: np.ndarray, clusters: np.ndarray) -> np.ndarray:
-    """(G, p, p) J_wᵀJ_w of each window's rows of ``jac`` (``clusters``: the window of every row)."""
-    order = np.argsort(clusters, kind="stable")
-    bounds = np.append(np.unique(clusters[order], return_index=True)[1], clusters.size)
-    return np.array([jac[order[a:b]].T @ jac[order[a:b]] for a, b in zip(bounds[:-1], bounds[1:], strict=True)])
-
-
 def interval_degrees_of_freedom(squares: np.ndarray) -> np.ndarray:
     """(p,) degrees of freedom of each coefficient's 95 % interval from the windows' J_wᵀJ_w ``squares``: the
     Imbens-Kolesár (Bell-McCaffrey) figure (:func:`~boat_twin.ident.jackknife.cluster_degrees_of_freedom`), at most
-    G − p, at least 1. With G − p alone, a trial whose few windows carry a coefficient (a turning circle beside two
-    zigzags) gave it an interval as if every window had: 146 of 160 intervals held the truth over 20 hidden boats
-    with such a third trial (docs/manoeuvring.md, "Which trial next")."""
+    G − p, at least 1: where a few windows carry a coefficient (a turning circle beside two zigzags), G − p credits
+    its variance estimate with every window (test/test_jackknife_dof.py). On the hidden boats' trial sets it is
+    close to G − p (docs/manoeuvring.md)."""
     groups, p = squares.shape[0], squares.shape[1]
     return np.clip(cluster_degrees_of_freedom(squares.sum(axis=0), squares), 1.0, max(groups - p, 1))
 
@@ -761,7 +755,7 @@ def window_information(fit: ManoeuvringFit, base: TwinConfig, data: Sequence[Tri
     """(G, p, p) J_wᵀJ_w of each window of ``data`` at ``fit``'s solution (its fitted coordinates, ``base`` its
     prior): what those trials would add to :attr:`ManoeuvringFit.window_squares`."""
     problem = _Problem(data, base, _start_values(base), fit.fitted)
-    return window_squares(problem.jacobian(problem.coordinates(fit.values)), problem.clusters())
+    return cluster_squares(problem.jacobian(problem.coordinates(fit.values)), problem.clusters())
 
 
 def _factor(log_half_width: float) -> float:

@@ -16,6 +16,7 @@ as the fit it starts from: a misfit or a coefficient far off makes it a guess, w
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -159,21 +160,22 @@ def approach_speed_mps(trials: Sequence[Trial]) -> float:
     return float(np.nanmedian(np.concatenate(speeds)))
 
 
-def candidate_scenarios(config: TwinConfig, speed_mps: float) -> list[tuple[str, float, Scenario]]:
-    """(manoeuvre, approach speed, scenario) of every candidate for a boat whose trials ran at ``speed_mps``."""
+def candidate_scenario(config: TwinConfig, manoeuvre: str, speed_mps: float,
+                       decision_rate_hz: float = OUTPUT_RATE_HZ) -> Scenario:
+    """The :data:`MANOEUVRES` entry ``manoeuvre`` from ``speed_mps``, :data:`CANDIDATE_S` long; a zigzag's helm
+    decides at ``decision_rate_hz`` (the log rate: its commands are exactly the logged ones; 0: at every
+    integration step, as a helm on the water)."""
+    if manoeuvre == "turning-circle":
+        return turning_circle(config.vessel, speed_mps, turn_s=CANDIDATE_S - 10.0)
+    angle = math.radians(float(manoeuvre.split("-")[1]))
+    return Zigzag(config.vessel, angle, angle, speed_mps=speed_mps, duration_s=CANDIDATE_S, name=manoeuvre,
+                  decision_rate_hz=decision_rate_hz)
+
+
+def candidate_speeds_mps(config: TwinConfig, speed_mps: float) -> list[float]:
+    """Approach speeds of the candidates for a boat whose trials ran at ``speed_mps``, m/s (0.1 m/s steps)."""
     top = TOP_SPEED_SHARE * top_speed_mps(config.vessel)
-    speeds = sorted({round(min(max(f * speed_mps, MIN_SPEED_MPS), top), 1) for f in SPEED_FACTORS})
-    out: list[tuple[str, float, Scenario]] = []
-    for s in speeds:
-        for name in MANOEUVRES:
-            if name == "turning-circle":
-                scenario: Scenario = turning_circle(config.vessel, s, turn_s=CANDIDATE_S - 10.0)
-            else:
-                angle = math.radians(float(name.split("-")[1]))
-                scenario = Zigzag(config.vessel, angle, angle, speed_mps=s, duration_s=CANDIDATE_S, name=name,
-                                  decision_rate_hz=OUTPUT_RATE_HZ)
-            out.append((name, s, scenario))
-    return out
+    return sorted({round(min(max(f * speed_mps, MIN_SPEED_MPS), top), 1) for f in SPEED_FACTORS})
 
 
 def advise_next_trial(fit: ManoeuvringFit, base: TwinConfig, trials: Sequence[Trial],
@@ -186,8 +188,8 @@ def advise_next_trial(fit: ManoeuvringFit, base: TwinConfig, trials: Sequence[Tr
     inverse = np.linalg.pinv(information)
     config = fit.config
     candidates = []
-    for name, speed, scenario in candidate_scenarios(config, approach_speed_mps(trials)):
-        record = simulate(config.vessel, scenario, config.environment)
+    for speed, name in itertools.product(candidate_speeds_mps(config, approach_speed_mps(trials)), MANOEUVRES):
+        record = simulate(config.vessel, candidate_scenario(config, name, speed), config.environment)
         trial = measured_trial(record, 0, config, np.random.default_rng(0), noise=False)
         data = prepare(trial, window_s, noise=fit.noise)
         squares = np.concatenate([fit.window_squares, window_information(fit, base, [data])])
